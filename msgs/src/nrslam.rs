@@ -1,0 +1,119 @@
+//! Project message types (ROS 2 package `nrslam_msgs`); their `.msg` definitions are in
+//! `msgs/msg/` and in [`crate::schema`].
+
+use crate::ros::{Header, Point, Pose};
+use serde::{Deserialize, Serialize};
+
+/// One radar detection in the sensor frame (docs/conventions.md): the paper's range and angle
+/// estimates (Sec. III-B, eqs. for r_l and θ_l).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Detection {
+    /// Range from the array centre (m).
+    pub range_m: f64,
+    /// Angle of arrival from boresight, counter-clockwise positive (rad), in (−π/2, π/2).
+    pub angle_rad: f64,
+    /// Standard deviation of the range error (m), as the producer models it.
+    pub range_std_m: f64,
+    /// Standard deviation of the angle error (rad).
+    pub angle_std_rad: f64,
+    /// Received power relative to a reference (dB).
+    pub power_db: f64,
+}
+
+/// All detections of one radar frame (`/radar/detections`); an empty list is a valid frame.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct Detections {
+    /// Stamp of the frame, frame "radar".
+    pub header: Header,
+    /// Array boresight relative to the AGV heading (rad).
+    pub boresight_rad: f64,
+    /// The detections.
+    pub detections: Vec<Detection>,
+}
+
+/// A keyframe chosen by data association (`/slam/keyframe`).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct Keyframe {
+    /// Stamp of the frame it was taken from, frame "map".
+    pub header: Header,
+    /// Sequence number from 0.
+    pub id: u32,
+    /// SLAM estimate of the AGV pose in the map frame.
+    pub pose: Pose,
+    /// Array boresight relative to the AGV heading (rad).
+    pub boresight_rad: f64,
+    /// The frame's detections.
+    pub detections: Vec<Detection>,
+}
+
+/// Occupied map cells labelled by DBSCAN (`/map/segments`).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct Segments {
+    /// Stamp of the map segmented, frame "map".
+    pub header: Header,
+    /// DBSCAN neighbourhood radius (m).
+    pub eps_m: f64,
+    /// DBSCAN minimum neighbourhood size, the point itself included.
+    pub min_samples: u32,
+    /// Number of clusters; labels run 0..cluster_count.
+    pub cluster_count: u32,
+    /// Centres of the occupied cells (m).
+    pub points: Vec<Point>,
+    /// One label per point; −1 is noise.
+    pub labels: Vec<i32>,
+}
+
+/// One true extended target.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct Target {
+    /// Identifier, 0-based.
+    pub id: u32,
+    /// "rectangle" or "circle".
+    pub shape: String,
+    /// Closed outline, counter-clockwise, last vertex not repeated (circles as a 64-gon), m.
+    pub outline: Vec<Point>,
+    /// The ET-GOPSA slots: sample points of the target (the paper takes 4), m.
+    pub samples: Vec<Point>,
+}
+
+/// The true extended targets (`/ground_truth/targets`, latched).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct TargetSet {
+    /// Stamp, frame "map".
+    pub header: Header,
+    /// The targets.
+    pub targets: Vec<Target>,
+}
+
+/// Per-step evaluation (`/metrics`): ET-GOPSA and GOSPA with their decompositions (each term is
+/// the summed p-th power contribution, so the terms add up to the metric to the power p) and the
+/// AGV position error.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct Metrics {
+    /// Stamp of the SLAM pose evaluated, frame "map".
+    pub header: Header,
+    /// ET-GOPSA (m).
+    pub etgospa: f64,
+    /// ET-GOPSA localisation term.
+    pub etgospa_localisation: f64,
+    /// ET-GOPSA confusion term.
+    pub etgospa_confusion: f64,
+    /// ET-GOPSA missed-slot term.
+    pub etgospa_missed: f64,
+    /// ET-GOPSA false-estimate term.
+    pub etgospa_false: f64,
+    /// GOSPA (m).
+    pub gospa: f64,
+    /// GOSPA localisation term.
+    pub gospa_localisation: f64,
+    /// GOSPA missed term.
+    pub gospa_missed: f64,
+    /// GOSPA false term.
+    pub gospa_false: f64,
+    /// Planar distance between the SLAM and the true AGV position (m).
+    pub position_error_m: f64,
+    /// Clusters in the segmented map.
+    pub estimated_targets: u32,
+    /// Estimate points fed to the metrics.
+    pub estimate_points: u32,
+}

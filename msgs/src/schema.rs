@@ -1,0 +1,151 @@
+//! `ros2msg` schema text for every type on the graph, with dependencies appended the way rosbag2
+//! records them in MCAP: the type's own definition, then, depth-first in order of first use, each
+//! dependency after a line of 80 `=` and `MSG: pkg/Type`.
+//!
+//! Definitions carry no comments or default values (as `rosbags` emits them); readers of bags that
+//! `ros2 bag record` wrote must accept comments too, which is the reader's business, not ours.
+
+/// `(type name as it appears inside definitions, definition text)` for every type we emit.
+const DEFINITIONS: &[(&str, &str)] = &[
+    ("builtin_interfaces/Time", "int32 sec\nuint32 nanosec\n"),
+    ("std_msgs/Header", "builtin_interfaces/Time stamp\nstring frame_id\n"),
+    ("geometry_msgs/Point", "float64 x\nfloat64 y\nfloat64 z\n"),
+    ("geometry_msgs/Vector3", "float64 x\nfloat64 y\nfloat64 z\n"),
+    ("geometry_msgs/Quaternion", "float64 x\nfloat64 y\nfloat64 z\nfloat64 w\n"),
+    ("geometry_msgs/Pose", "geometry_msgs/Point position\ngeometry_msgs/Quaternion orientation\n"),
+    ("geometry_msgs/PoseStamped", "std_msgs/Header header\ngeometry_msgs/Pose pose\n"),
+    ("geometry_msgs/PoseWithCovariance", "geometry_msgs/Pose pose\nfloat64[36] covariance\n"),
+    ("geometry_msgs/Twist", "geometry_msgs/Vector3 linear\ngeometry_msgs/Vector3 angular\n"),
+    ("geometry_msgs/TwistWithCovariance", "geometry_msgs/Twist twist\nfloat64[36] covariance\n"),
+    (
+        "nav_msgs/Odometry",
+        "std_msgs/Header header\nstring child_frame_id\ngeometry_msgs/PoseWithCovariance pose\ngeometry_msgs/TwistWithCovariance twist\n",
+    ),
+    (
+        "nav_msgs/MapMetaData",
+        "builtin_interfaces/Time map_load_time\nfloat32 resolution\nuint32 width\nuint32 height\ngeometry_msgs/Pose origin\n",
+    ),
+    ("nav_msgs/OccupancyGrid", "std_msgs/Header header\nnav_msgs/MapMetaData info\nint8[] data\n"),
+    ("rosgraph_msgs/Clock", "builtin_interfaces/Time clock\n"),
+    (
+        "nrslam_msgs/Detection",
+        "float64 range_m\nfloat64 angle_rad\nfloat64 range_std_m\nfloat64 angle_std_rad\nfloat64 power_db\n",
+    ),
+    (
+        "nrslam_msgs/Detections",
+        "std_msgs/Header header\nfloat64 boresight_rad\nnrslam_msgs/Detection[] detections\n",
+    ),
+    (
+        "nrslam_msgs/Keyframe",
+        "std_msgs/Header header\nuint32 id\ngeometry_msgs/Pose pose\nfloat64 boresight_rad\nnrslam_msgs/Detection[] detections\n",
+    ),
+    (
+        "nrslam_msgs/Segments",
+        "std_msgs/Header header\nfloat64 eps_m\nuint32 min_samples\nuint32 cluster_count\ngeometry_msgs/Point[] points\nint32[] labels\n",
+    ),
+    (
+        "nrslam_msgs/Target",
+        "uint32 id\nstring shape\ngeometry_msgs/Point[] outline\ngeometry_msgs/Point[] samples\n",
+    ),
+    ("nrslam_msgs/TargetSet", "std_msgs/Header header\nnrslam_msgs/Target[] targets\n"),
+    (
+        "nrslam_msgs/Metrics",
+        "std_msgs/Header header\nfloat64 etgospa\nfloat64 etgospa_localisation\nfloat64 etgospa_confusion\nfloat64 etgospa_missed\nfloat64 etgospa_false\nfloat64 gospa\nfloat64 gospa_localisation\nfloat64 gospa_missed\nfloat64 gospa_false\nfloat64 position_error_m\nuint32 estimated_targets\nuint32 estimate_points\n",
+    ),
+];
+
+/// The short name used inside definitions: `nav_msgs/msg/OccupancyGrid` → `nav_msgs/OccupancyGrid`.
+fn short_name(type_name: &str) -> String {
+    type_name.replacen("/msg/", "/", 1)
+}
+
+fn definition(short: &str) -> Option<&'static str> {
+    DEFINITIONS.iter().find(|(name, _)| *name == short).map(|(_, text)| *text)
+}
+
+/// Field types of a definition that are messages (contain a '/'), array suffixes removed.
+fn message_field_types(text: &str) -> impl Iterator<Item = &str> {
+    text.lines().filter_map(|line| {
+        let field_type = line.split_whitespace().next()?;
+        let base = field_type.split('[').next()?;
+        base.contains('/').then_some(base)
+    })
+}
+
+fn collect_dependencies(short: &str, seen: &mut Vec<String>) {
+    let Some(text) = definition(short) else { return };
+    for dependency in message_field_types(text) {
+        if !seen.iter().any(|s| s == dependency) {
+            seen.push(dependency.to_owned());
+            collect_dependencies(dependency, seen);
+        }
+    }
+}
+
+/// The full `ros2msg` schema of `type_name` (`pkg/msg/Type`), or `None` for a type we do not know.
+pub fn ros2msg(type_name: &str) -> Option<String> {
+    let short = short_name(type_name);
+    let mut text = definition(&short)?.to_owned();
+    let mut dependencies = Vec::new();
+    collect_dependencies(&short, &mut dependencies);
+    for dependency in dependencies {
+        text.push_str(&"=".repeat(80));
+        text.push('\n');
+        text.push_str("MSG: ");
+        text.push_str(&dependency);
+        text.push('\n');
+        text.push_str(definition(&dependency)?);
+    }
+    Some(text)
+}
+
+/// The bare definition (no dependencies) of a project type, as in `msgs/msg/<Type>.msg`.
+pub fn definition_of(type_name: &str) -> Option<&'static str> {
+    definition(&short_name(type_name))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn occupancy_grid_schema_matches_the_independent_reference() {
+        let golden = include_str!("../tests/fixtures/nav_msgs_msg_OccupancyGrid.ros2msg");
+        assert_eq!(ros2msg("nav_msgs/msg/OccupancyGrid").unwrap(), golden);
+    }
+
+    #[test]
+    fn pose_stamped_schema_matches_the_independent_reference() {
+        let golden = include_str!("../tests/fixtures/geometry_msgs_msg_PoseStamped.ros2msg");
+        assert_eq!(ros2msg("geometry_msgs/msg/PoseStamped").unwrap(), golden);
+    }
+
+    #[test]
+    fn every_dependency_of_every_definition_is_defined() {
+        for (name, text) in DEFINITIONS {
+            for dependency in message_field_types(text) {
+                assert!(definition(dependency).is_some(), "{name} uses undefined {dependency}");
+            }
+        }
+    }
+
+    #[test]
+    fn project_msg_files_match_the_definitions() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("msg");
+        let mut files = 0;
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            let stem = path.file_stem().unwrap().to_str().unwrap().to_owned();
+            let text = std::fs::read_to_string(&path).unwrap();
+            let expected = definition(&format!("nrslam_msgs/{stem}")).unwrap();
+            assert_eq!(text, expected, "{}", path.display());
+            files += 1;
+        }
+        assert_eq!(files, DEFINITIONS.iter().filter(|(n, _)| n.starts_with("nrslam_msgs/")).count());
+    }
+
+    #[test]
+    fn unknown_type_has_no_schema() {
+        assert!(ros2msg("foo_msgs/msg/Bar").is_none());
+    }
+}

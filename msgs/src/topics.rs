@@ -1,0 +1,122 @@
+//! The topic catalogue: every topic of the graph with its ROS 2 type and QoS (DESIGN.md graph).
+//! Launch files are checked against it before anything starts.
+
+/// Topic names.
+pub const CLOCK: &str = "/clock";
+/// Noisy wheel odometry.
+pub const ODOM: &str = "/odom";
+/// Range/angle detections of one radar frame.
+pub const DETECTIONS: &str = "/radar/detections";
+/// True AGV pose.
+pub const GROUND_TRUTH_POSE: &str = "/ground_truth/pose";
+/// True extended targets (latched).
+pub const GROUND_TRUTH_TARGETS: &str = "/ground_truth/targets";
+/// SLAM estimate of the AGV pose.
+pub const SLAM_POSE: &str = "/slam/pose";
+/// Keyframes chosen by data association.
+pub const KEYFRAME: &str = "/slam/keyframe";
+/// Occupancy grid.
+pub const MAP: &str = "/map";
+/// DBSCAN-labelled occupied cells.
+pub const SEGMENTS: &str = "/map/segments";
+/// Per-step metrics.
+pub const METRICS: &str = "/metrics";
+
+/// Delivery guarantee of a topic.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Reliability {
+    /// Every message arrives, in order (zenoh reliable, congestion control `Block`).
+    Reliable,
+}
+
+/// Whether late subscribers get earlier messages.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Durability {
+    /// Only messages published after subscribing.
+    Volatile,
+    /// The last message is kept for late joiners (ROS 2 transient local); published once.
+    TransientLocal,
+}
+
+/// QoS of a topic, as ROS 2 names it. History is keep-all everywhere: nothing is dropped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Qos {
+    /// Reliability.
+    pub reliability: Reliability,
+    /// Durability.
+    pub durability: Durability,
+}
+
+const STREAM: Qos = Qos { reliability: Reliability::Reliable, durability: Durability::Volatile };
+const LATCHED: Qos = Qos { reliability: Reliability::Reliable, durability: Durability::TransientLocal };
+
+/// One catalogue entry.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TopicSpec {
+    /// Topic name, e.g. `/map`.
+    pub name: &'static str,
+    /// ROS 2 type name, e.g. `nav_msgs/msg/OccupancyGrid`.
+    pub type_name: &'static str,
+    /// QoS.
+    pub qos: Qos,
+    /// What it carries.
+    pub description: &'static str,
+}
+
+/// Every topic of the graph.
+pub const CATALOGUE: &[TopicSpec] = &[
+    TopicSpec { name: CLOCK, type_name: "rosgraph_msgs/msg/Clock", qos: STREAM, description: "simulated clock, one per frame" },
+    TopicSpec { name: ODOM, type_name: "nav_msgs/msg/Odometry", qos: STREAM, description: "noisy wheel odometry, dead-reckoned pose in frame odom" },
+    TopicSpec { name: DETECTIONS, type_name: "nrslam_msgs/msg/Detections", qos: STREAM, description: "range/angle detections of one radar frame" },
+    TopicSpec { name: GROUND_TRUTH_POSE, type_name: "geometry_msgs/msg/PoseStamped", qos: STREAM, description: "true AGV pose" },
+    TopicSpec { name: GROUND_TRUTH_TARGETS, type_name: "nrslam_msgs/msg/TargetSet", qos: LATCHED, description: "true extended targets with their ET-GOPSA sample points" },
+    TopicSpec { name: SLAM_POSE, type_name: "geometry_msgs/msg/PoseStamped", qos: STREAM, description: "SLAM estimate of the AGV pose, one per frame" },
+    TopicSpec { name: KEYFRAME, type_name: "nrslam_msgs/msg/Keyframe", qos: STREAM, description: "keyframes: pose and detections" },
+    TopicSpec { name: MAP, type_name: "nav_msgs/msg/OccupancyGrid", qos: STREAM, description: "log-odds occupancy grid, one per keyframe" },
+    TopicSpec { name: SEGMENTS, type_name: "nrslam_msgs/msg/Segments", qos: STREAM, description: "occupied cells labelled by DBSCAN, one per map" },
+    TopicSpec { name: METRICS, type_name: "nrslam_msgs/msg/Metrics", qos: STREAM, description: "ET-GOPSA, GOSPA and position error, one per frame" },
+];
+
+/// The catalogue entry of `name`.
+pub fn spec(name: &str) -> Option<&'static TopicSpec> {
+    CATALOGUE.iter().find(|t| t.name == name)
+}
+
+/// The zenoh key expression of a topic: the name without its leading '/' (`/map/segments` →
+/// `map/segments`), optionally under a namespace prefix (`robot1` → `robot1/map/segments`).
+pub fn key_expr(namespace: &str, name: &str) -> String {
+    let topic = name.trim_start_matches('/');
+    let namespace = namespace.trim_matches('/');
+    if namespace.is_empty() {
+        topic.to_owned()
+    } else {
+        format!("{namespace}/{topic}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Message;
+
+    #[test]
+    fn every_topic_type_is_a_message_type_with_a_schema() {
+        for topic in CATALOGUE {
+            assert!(Message::TYPE_NAMES.contains(&topic.type_name), "{}", topic.name);
+            assert!(crate::schema::ros2msg(topic.type_name).is_some());
+        }
+    }
+
+    #[test]
+    fn topic_names_are_unique() {
+        for (i, a) in CATALOGUE.iter().enumerate() {
+            assert!(CATALOGUE[i + 1..].iter().all(|b| b.name != a.name), "{}", a.name);
+        }
+    }
+
+    #[test]
+    fn key_expressions_drop_the_leading_slash() {
+        assert_eq!(key_expr("", "/map/segments"), "map/segments");
+        assert_eq!(key_expr("/robot1/", "/map"), "robot1/map");
+    }
+}

@@ -1,0 +1,169 @@
+//! In-process composition: the nodes of a graph wired directly, one thread, no transport.
+//!
+//! This is how batch and Monte Carlo runs execute, and, because every node's inputs go through the
+//! same [`Merger`] as over zenoh, it produces exactly what the zenoh graph produces for a seed.
+
+use crate::merge::Merger;
+use crate::node::{Node, NodeError, Outbox, Tick};
+use nrslam_msgs::Message;
+use std::collections::BTreeMap;
+
+/// A node failed while the graph ran.
+#[derive(Debug, thiserror::Error)]
+#[error("node '{node}' failed: {error}")]
+pub struct GraphError {
+    /// Instance name of the node.
+    pub node: String,
+    /// Its error.
+    pub error: NodeError,
+}
+
+struct Slot {
+    name: String,
+    node: Box<dyn Node>,
+    merger: Merger,
+    is_source: bool,
+    ended: bool,
+}
+
+/// Nodes wired by topic name.
+pub struct Graph {
+    slots: Vec<Slot>,
+    subscribers: BTreeMap<&'static str, Vec<usize>>,
+}
+
+/// Called for every message published in the graph, in publication order per topic.
+pub trait Observer {
+    /// `message` was published on `topic`.
+    fn observe(&mut self, topic: &'static str, message: &Message) -> anyhow_free::Result;
+    /// `topic` has ended.
+    fn end(&mut self, _topic: &'static str) {}
+}
+
+/// Observer results without pulling anyhow into the runtime.
+pub mod anyhow_free {
+    /// An observer failure (e.g. a full disk while writing), boxed.
+    pub type Result = std::result::Result<(), Box<dyn std::error::Error + Send + Sync>>;
+}
+
+impl<F: FnMut(&'static str, &Message)> Observer for F {
+    fn observe(&mut self, topic: &'static str, message: &Message) -> anyhow_free::Result {
+        self(topic, message);
+        Ok(())
+    }
+}
+
+impl Graph {
+    /// A graph of `(instance name, node)`, wired by the nodes' declared inputs and outputs.
+    pub fn new(nodes: Vec<(String, Box<dyn Node>)>) -> Self {
+        let mut subscribers: BTreeMap<&'static str, Vec<usize>> = BTreeMap::new();
+        let slots = nodes
+            .into_iter()
+            .enumerate()
+            .map(|(index, (name, node))| {
+                let inputs = node.inputs();
+                for topic in &inputs {
+                    subscribers.entry(topic).or_default().push(index);
+                }
+                Slot { name, merger: Merger::new(&inputs), is_source: inputs.is_empty(), node, ended: false }
+            })
+            .collect();
+        Self { slots, subscribers }
+    }
+
+    /// Runs the graph to the end of every source, handing every published message to `observer`.
+    /// `before_tick` is called before each round of source ticks with the number of rounds so far
+    /// (the launcher paces real time and shows progress there).
+    pub fn run(
+        &mut self,
+        observer: &mut dyn Observer,
+        mut before_tick: impl FnMut(u64),
+    ) -> Result<(), GraphError> {
+        let mut outbox = Outbox::new();
+        let mut round = 0u64;
+        loop {
+            let mut any_source = false;
+            before_tick(round);
+            for index in 0..self.slots.len() {
+                if !self.slots[index].is_source || self.slots[index].ended {
+                    continue;
+                }
+                any_source = true;
+                let tick = self.slots[index].node.tick(&mut outbox).map_err(|error| self.failure(index, error))?;
+                self.route(&mut outbox, observer)?;
+                if tick == Tick::Done {
+                    self.end_node(index, observer)?;
+                }
+            }
+            self.drain(observer)?;
+            round += 1;
+            if !any_source {
+                break;
+            }
+        }
+        self.drain(observer)?;
+        Ok(())
+    }
+
+    fn failure(&self, index: usize, error: NodeError) -> GraphError {
+        GraphError { node: self.slots[index].name.clone(), error }
+    }
+
+    fn route(&mut self, outbox: &mut Outbox, observer: &mut dyn Observer) -> Result<(), GraphError> {
+        for (topic, message) in outbox.drain() {
+            observer
+                .observe(topic, &message)
+                .map_err(|e| GraphError { node: "observer".into(), error: NodeError::Algorithm(e) })?;
+            if let Some(indices) = self.subscribers.get(topic) {
+                for &index in indices {
+                    // Wiring comes from the node's own inputs, so the topic is always known.
+                    let _ = self.slots[index].merger.push(topic, message.clone());
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn end_node(&mut self, index: usize, observer: &mut dyn Observer) -> Result<(), GraphError> {
+        self.slots[index].ended = true;
+        for topic in self.slots[index].node.outputs() {
+            observer.end(topic);
+            if let Some(indices) = self.subscribers.get(topic) {
+                for &subscriber in indices {
+                    let _ = self.slots[subscriber].merger.close(topic);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Delivers every ready message until nothing moves, ending nodes whose inputs are done.
+    fn drain(&mut self, observer: &mut dyn Observer) -> Result<(), GraphError> {
+        let mut outbox = Outbox::new();
+        loop {
+            let mut progressed = false;
+            for index in 0..self.slots.len() {
+                if self.slots[index].ended || self.slots[index].is_source {
+                    continue;
+                }
+                while let Some((topic, message)) = self.slots[index].merger.pop_ready() {
+                    progressed = true;
+                    self.slots[index]
+                        .node
+                        .on_message(topic, &message, &mut outbox)
+                        .map_err(|error| self.failure(index, error))?;
+                    self.route(&mut outbox, observer)?;
+                }
+                if self.slots[index].merger.finished() {
+                    progressed = true;
+                    self.slots[index].node.on_end(&mut outbox).map_err(|error| self.failure(index, error))?;
+                    self.route(&mut outbox, observer)?;
+                    self.end_node(index, observer)?;
+                }
+            }
+            if !progressed {
+                return Ok(());
+            }
+        }
+    }
+}

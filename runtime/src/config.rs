@@ -1,0 +1,47 @@
+//! Typed parameters: every node's `Params` validates itself and names the bad field.
+
+use serde::de::DeserializeOwned;
+
+/// A parameter outside its allowed range, named.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{field}: {problem} (allowed: {allowed})")]
+pub struct InvalidParam {
+    /// Dotted field name, e.g. `range_std_m`.
+    pub field: String,
+    /// What is wrong, with the offending value.
+    pub problem: String,
+    /// The allowed range or set.
+    pub allowed: String,
+}
+
+impl InvalidParam {
+    /// A bad `field`: `problem` (include the value), allowed `allowed`.
+    pub fn new(field: impl Into<String>, problem: impl Into<String>, allowed: impl Into<String>) -> Self {
+        Self { field: field.into(), problem: problem.into(), allowed: allowed.into() }
+    }
+
+    /// Checks `lower <= value <= upper` and finiteness for the float parameter `field`.
+    pub fn check_range(field: &str, value: f64, lower: f64, upper: f64) -> Result<(), InvalidParam> {
+        if value.is_finite() && value >= lower && value <= upper {
+            Ok(())
+        } else {
+            Err(Self::new(field, format!("{value} is out of range"), format!("{lower} to {upper}")))
+        }
+    }
+}
+
+/// Why a parameter table could not become typed parameters.
+#[derive(Debug, thiserror::Error)]
+pub enum ParamsError {
+    /// Unknown field, wrong type, missing value.
+    #[error("{0}")]
+    Parse(String),
+    /// Parsed but out of range.
+    #[error(transparent)]
+    Invalid(#[from] InvalidParam),
+}
+
+/// Parses a TOML table into `P` (unknown fields refused by `P`'s `deny_unknown_fields`).
+pub fn parse_params<P: DeserializeOwned>(table: toml::Table) -> Result<P, ParamsError> {
+    P::deserialize(toml::Value::Table(table)).map_err(|e| ParamsError::Parse(e.to_string().trim().to_owned()))
+}

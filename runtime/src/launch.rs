@@ -1,0 +1,360 @@
+//! Launch files: the graph to run, as TOML, with arguments set on the command line as
+//! `name:=value` (as ROS 2 launch does).
+//!
+//! ```toml
+//! [launch]
+//! description = "Fig. 3 of the paper"
+//! mode = "in-process"                    # or "processes"
+//!
+//! [arguments.angle_std_deg]
+//! default = 1.0
+//! description = "angle error std Δθ (deg)"
+//!
+//! [[node]]
+//! name = "radar"
+//! kind = "radar"
+//! [node.params]
+//! angle_std_deg = "$(var angle_std_deg)"   # whole value: takes the argument's type
+//! scene = "../config/hall.toml"            # relative paths: against the launch file's folder
+//! ```
+//!
+//! A string that is exactly `$(var NAME)` becomes the argument's typed value; `$(var NAME)` inside a
+//! longer string is replaced by its text. Every error names the file, the field and what is allowed.
+
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// How the nodes of a launch are run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum Mode {
+    /// All nodes composed in one process, wired directly (zenoh only to mirror topics outside).
+    #[default]
+    InProcess,
+    /// One OS process per node, talking over zenoh.
+    Processes,
+}
+
+impl std::str::FromStr for Mode {
+    type Err = String;
+    fn from_str(text: &str) -> Result<Self, String> {
+        match text {
+            "in-process" => Ok(Mode::InProcess),
+            "processes" => Ok(Mode::Processes),
+            other => Err(format!("unknown mode {other:?} (allowed: in-process, processes)")),
+        }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Header {
+    #[serde(default)]
+    description: String,
+    #[serde(default)]
+    mode: Mode,
+}
+
+/// A declared argument.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Argument {
+    /// Default value; its type (float, integer, boolean, string) is the argument's type.
+    pub default: toml::Value,
+    /// What it sets, with its unit.
+    #[serde(default)]
+    pub description: String,
+}
+
+/// A node of the graph.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NodeDecl {
+    /// Instance name, unique in the launch.
+    pub name: String,
+    /// Which node: `radar`, `association`, `mapper`, `segmenter`, `evaluator`.
+    pub kind: String,
+    /// Parameters of the node kind (its `Params` fields).
+    #[serde(default)]
+    pub params: toml::Table,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawLaunch {
+    launch: Option<Header>,
+    #[serde(default)]
+    arguments: BTreeMap<String, Argument>,
+    #[serde(default)]
+    node: Vec<NodeDecl>,
+}
+
+/// A launch file with its arguments applied.
+#[derive(Debug, Clone)]
+pub struct Launch {
+    /// The file it came from.
+    pub path: PathBuf,
+    /// Folder of the file: relative paths in parameters resolve against it.
+    pub base_dir: PathBuf,
+    /// What it runs.
+    pub description: String,
+    /// Mode the file asks for.
+    pub mode: Mode,
+    /// Declared arguments.
+    pub declared: BTreeMap<String, Argument>,
+    /// Every argument's effective value (defaults overridden by `name:=value`).
+    pub arguments: BTreeMap<String, toml::Value>,
+    /// The nodes, parameters substituted.
+    pub nodes: Vec<NodeDecl>,
+}
+
+/// Why a launch file could not be used. The message names the file and the field.
+#[derive(Debug, thiserror::Error)]
+pub enum LaunchError {
+    /// The file could not be read.
+    #[error("{path}: cannot read: {source}")]
+    Read {
+        /// File.
+        path: PathBuf,
+        /// Cause.
+        source: std::io::Error,
+    },
+    /// The file is not valid TOML or has an unknown or mistyped field.
+    #[error("{path}: {message}")]
+    Parse {
+        /// File.
+        path: PathBuf,
+        /// What the parser said, with line and field.
+        message: String,
+    },
+    /// An argument problem (unknown name, wrong type, malformed `name:=value`).
+    #[error("{path}: argument {name}: {problem}")]
+    Argument {
+        /// File.
+        path: PathBuf,
+        /// Argument name or the malformed text.
+        name: String,
+        /// What is wrong and what is allowed.
+        problem: String,
+    },
+    /// A node declaration problem.
+    #[error("{path}: node {node}: {problem}")]
+    Node {
+        /// File.
+        path: PathBuf,
+        /// Node instance name.
+        node: String,
+        /// What is wrong.
+        problem: String,
+    },
+}
+
+/// Splits `name:=value`.
+pub fn parse_assignment(text: &str) -> Option<(String, String)> {
+    let (name, value) = text.split_once(":=")?;
+    let name = name.trim();
+    (!name.is_empty() && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_'))
+        .then(|| (name.to_owned(), value.to_owned()))
+}
+
+fn type_name(value: &toml::Value) -> &'static str {
+    match value {
+        toml::Value::Float(_) => "a number",
+        toml::Value::Integer(_) => "an integer",
+        toml::Value::Boolean(_) => "true or false",
+        toml::Value::String(_) => "a string",
+        _ => "a value of the default's type",
+    }
+}
+
+/// Parses `text` as a value of the same type as `default`.
+fn typed_like(default: &toml::Value, text: &str) -> Option<toml::Value> {
+    match default {
+        toml::Value::Float(_) => text.trim().parse::<f64>().ok().filter(|v| v.is_finite()).map(toml::Value::Float),
+        toml::Value::Integer(_) => text.trim().parse::<i64>().ok().map(toml::Value::Integer),
+        toml::Value::Boolean(_) => text.trim().parse::<bool>().ok().map(toml::Value::Boolean),
+        toml::Value::String(_) => Some(toml::Value::String(text.to_owned())),
+        _ => None,
+    }
+}
+
+fn substitute(
+    value: &mut toml::Value,
+    arguments: &BTreeMap<String, toml::Value>,
+    path: &Path,
+    node: &str,
+) -> Result<(), LaunchError> {
+    match value {
+        toml::Value::String(text) => {
+            if let Some(name) = text.strip_prefix("$(var ").and_then(|t| t.strip_suffix(')')) {
+                if !name.contains("$(") {
+                    *value = arguments.get(name.trim()).cloned().ok_or_else(|| LaunchError::Node {
+                        path: path.to_owned(),
+                        node: node.to_owned(),
+                        problem: format!("uses undeclared argument {:?}", name.trim()),
+                    })?;
+                    return Ok(());
+                }
+            }
+            while let Some(start) = text.find("$(var ") {
+                let end = text[start..].find(')').map(|e| start + e).ok_or_else(|| LaunchError::Node {
+                    path: path.to_owned(),
+                    node: node.to_owned(),
+                    problem: format!("unterminated $(var ...) in {text:?}"),
+                })?;
+                let name = text[start + 6..end].trim().to_owned();
+                let replacement = match arguments.get(&name) {
+                    Some(toml::Value::String(s)) => s.clone(),
+                    Some(other) => other.to_string(),
+                    None => {
+                        return Err(LaunchError::Node {
+                            path: path.to_owned(),
+                            node: node.to_owned(),
+                            problem: format!("uses undeclared argument {name:?}"),
+                        })
+                    }
+                };
+                text.replace_range(start..=end, &replacement);
+            }
+            Ok(())
+        }
+        toml::Value::Array(items) => items.iter_mut().try_for_each(|v| substitute(v, arguments, path, node)),
+        toml::Value::Table(table) => table.iter_mut().try_for_each(|(_, v)| substitute(v, arguments, path, node)),
+        _ => Ok(()),
+    }
+}
+
+impl Launch {
+    /// Reads `path` and applies `overrides` (`name:=value` strings).
+    pub fn load(path: &Path, overrides: &[String]) -> Result<Launch, LaunchError> {
+        let text = std::fs::read_to_string(path).map_err(|source| LaunchError::Read { path: path.to_owned(), source })?;
+        Self::parse(path, &text, overrides)
+    }
+
+    /// Parses launch `text` as if read from `path`.
+    pub fn parse(path: &Path, text: &str, overrides: &[String]) -> Result<Launch, LaunchError> {
+        let raw: RawLaunch = toml::from_str(text)
+            .map_err(|e| LaunchError::Parse { path: path.to_owned(), message: e.message().to_owned() + &location(text, e.span()) })?;
+        let header = raw.launch.unwrap_or(Header { description: String::new(), mode: Mode::default() });
+        let mut arguments: BTreeMap<String, toml::Value> =
+            raw.arguments.iter().map(|(name, argument)| (name.clone(), argument.default.clone())).collect();
+        for text in overrides {
+            let (name, value) = parse_assignment(text).ok_or_else(|| LaunchError::Argument {
+                path: path.to_owned(),
+                name: text.clone(),
+                problem: "expected name:=value".into(),
+            })?;
+            let declared = raw.arguments.get(&name).ok_or_else(|| LaunchError::Argument {
+                path: path.to_owned(),
+                name: name.clone(),
+                problem: format!(
+                    "not declared (declared: {})",
+                    if raw.arguments.is_empty() { "none".to_owned() } else { raw.arguments.keys().cloned().collect::<Vec<_>>().join(", ") }
+                ),
+            })?;
+            let typed = typed_like(&declared.default, &value).ok_or_else(|| LaunchError::Argument {
+                path: path.to_owned(),
+                name: name.clone(),
+                problem: format!("{value:?} is not {}", type_name(&declared.default)),
+            })?;
+            arguments.insert(name, typed);
+        }
+        let mut nodes = raw.node;
+        if nodes.is_empty() {
+            return Err(LaunchError::Parse { path: path.to_owned(), message: "no [[node]] declared".into() });
+        }
+        for (index, node) in nodes.iter().enumerate() {
+            if nodes[..index].iter().any(|other| other.name == node.name) {
+                return Err(LaunchError::Node { path: path.to_owned(), node: node.name.clone(), problem: "name used twice".into() });
+            }
+        }
+        for node in &mut nodes {
+            let name = node.name.clone();
+            for (_, value) in node.params.iter_mut() {
+                substitute(value, &arguments, path, &name)?;
+            }
+        }
+        let base_dir = path.parent().map(Path::to_owned).unwrap_or_default();
+        Ok(Launch {
+            path: path.to_owned(),
+            base_dir: if base_dir.as_os_str().is_empty() { PathBuf::from(".") } else { base_dir },
+            description: header.description,
+            mode: header.mode,
+            declared: raw.arguments,
+            arguments,
+            nodes,
+        })
+    }
+}
+
+fn location(text: &str, span: Option<std::ops::Range<usize>>) -> String {
+    span.map(|span| {
+        let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
+        format!(" (line {line})")
+    })
+    .unwrap_or_default()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const FILE: &str = r#"
+[launch]
+description = "test"
+[arguments.angle_std_deg]
+default = 1.0
+[arguments.label]
+default = "run"
+[[node]]
+name = "radar"
+kind = "radar"
+[node.params]
+angle_std_deg = "$(var angle_std_deg)"
+name = "x-$(var label)-y"
+"#;
+
+    fn load(overrides: &[&str]) -> Result<Launch, LaunchError> {
+        let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
+        Launch::parse(Path::new("launch/test.toml"), FILE, &overrides)
+    }
+
+    #[test]
+    fn defaults_and_overrides_are_substituted_with_their_types() {
+        let launch = load(&[]).unwrap();
+        assert_eq!(launch.nodes[0].params["angle_std_deg"], toml::Value::Float(1.0));
+        assert_eq!(launch.nodes[0].params["name"], toml::Value::String("x-run-y".into()));
+        let launch = load(&["angle_std_deg:=5", "label:=b"]).unwrap();
+        assert_eq!(launch.nodes[0].params["angle_std_deg"], toml::Value::Float(5.0));
+        assert_eq!(launch.nodes[0].params["name"], toml::Value::String("x-b-y".into()));
+        assert_eq!(launch.base_dir, Path::new("launch"));
+    }
+
+    #[test]
+    fn bad_arguments_name_the_file_and_the_argument() {
+        let error = load(&["angle_std_deg:=abc"]).unwrap_err().to_string();
+        assert!(error.contains("launch/test.toml") && error.contains("angle_std_deg") && error.contains("number"), "{error}");
+        let error = load(&["nope:=1"]).unwrap_err().to_string();
+        assert!(error.contains("nope") && error.contains("angle_std_deg, label"), "{error}");
+        let error = load(&["angle_std_deg=1"]).unwrap_err().to_string();
+        assert!(error.contains("name:=value"), "{error}");
+        assert!(load(&["angle_std_deg:=inf"]).is_err());
+    }
+
+    #[test]
+    fn unknown_fields_and_duplicates_are_refused_with_a_line() {
+        let error = Launch::parse(Path::new("f.toml"), "[launch]\nmode = \"in-process\"\nspeed = 3\n[[node]]\nname=\"a\"\nkind=\"b\"\n", &[])
+            .unwrap_err()
+            .to_string();
+        assert!(error.starts_with("f.toml:") && error.contains("speed") && error.contains("line 3"), "{error}");
+        let error = Launch::parse(Path::new("f.toml"), "[[node]]\nname=\"a\"\nkind=\"b\"\n[[node]]\nname=\"a\"\nkind=\"c\"\n", &[])
+            .unwrap_err()
+            .to_string();
+        assert!(error.contains("node a") && error.contains("twice"), "{error}");
+        let error = Launch::parse(Path::new("f.toml"), "[[node]]\nname=\"a\"\nkind=\"b\"\n[node.params]\nx=\"$(var y)\"\n", &[])
+            .unwrap_err()
+            .to_string();
+        assert!(error.contains("undeclared argument \"y\""), "{error}");
+    }
+}

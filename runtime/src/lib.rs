@@ -1,0 +1,19 @@
+//! The nrslam runtime: what every node shares and none re-implements.
+//!
+//! - [`node`]: the [`Node`] trait (pure algorithm, typed inputs and outputs), [`NodeContext`].
+//! - [`merge`]: deterministic (stamp, input order) delivery of a node's inputs.
+//! - [`compose`]: the in-process composition used for batch and Monte Carlo runs.
+//! - [`config`]: typed parameters and the [`InvalidParam`] error that names the field.
+//! - [`launch`]: TOML launch files with `name:=value` arguments.
+//! - `transport` (feature `zenoh`): the zenoh session, node adapters and the start barrier.
+#![warn(missing_docs)]
+
+pub mod compose;
+pub mod config;
+pub mod launch;
+pub mod merge;
+pub mod node;
+pub mod seed;
+
+pub use config::{parse_params, InvalidParam, ParamsError};
+pub use node::{Node, NodeContext, NodeError, Outbox, Tick};

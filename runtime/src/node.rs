@@ -1,0 +1,142 @@
+//! The node abstraction: a pure algorithm behind one small trait.
+//!
+//! A node turns input messages into output messages and never sees a transport. The runtime
+//! delivers each node's inputs merged in (stamp, input order) (see [`crate::merge`]), so a node is a
+//! deterministic function of its input streams and runs identically over zenoh, in one process, or
+//! in a Monte Carlo batch.
+
+use nrslam_msgs::Message;
+use std::path::PathBuf;
+
+/// What a node asks of the runtime after a tick.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Tick {
+    /// Tick again: more frames follow.
+    More,
+    /// The source is exhausted; its outputs end.
+    Done,
+}
+
+/// Messages a node publishes while handling one event, in publication order.
+#[derive(Debug, Default)]
+pub struct Outbox {
+    messages: Vec<(&'static str, Message)>,
+}
+
+impl Outbox {
+    /// An empty outbox.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Publishes `message` on `topic`.
+    pub fn publish(&mut self, topic: &'static str, message: impl Into<Message>) {
+        self.messages.push((topic, message.into()));
+    }
+
+    /// Takes the published messages, leaving the outbox empty.
+    pub fn drain(&mut self) -> std::vec::Drain<'_, (&'static str, Message)> {
+        self.messages.drain(..)
+    }
+
+    /// Number of messages waiting.
+    pub fn len(&self) -> usize {
+        self.messages.len()
+    }
+
+    /// No message waiting.
+    pub fn is_empty(&self) -> bool {
+        self.messages.is_empty()
+    }
+}
+
+/// Why a node failed. The supervisor reports it with the node's name and stops the graph.
+#[derive(Debug, thiserror::Error)]
+pub enum NodeError {
+    /// A message the node cannot use (wrong type on a topic, NaN where a number is needed, ...).
+    #[error("invalid input on {topic}: {reason}")]
+    InvalidInput {
+        /// Topic of the offending message.
+        topic: String,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// The algorithm failed.
+    #[error("{0}")]
+    Algorithm(Box<dyn std::error::Error + Send + Sync + 'static>),
+    /// The node's parameters are invalid.
+    #[error(transparent)]
+    Params(#[from] crate::config::InvalidParam),
+}
+
+impl NodeError {
+    /// A message on `topic` the node cannot use.
+    pub fn invalid_input(topic: &str, reason: impl Into<String>) -> Self {
+        Self::InvalidInput { topic: topic.to_owned(), reason: reason.into() }
+    }
+
+    /// Wraps an algorithm's error.
+    pub fn algorithm(error: impl std::error::Error + Send + Sync + 'static) -> Self {
+        Self::Algorithm(Box::new(error))
+    }
+}
+
+/// A stage of the graph.
+pub trait Node: Send {
+    /// Topics subscribed, in the order ties in stamp are broken (earlier is delivered first).
+    fn inputs(&self) -> Vec<&'static str>;
+
+    /// Topics published.
+    fn outputs(&self) -> Vec<&'static str>;
+
+    /// Handles one input message; results go to `outbox`.
+    fn on_message(
+        &mut self,
+        topic: &str,
+        message: &Message,
+        outbox: &mut Outbox,
+    ) -> Result<(), NodeError>;
+
+    /// Sources (nodes without inputs) are ticked until they return [`Tick::Done`].
+    fn tick(&mut self, _outbox: &mut Outbox) -> Result<Tick, NodeError> {
+        Ok(Tick::Done)
+    }
+
+    /// Every input has ended: publish anything still pending.
+    fn on_end(&mut self, _outbox: &mut Outbox) -> Result<(), NodeError> {
+        Ok(())
+    }
+}
+
+/// What a node is told when it is built.
+#[derive(Debug, Clone)]
+pub struct NodeContext {
+    /// The node's instance name in the launch file.
+    pub name: String,
+    /// The run's seed.
+    pub seed: u64,
+    /// Directory against which relative paths in the node's parameters are resolved.
+    pub base_dir: PathBuf,
+}
+
+impl NodeContext {
+    /// A context for tests and tools: name "node", the given seed, the current directory.
+    pub fn for_tests(seed: u64) -> Self {
+        Self { name: "node".into(), seed, base_dir: PathBuf::from(".") }
+    }
+
+    /// A seed for the random stream called `stream`, derived from the run seed so that each
+    /// stream is independent of the others and of how nodes are spread over processes.
+    pub fn seed_for(&self, stream: &str) -> u64 {
+        crate::seed::derive(self.seed, stream)
+    }
+
+    /// `path` resolved against [`Self::base_dir`] when relative.
+    pub fn resolve(&self, path: &std::path::Path) -> PathBuf {
+        if path.is_absolute() {
+            path.to_owned()
+        } else {
+            self.base_dir.join(path)
+        }
+    }
+}
