@@ -1,1 +1,80 @@
-fn main() {}
+//! `nrslam`: SLAM for multiple extended targets with 5G OFDM sensing, as a node graph over zenoh.
+//!
+//! Thin entry point: parse the command line, hand each verb to its module, turn errors into one
+//! line on stderr and a non-zero exit.
+
+mod launcher;
+mod plot;
+mod registry;
+mod report;
+mod tools;
+
+use clap::{Args, Parser, Subcommand};
+
+/// SLAM for multiple extended targets with 5G OFDM sensing: a ROS-style node graph over zenoh.
+#[derive(Parser, Debug)]
+#[command(name = "nrslam", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+/// Where the zenoh session listens and connects. Multicast scouting is always off; nothing is
+/// exposed beyond the endpoints given here.
+#[derive(Args, Debug, Clone, Default)]
+pub struct TransportArgs {
+    /// zenoh endpoint to listen on, e.g. tcp/127.0.0.1:7447 (repeatable). Outside clients connect here.
+    #[arg(long = "listen", value_name = "ENDPOINT")]
+    pub listen: Vec<String>,
+    /// zenoh endpoint to connect to, e.g. tcp/127.0.0.1:7447 (repeatable): a router, or a peer that listens.
+    #[arg(long = "connect", value_name = "ENDPOINT")]
+    pub connect: Vec<String>,
+    /// Prefix of every key expression (e.g. `robot1` → `robot1/map`); empty: none.
+    #[arg(long, default_value = "", value_name = "PREFIX")]
+    pub namespace: String,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Run a launch file's graph to its end and write summary.json, metrics.csv, map.png, segments.png.
+    Launch(launcher::LaunchArgs),
+    /// Run one node as its own process, talking over zenoh.
+    Run(launcher::RunArgs),
+    /// List the topics of the catalogue and, with --connect, what a live graph publishes.
+    Topics(tools::TopicsArgs),
+    /// Print the messages of one topic of a live graph, one JSON object per line.
+    Echo(tools::EchoArgs),
+    /// GOSPA and ET-GOPSA of an estimated point map against true extended targets (CSV files).
+    Metric(tools::MetricArgs),
+    /// DBSCAN on a CSV of points `x,y`, writing `x,y,label` (label -1: noise).
+    Segment(tools::SegmentArgs),
+}
+
+fn main() -> std::process::ExitCode {
+    tracing_subscriber::fmt()
+        .with_env_filter(tracing_subscriber::EnvFilter::try_from_env("NRSLAM_LOG").unwrap_or_else(|_| "warn".into()))
+        .with_writer(std::io::stderr)
+        .init();
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Launch(args) => launcher::launch(args),
+        Command::Run(args) => launcher::run(args),
+        Command::Topics(args) => tools::topics(args),
+        Command::Echo(args) => tools::echo(args),
+        Command::Metric(args) => tools::metric(args),
+        Command::Segment(args) => tools::segment(args),
+    };
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(error) => {
+            eprintln!("error: {}", one_line(&error));
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+/// The error chain on one line: `context: cause: cause`.
+fn one_line(error: &anyhow::Error) -> String {
+    error.chain().map(|e| e.to_string()).collect::<Vec<_>>().join(": ")
+}
+

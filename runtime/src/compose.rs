@@ -72,18 +72,10 @@ impl Graph {
     }
 
     /// Runs the graph to the end of every source, handing every published message to `observer`.
-    /// `before_tick` is called before each round of source ticks with the number of rounds so far
-    /// (the launcher paces real time and shows progress there).
-    pub fn run(
-        &mut self,
-        observer: &mut dyn Observer,
-        mut before_tick: impl FnMut(u64),
-    ) -> Result<(), GraphError> {
+    pub fn run(&mut self, observer: &mut dyn Observer) -> Result<(), GraphError> {
         let mut outbox = Outbox::new();
-        let mut round = 0u64;
         loop {
             let mut any_source = false;
-            before_tick(round);
             for index in 0..self.slots.len() {
                 if !self.slots[index].is_source || self.slots[index].ended {
                     continue;
@@ -96,7 +88,6 @@ impl Graph {
                 }
             }
             self.drain(observer)?;
-            round += 1;
             if !any_source {
                 break;
             }

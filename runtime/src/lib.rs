@@ -17,3 +17,5 @@ pub mod seed;
 
 pub use config::{parse_params, InvalidParam, ParamsError};
 pub use node::{Node, NodeContext, NodeError, Outbox, Tick};
+#[cfg(feature = "zenoh")]
+pub mod transport;

@@ -140,3 +140,10 @@ impl NodeContext {
         }
     }
 }
+
+impl Outbox {
+    /// The waiting messages, in publication order.
+    pub fn iter(&self) -> impl Iterator<Item = &(&'static str, Message)> {
+        self.messages.iter()
+    }
+}

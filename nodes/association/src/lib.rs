@@ -1,0 +1,53 @@
+#![warn(missing_docs)]
+//! # nrslam-association
+//!
+//! The data-association and location stage of nrslam: the paper's "data association" and
+//! "location & mapping" modules (Sec. III-A of `paper/slam-multiple-extended-targets-5g.tex`).
+//! Wheel odometry predicts the AGV pose; the frame's radar detections, matched against a map made
+//! of keyframes ("we select key frames in the sensing data to build the mapping data"), correct
+//! it; frames that moved far enough become keyframes and extend the map.
+//!
+//! - [`pose`]: SE(2) poses ([`Pose2`]) and angle wrapping.
+//! - [`icp`]: ICP against the keyframe map, point-to-line (default) or point-to-point
+//!   ([`PointMap`], [`align`]).
+//! - [`keyframe`]: keyframe selection ([`KeyframeSelector`]).
+//! - [`slam`]: the per-frame loop ([`Association`]).
+//! - [`params`]: the node's [`Params`].
+//! - [`node`]: the graph node ([`build`], [`AssociationNode`]): inputs `/odom` and
+//!   `/radar/detections`, outputs `/slam/pose` and `/slam/keyframe`.
+//!
+//! Everything but [`node`] is a plain library that never sees a transport or a message type.
+//!
+//! ```
+//! use nrslam_association::{Association, Params, Pose2};
+//!
+//! let mut slam = Association::new(Params::default()).unwrap();
+//! slam.on_odometry(Pose2::new(1.0, 2.0, 0.0)).unwrap();
+//! // A box of points around the AGV: the first frame is a keyframe and seeds the map.
+//! let scan: Vec<[f64; 2]> = (0..40)
+//!     .map(|i| {
+//!         let s = f64::from(i % 10) * 0.4 - 2.0;
+//!         [[s, 2.0], [2.0, s], [s, -2.0], [-2.0, s]][i as usize / 10]
+//!     })
+//!     .collect();
+//! let first = slam.on_scan(&scan).unwrap();
+//! assert_eq!(first.keyframe_id, Some(0));
+//! // Odometry claims 0.1 m forward, but the scan is unchanged: ICP pulls the pose back.
+//! slam.on_odometry(Pose2::new(1.1, 2.0, 0.0)).unwrap();
+//! let second = slam.on_scan(&scan).unwrap();
+//! assert!((second.pose.x_m - 1.0).abs() < 1e-3);
+//! ```
+
+pub mod icp;
+pub mod keyframe;
+pub mod node;
+pub mod params;
+pub mod pose;
+pub mod slam;
+
+pub use icp::{align, IcpResult, IcpStatus, LineFit, PointMap};
+pub use keyframe::KeyframeSelector;
+pub use node::{build, AssociationNode};
+pub use params::{IcpMetric, Params};
+pub use pose::{wrap_angle_rad, Pose2};
+pub use slam::{detection_to_agv_m, Association, AssociationError, FrameOutcome};

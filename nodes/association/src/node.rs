@@ -1,0 +1,397 @@
+//! The association as a graph node: `/odom` and `/radar/detections` in, `/slam/pose` and
+//! `/slam/keyframe` out.
+//!
+//! Inputs are declared in the order [`ODOM`], [`DETECTIONS`], so the runtime, which merges them
+//! by (stamp, input order), hands over a frame's odometry before the same frame's detections.
+//! Odometry only updates the latest odometry pose; each detections message runs one frame of
+//! [`Association`] (predict, match, maybe add a keyframe) and publishes:
+//!
+//! - `/slam/pose` (`PoseStamped`, frame "map", the detections' stamp): the SLAM pose, every frame;
+//! - `/slam/keyframe` (`Keyframe`, frame "map", same stamp): on keyframes only, with the keyframe
+//!   id, the SLAM pose, the boresight and the frame's detections, which the mapper places with
+//!   that pose (the paper's "key frames […] to build the mapping data", Sec. III-A).
+
+use nrslam_msgs::topics::{DETECTIONS, KEYFRAME, ODOM, SLAM_POSE};
+use nrslam_msgs::{Detections, Header, Keyframe, Message, Odometry, Pose, PoseStamped};
+use nrslam_runtime::{Node, NodeContext, NodeError, Outbox};
+
+use crate::params::Params;
+use crate::pose::Pose2;
+use crate::slam::{detection_to_agv_m, Association};
+
+/// Frame of the published poses and keyframes.
+pub const MAP_FRAME: &str = "map";
+
+/// [`Association`] bound to the node API.
+#[derive(Debug)]
+pub struct AssociationNode {
+    slam: Association,
+}
+
+/// Builds the association node from validated `params`. The node draws no random numbers and
+/// reads no files, so `ctx` is not used.
+pub fn build(params: Params, _ctx: &NodeContext) -> Result<Box<dyn Node>, NodeError> {
+    Ok(Box::new(AssociationNode::new(params)?))
+}
+
+impl AssociationNode {
+    /// A node with validated `params`.
+    pub fn new(params: Params) -> Result<Self, NodeError> {
+        Ok(AssociationNode {
+            slam: Association::new(params)?,
+        })
+    }
+
+    /// The algorithm state (pose, map, keyframes).
+    pub fn association(&self) -> &Association {
+        &self.slam
+    }
+
+    fn on_odometry(&mut self, odometry: &Odometry) -> Result<(), NodeError> {
+        let (x_m, y_m, yaw_rad) = odometry.pose.pose.planar();
+        let pose = Pose2::new(x_m, y_m, yaw_rad);
+        self.slam
+            .on_odometry(pose)
+            .map_err(|e| NodeError::invalid_input(ODOM, e.to_string()))
+    }
+
+    fn on_detections(
+        &mut self,
+        detections: &Detections,
+        outbox: &mut Outbox,
+    ) -> Result<(), NodeError> {
+        let scan_agv_m = scan_points(detections)?;
+        let outcome = self
+            .slam
+            .on_scan(&scan_agv_m)
+            .map_err(|e| NodeError::invalid_input(DETECTIONS, e.to_string()))?;
+        tracing::debug!(
+            stamp_s = detections.header.stamp.as_seconds(),
+            status = ?outcome.icp.status,
+            iterations = outcome.icp.iterations,
+            correspondences = outcome.icp.correspondences,
+            correction_m = outcome.icp.correction_m,
+            keyframe = ?outcome.keyframe_id,
+            "association frame"
+        );
+        let pose = outcome.pose;
+        let pose_msg = Pose::from_planar(pose.x_m, pose.y_m, pose.yaw_rad);
+        let header = Header::new(detections.header.stamp, MAP_FRAME);
+        outbox.publish(
+            SLAM_POSE,
+            PoseStamped {
+                header: header.clone(),
+                pose: pose_msg,
+            },
+        );
+        if let Some(id) = outcome.keyframe_id {
+            outbox.publish(
+                KEYFRAME,
+                Keyframe {
+                    header,
+                    id,
+                    pose: pose_msg,
+                    boresight_rad: detections.boresight_rad,
+                    detections: detections.detections.clone(),
+                },
+            );
+        }
+        Ok(())
+    }
+}
+
+/// The detections as points in the AGV frame; a non-finite or negative value is invalid input
+/// (it would otherwise enter the map).
+fn scan_points(detections: &Detections) -> Result<Vec<[f64; 2]>, NodeError> {
+    if !detections.boresight_rad.is_finite() {
+        return Err(NodeError::invalid_input(
+            DETECTIONS,
+            format!("boresight_rad is {}", detections.boresight_rad),
+        ));
+    }
+    detections
+        .detections
+        .iter()
+        .enumerate()
+        .map(|(i, d)| {
+            if d.range_m.is_finite() && d.range_m >= 0.0 && d.angle_rad.is_finite() {
+                Ok(detection_to_agv_m(
+                    d.range_m,
+                    d.angle_rad,
+                    detections.boresight_rad,
+                ))
+            } else {
+                Err(NodeError::invalid_input(
+                    DETECTIONS,
+                    format!(
+                        "detection {i}: range_m {} and angle_rad {} must be finite, range_m >= 0",
+                        d.range_m, d.angle_rad
+                    ),
+                ))
+            }
+        })
+        .collect()
+}
+
+impl Node for AssociationNode {
+    fn inputs(&self) -> Vec<&'static str> {
+        // Odometry first: at equal stamps the frame's odometry is delivered before its
+        // detections, so the prediction uses this frame's motion.
+        vec![ODOM, DETECTIONS]
+    }
+
+    fn outputs(&self) -> Vec<&'static str> {
+        vec![SLAM_POSE, KEYFRAME]
+    }
+
+    fn on_message(
+        &mut self,
+        topic: &str,
+        message: &Message,
+        outbox: &mut Outbox,
+    ) -> Result<(), NodeError> {
+        match (topic, message) {
+            (ODOM, Message::Odometry(odometry)) => self.on_odometry(odometry),
+            (DETECTIONS, Message::Detections(detections)) => self.on_detections(detections, outbox),
+            _ => Err(NodeError::invalid_input(
+                topic,
+                format!(
+                    "unexpected {} (inputs: {ODOM} nav_msgs/msg/Odometry, {DETECTIONS} \
+                     nrslam_msgs/msg/Detections)",
+                    message.type_name()
+                ),
+            )),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nrslam_msgs::{Detection, PoseWithCovariance, Time};
+    use nrslam_runtime::compose::Graph;
+    use nrslam_runtime::Tick;
+
+    fn odometry(stamp_s: f64, x_m: f64, y_m: f64, yaw_rad: f64) -> Message {
+        Message::Odometry(Odometry {
+            header: Header::new(Time::from_seconds(stamp_s), "odom"),
+            child_frame_id: "base_link".into(),
+            pose: PoseWithCovariance {
+                pose: Pose::from_planar(x_m, y_m, yaw_rad),
+                ..Default::default()
+            },
+            ..Default::default()
+        })
+    }
+
+    /// Detections of a 4 m square box of scatterers around the origin, seen from `agv`.
+    fn detections(stamp_s: f64, agv: Pose2, boresight_rad: f64) -> Message {
+        let radar = agv.compose(&Pose2::new(0.0, 0.0, boresight_rad)).inverse();
+        let detections = (0..80)
+            .map(|i| {
+                let s = f64::from(i % 20) * 0.2 - 2.0;
+                [[s, 2.0], [2.0, s], [-s, -2.0], [-2.0, -s]][i as usize / 20]
+            })
+            .map(|p| {
+                let local = radar.transform_point(p);
+                Detection {
+                    range_m: local[0].hypot(local[1]),
+                    angle_rad: local[1].atan2(local[0]),
+                    ..Default::default()
+                }
+            })
+            .collect();
+        Message::Detections(Detections {
+            header: Header::new(Time::from_seconds(stamp_s), "radar"),
+            boresight_rad,
+            detections,
+        })
+    }
+
+    fn node() -> AssociationNode {
+        AssociationNode::new(Params::default()).unwrap()
+    }
+
+    #[test]
+    fn publishes_pose_and_keyframe() {
+        let mut node = node();
+        let mut outbox = Outbox::new();
+        let start = Pose2::new(0.5, -0.3, 0.2);
+        node.on_message(ODOM, &odometry(1.0, 0.5, -0.3, 0.2), &mut outbox)
+            .unwrap();
+        assert!(outbox.is_empty());
+        let boresight_rad = std::f64::consts::FRAC_PI_2;
+        let scan = detections(1.0, start, boresight_rad);
+        node.on_message(DETECTIONS, &scan, &mut outbox).unwrap();
+        let published: Vec<_> = outbox.drain().collect();
+        assert_eq!(published.len(), 2);
+        let (topic, Message::PoseStamped(pose)) = &published[0] else {
+            panic!("{published:?}")
+        };
+        assert_eq!(*topic, SLAM_POSE);
+        assert_eq!(pose.header.frame_id, MAP_FRAME);
+        assert_eq!(pose.header.stamp, Time::from_seconds(1.0));
+        let (x, y, yaw) = pose.pose.planar();
+        assert!((x - 0.5).abs() < 1e-12 && (y + 0.3).abs() < 1e-12 && (yaw - 0.2).abs() < 1e-12);
+        let (topic, Message::Keyframe(keyframe)) = &published[1] else {
+            panic!("{published:?}")
+        };
+        assert_eq!(*topic, KEYFRAME);
+        assert_eq!(keyframe.id, 0);
+        assert_eq!(keyframe.header, pose.header);
+        assert_eq!(keyframe.pose, pose.pose);
+        assert_eq!(keyframe.boresight_rad, boresight_rad);
+        let Message::Detections(scan) = &scan else {
+            unreachable!()
+        };
+        assert_eq!(keyframe.detections, scan.detections);
+
+        // Odometry reports 0.2 m more than the AGV moved; the scan corrects it, and 0.3 m from
+        // the keyframe is no new keyframe.
+        let truth = start.compose(&Pose2::new(0.3, 0.0, 0.0));
+        let reported = start.compose(&Pose2::new(0.5, 0.0, 0.0));
+        node.on_message(
+            ODOM,
+            &odometry(1.5, reported.x_m, reported.y_m, reported.yaw_rad),
+            &mut outbox,
+        )
+        .unwrap();
+        node.on_message(
+            DETECTIONS,
+            &detections(1.5, truth, boresight_rad),
+            &mut outbox,
+        )
+        .unwrap();
+        let published: Vec<_> = outbox.drain().collect();
+        assert_eq!(published.len(), 1);
+        let Message::PoseStamped(pose) = &published[0].1 else {
+            panic!("{published:?}")
+        };
+        let (x, y, _) = pose.pose.planar();
+        assert!((x - truth.x_m).hypot(y - truth.y_m) < 0.01, "{pose:?}");
+    }
+
+    #[test]
+    fn rejects_bad_input() {
+        let mut outbox = Outbox::new();
+        let scan = detections(1.0, Pose2::IDENTITY, 0.0);
+        // Detections before any odometry.
+        let err = node()
+            .on_message(DETECTIONS, &scan, &mut outbox)
+            .unwrap_err();
+        assert!(matches!(err, NodeError::InvalidInput { .. }), "{err}");
+        // A type on the wrong topic.
+        let err = node().on_message(ODOM, &scan, &mut outbox).unwrap_err();
+        assert!(err.to_string().contains("unexpected"), "{err}");
+        // A NaN detection and a NaN odometry pose.
+        let mut node = node();
+        node.on_message(ODOM, &odometry(1.0, 0.0, 0.0, 0.0), &mut outbox)
+            .unwrap();
+        let Message::Detections(mut bad) = scan.clone() else {
+            unreachable!()
+        };
+        bad.detections[3].range_m = f64::NAN;
+        let err = node
+            .on_message(DETECTIONS, &Message::Detections(bad), &mut outbox)
+            .unwrap_err();
+        assert!(err.to_string().contains("detection 3"), "{err}");
+        let err = node
+            .on_message(ODOM, &odometry(2.0, f64::NAN, 0.0, 0.0), &mut outbox)
+            .unwrap_err();
+        assert!(matches!(err, NodeError::InvalidInput { .. }), "{err}");
+        assert!(outbox.is_empty());
+    }
+
+    #[test]
+    fn build_validates_params() {
+        let params = Params {
+            max_correspondence_m: -1.0,
+            ..Params::default()
+        };
+        let Err(err) = build(params, &NodeContext::for_tests(1)) else {
+            panic!("invalid parameters accepted");
+        };
+        assert!(matches!(err, NodeError::Params(_)), "{err}");
+        assert!(err.to_string().contains("max_correspondence_m"), "{err}");
+        let node = build(Params::default(), &NodeContext::for_tests(1)).unwrap();
+        assert_eq!(node.inputs(), vec![ODOM, DETECTIONS]);
+        assert_eq!(node.outputs(), vec![SLAM_POSE, KEYFRAME]);
+    }
+
+    /// A source that publishes each frame's detections *before* its odometry, to check that the
+    /// runtime's merge (not publication order) decides what the node sees first.
+    struct Script {
+        frames: Vec<(Message, Message)>,
+        next: usize,
+    }
+
+    impl Node for Script {
+        fn inputs(&self) -> Vec<&'static str> {
+            Vec::new()
+        }
+        fn outputs(&self) -> Vec<&'static str> {
+            vec![DETECTIONS, ODOM]
+        }
+        fn on_message(&mut self, _: &str, _: &Message, _: &mut Outbox) -> Result<(), NodeError> {
+            Ok(())
+        }
+        fn tick(&mut self, outbox: &mut Outbox) -> Result<Tick, NodeError> {
+            let Some((odometry, detections)) = self.frames.get(self.next) else {
+                return Ok(Tick::Done);
+            };
+            outbox.publish(DETECTIONS, detections.clone());
+            outbox.publish(ODOM, odometry.clone());
+            self.next += 1;
+            Ok(Tick::More)
+        }
+    }
+
+    #[test]
+    fn in_a_graph_each_frame_uses_its_own_odometry() {
+        // The AGV drives 0.5 m per frame along x with exact odometry; with odometry delivered
+        // first, every SLAM pose matches its frame.
+        let truth: Vec<Pose2> = (0..6)
+            .map(|k| Pose2::new(0.5 * f64::from(k) - 1.0, 0.0, 0.0))
+            .collect();
+        let frames = truth
+            .iter()
+            .enumerate()
+            .map(|(k, p)| {
+                let stamp_s = 1.0 + 0.5 * k as f64;
+                (
+                    odometry(stamp_s, p.x_m, p.y_m, p.yaw_rad),
+                    detections(stamp_s, *p, 0.0),
+                )
+            })
+            .collect();
+        let mut graph = Graph::new(vec![
+            ("script".into(), Box::new(Script { frames, next: 0 })),
+            (
+                "association".into(),
+                build(Params::default(), &NodeContext::for_tests(1)).unwrap(),
+            ),
+        ]);
+        let mut poses = Vec::new();
+        let mut keyframes = Vec::new();
+        graph
+            .run(
+                &mut |topic: &'static str, message: &Message| match message {
+                    Message::PoseStamped(p) if topic == SLAM_POSE => poses.push(p.clone()),
+                    Message::Keyframe(k) if topic == KEYFRAME => keyframes.push(k.id),
+                    _ => {}
+                },
+            )
+            .unwrap();
+        assert_eq!(poses.len(), truth.len());
+        for (k, (pose, truth)) in poses.iter().zip(&truth).enumerate() {
+            assert_eq!(pose.header.stamp, Time::from_seconds(1.0 + 0.5 * k as f64));
+            let (x, y, _) = pose.pose.planar();
+            assert!(
+                (x - truth.x_m).hypot(y - truth.y_m) < 1e-6,
+                "frame {k}: {pose:?}"
+            );
+        }
+        // Keyframes at 0, 1, 2 m from the start: frames 0, 2, 4.
+        assert_eq!(keyframes, vec![0, 1, 2]);
+    }
+}

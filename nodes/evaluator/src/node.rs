@@ -1,0 +1,359 @@
+//! The evaluator node: scores the segmented SLAM map and the SLAM pose against ground truth.
+//!
+//! Inputs, in tie-breaking order: `/ground_truth/targets` (latched, first), `/map/segments`,
+//! `/ground_truth/pose`, `/slam/pose`. It keeps the latest targets, segments and true pose; on
+//! each `/slam/pose` it publishes one [`Metrics`] on `/metrics` with the same stamp:
+//! - ET-GOPSA (the targets against the representatives of the latest segments, see
+//!   [`crate::representatives()`]) and GOSPA (all target sample points against the same
+//!   representatives), with their decompositions; before any segments the estimate set is empty;
+//! - `position_error_m`: planar distance between the SLAM position and the latest true position
+//!   (DESIGN.md "Metrics", pose error; the true pose of the same stamp is delivered first since
+//!   `/ground_truth/pose` precedes `/slam/pose` in the input order).
+//!
+//! The metrics change only when targets or segments do (once per keyframe), while poses come every
+//! frame, so the last metric result is cached and reused until one of them changes.
+
+use nrslam_msgs::topics::{GROUND_TRUTH_POSE, GROUND_TRUTH_TARGETS, METRICS, SEGMENTS, SLAM_POSE};
+use nrslam_msgs::{Header, Message, Metrics, PoseStamped, Segments, TargetSet};
+use nrslam_runtime::{Node, NodeContext, NodeError, Outbox};
+
+use crate::etgospa::{etgospa, EtGospaParams, EtGospaResult, ExtendedTarget};
+use crate::gospa::{gospa, GospaResult};
+use crate::params::Params;
+use crate::point::Point2;
+use crate::representatives::{flatten, representatives};
+
+/// The evaluator's state between messages.
+#[derive(Debug)]
+pub struct EvaluatorNode {
+    params: Params,
+    metric: EtGospaParams,
+    targets: Vec<ExtendedTarget>,
+    /// All sample points of all targets: the GOSPA truth set.
+    truth_points: Vec<Point2>,
+    /// Representatives of the latest segments: the estimate set.
+    estimates: Vec<Point2>,
+    /// Clusters in the latest segments.
+    estimated_targets: u32,
+    /// Latest true AGV position (x_m, y_m).
+    true_position_m: Option<(f64, f64)>,
+    /// Metrics of the current targets and estimates, computed on first need.
+    cached: Option<(GospaResult, EtGospaResult)>,
+}
+
+/// Builds the evaluator node from validated parameters.
+///
+/// # Errors
+/// [`NodeError::Params`] naming the bad parameter.
+pub fn build(params: Params, _ctx: &NodeContext) -> Result<Box<dyn Node>, NodeError> {
+    Ok(Box::new(EvaluatorNode::new(params)?))
+}
+
+impl EvaluatorNode {
+    /// A node with no targets, segments or pose yet.
+    ///
+    /// # Errors
+    /// [`NodeError::Params`] naming the bad parameter.
+    pub fn new(params: Params) -> Result<Self, NodeError> {
+        params.validate()?;
+        Ok(Self {
+            params,
+            metric: params.metric_params(),
+            targets: Vec::new(),
+            truth_points: Vec::new(),
+            estimates: Vec::new(),
+            estimated_targets: 0,
+            true_position_m: None,
+            cached: None,
+        })
+    }
+
+    fn on_targets(&mut self, set: &TargetSet) -> Result<(), NodeError> {
+        let planar = |points: &[nrslam_msgs::Point]| -> Vec<Point2> {
+            points.iter().map(|p| Point2::new(p.x, p.y)).collect()
+        };
+        let targets: Vec<ExtendedTarget> = set
+            .targets
+            .iter()
+            .map(|t| {
+                ExtendedTarget::from_samples(planar(&t.samples)).with_outline(planar(&t.outline))
+            })
+            .collect();
+        // Score nothing once now so bad targets (NaN, missing outline) are reported on the topic
+        // that carried them, not later on /slam/pose.
+        etgospa(&targets, &[], &self.metric)
+            .map_err(|e| NodeError::invalid_input(GROUND_TRUTH_TARGETS, e.to_string()))?;
+        self.truth_points = targets
+            .iter()
+            .flat_map(|t| t.samples.iter().copied())
+            .collect();
+        self.targets = targets;
+        self.cached = None;
+        Ok(())
+    }
+
+    fn on_segments(&mut self, segments: &Segments) -> Result<(), NodeError> {
+        let points: Vec<Point2> = segments
+            .points
+            .iter()
+            .map(|p| Point2::new(p.x, p.y))
+            .collect();
+        let clusters = representatives(
+            &points,
+            &segments.labels,
+            self.params.points_per_estimate as usize,
+        )
+        .map_err(|e| NodeError::invalid_input(SEGMENTS, e.to_string()))?;
+        self.estimated_targets = u32::try_from(clusters.len())
+            .map_err(|_| NodeError::invalid_input(SEGMENTS, "more than u32::MAX clusters"))?;
+        self.estimates = flatten(&clusters);
+        self.cached = None;
+        Ok(())
+    }
+
+    fn on_true_pose(&mut self, pose: &PoseStamped) -> Result<(), NodeError> {
+        let (x_m, y_m, _) = pose.pose.planar();
+        if !(x_m.is_finite() && y_m.is_finite()) {
+            return Err(NodeError::invalid_input(
+                GROUND_TRUTH_POSE,
+                format!("non-finite position ({x_m}, {y_m})"),
+            ));
+        }
+        self.true_position_m = Some((x_m, y_m));
+        Ok(())
+    }
+
+    fn on_slam_pose(&mut self, pose: &PoseStamped, outbox: &mut Outbox) -> Result<(), NodeError> {
+        let (x_m, y_m, _) = pose.pose.planar();
+        if !(x_m.is_finite() && y_m.is_finite()) {
+            return Err(NodeError::invalid_input(
+                SLAM_POSE,
+                format!("non-finite position ({x_m}, {y_m})"),
+            ));
+        }
+        let (true_x_m, true_y_m) = self.true_position_m.ok_or_else(|| {
+            NodeError::invalid_input(
+                SLAM_POSE,
+                format!("no {GROUND_TRUTH_POSE} received before this SLAM pose"),
+            )
+        })?;
+        if self.cached.is_none() {
+            let g = gospa(&self.truth_points, &self.estimates, &self.metric.gospa())
+                .map_err(NodeError::algorithm)?;
+            let e = etgospa(&self.targets, &self.estimates, &self.metric)
+                .map_err(NodeError::algorithm)?;
+            self.cached = Some((g, e));
+        }
+        let Some((g, e)) = &self.cached else {
+            unreachable!("filled just above")
+        };
+        let estimate_points = u32::try_from(self.estimates.len()).map_err(|_| {
+            NodeError::invalid_input(SEGMENTS, "more than u32::MAX estimate points")
+        })?;
+        outbox.publish(
+            METRICS,
+            Metrics {
+                header: Header {
+                    stamp: pose.header.stamp,
+                    frame_id: "map".to_owned(),
+                },
+                etgospa: e.total,
+                etgospa_localisation: e.localisation,
+                etgospa_confusion: e.confusion,
+                etgospa_missed: e.missed,
+                etgospa_false: e.false_estimates,
+                gospa: g.total,
+                gospa_localisation: g.localisation,
+                gospa_missed: g.missed,
+                gospa_false: g.false_estimates,
+                position_error_m: (x_m - true_x_m).hypot(y_m - true_y_m),
+                estimated_targets: self.estimated_targets,
+                estimate_points,
+            },
+        );
+        Ok(())
+    }
+}
+
+impl Node for EvaluatorNode {
+    fn inputs(&self) -> Vec<&'static str> {
+        vec![GROUND_TRUTH_TARGETS, SEGMENTS, GROUND_TRUTH_POSE, SLAM_POSE]
+    }
+
+    fn outputs(&self) -> Vec<&'static str> {
+        vec![METRICS]
+    }
+
+    fn on_message(
+        &mut self,
+        topic: &str,
+        message: &Message,
+        outbox: &mut Outbox,
+    ) -> Result<(), NodeError> {
+        match (topic, message) {
+            (GROUND_TRUTH_TARGETS, Message::TargetSet(set)) => self.on_targets(set),
+            (SEGMENTS, Message::Segments(segments)) => self.on_segments(segments),
+            (GROUND_TRUTH_POSE, Message::PoseStamped(pose)) => self.on_true_pose(pose),
+            (SLAM_POSE, Message::PoseStamped(pose)) => self.on_slam_pose(pose, outbox),
+            (topic, message) => Err(NodeError::invalid_input(
+                topic,
+                format!("unexpected {} on this topic", message.type_name()),
+            )),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nrslam_msgs::{Point, Pose, Target, Time};
+
+    fn stamped(t_s: f64, x_m: f64, y_m: f64) -> Message {
+        Message::PoseStamped(PoseStamped {
+            header: Header {
+                stamp: Time::from_seconds(t_s),
+                frame_id: "map".into(),
+            },
+            pose: Pose::from_planar(x_m, y_m, 0.3),
+        })
+    }
+
+    fn square(id: u32, x0: f64) -> Target {
+        let corners: Vec<Point> = [(x0, 0.0), (x0 + 2.0, 0.0), (x0 + 2.0, 2.0), (x0, 2.0)]
+            .iter()
+            .map(|&(x, y)| Point::planar(x, y))
+            .collect();
+        Target {
+            id,
+            shape: "rectangle".into(),
+            outline: corners.clone(),
+            samples: corners,
+        }
+    }
+
+    fn targets() -> Message {
+        Message::TargetSet(TargetSet {
+            header: Header::default(),
+            targets: vec![square(0, 0.0), square(1, 20.0)],
+        })
+    }
+
+    fn metrics(outbox: &mut Outbox) -> Vec<Metrics> {
+        outbox
+            .drain()
+            .map(|(topic, m)| {
+                assert_eq!(topic, METRICS);
+                match m {
+                    Message::Metrics(m) => m,
+                    other => panic!("published {}", other.type_name()),
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn publishes_metrics_with_the_slam_pose_stamp() {
+        let mut node = EvaluatorNode::new(Params::default()).unwrap();
+        assert_eq!(
+            node.inputs(),
+            vec![GROUND_TRUTH_TARGETS, SEGMENTS, GROUND_TRUTH_POSE, SLAM_POSE]
+        );
+        assert_eq!(node.outputs(), vec![METRICS]);
+        let mut outbox = Outbox::new();
+        node.on_message(GROUND_TRUTH_TARGETS, &targets(), &mut outbox)
+            .unwrap();
+        node.on_message(GROUND_TRUTH_POSE, &stamped(1.0, 1.0, 1.0), &mut outbox)
+            .unwrap();
+        assert!(outbox.is_empty());
+        node.on_message(SLAM_POSE, &stamped(1.0, 4.0, 5.0), &mut outbox)
+            .unwrap();
+        let m = metrics(&mut outbox);
+        assert_eq!(m.len(), 1);
+        assert_eq!(m[0].header.stamp, Time::from_seconds(1.0));
+        assert!((m[0].position_error_m - 5.0).abs() < 1e-12);
+        // No segments yet: every one of the 8 slots is missed, at c/2 = 2.5 each.
+        assert_eq!(
+            (m[0].etgospa, m[0].etgospa_missed, m[0].gospa),
+            (20.0, 20.0, 20.0)
+        );
+        assert_eq!((m[0].estimated_targets, m[0].estimate_points), (0, 0));
+
+        // Segments: one cluster on target 0's corners (plus an inner point), one noise point.
+        let mut points: Vec<Point> = square(0, 0.0).samples;
+        points.push(Point::planar(1.0, 1.0));
+        points.push(Point::planar(50.0, 50.0));
+        let segments = Message::Segments(Segments {
+            header: Header::default(),
+            eps_m: 0.5,
+            min_samples: 4,
+            cluster_count: 1,
+            points,
+            labels: vec![0, 0, 0, 0, 0, -1],
+        });
+        node.on_message(SEGMENTS, &segments, &mut outbox).unwrap();
+        node.on_message(GROUND_TRUTH_POSE, &stamped(2.0, 0.0, 0.0), &mut outbox)
+            .unwrap();
+        node.on_message(SLAM_POSE, &stamped(2.0, 0.0, 0.0), &mut outbox)
+            .unwrap();
+        let m = metrics(&mut outbox);
+        assert_eq!(m[0].header.stamp, Time::from_seconds(2.0));
+        assert_eq!(m[0].position_error_m, 0.0);
+        // The 4 representatives are the corners: target 0 fully matched, target 1's 4 slots
+        // missed.
+        assert_eq!((m[0].estimated_targets, m[0].estimate_points), (1, 4));
+        assert_eq!(
+            (m[0].etgospa_localisation, m[0].etgospa_missed),
+            (0.0, 10.0)
+        );
+        assert_eq!((m[0].etgospa, m[0].gospa), (10.0, 10.0));
+    }
+
+    #[test]
+    fn bad_input_is_an_error_naming_the_topic() {
+        let mut node = EvaluatorNode::new(Params::default()).unwrap();
+        let mut outbox = Outbox::new();
+        let e = node
+            .on_message(SLAM_POSE, &stamped(1.0, 0.0, 0.0), &mut outbox)
+            .unwrap_err();
+        assert!(
+            e.to_string().contains(SLAM_POSE) && e.to_string().contains(GROUND_TRUTH_POSE),
+            "{e}"
+        );
+        let e = node
+            .on_message(SEGMENTS, &stamped(1.0, 0.0, 0.0), &mut outbox)
+            .unwrap_err();
+        assert!(e.to_string().contains("PoseStamped"), "{e}");
+        let mut bad = square(0, 0.0);
+        bad.samples[2].y = f64::NAN;
+        let set = Message::TargetSet(TargetSet {
+            header: Header::default(),
+            targets: vec![bad],
+        });
+        let e = node
+            .on_message(GROUND_TRUTH_TARGETS, &set, &mut outbox)
+            .unwrap_err();
+        assert!(e.to_string().contains(GROUND_TRUTH_TARGETS), "{e}");
+        let segments = Message::Segments(Segments {
+            points: vec![Point::planar(0.0, 0.0)],
+            labels: vec![0, 0],
+            ..Segments::default()
+        });
+        let e = node
+            .on_message(SEGMENTS, &segments, &mut outbox)
+            .unwrap_err();
+        assert!(e.to_string().contains(SEGMENTS), "{e}");
+        assert!(outbox.is_empty());
+    }
+
+    #[test]
+    fn build_refuses_invalid_params() {
+        let ctx = NodeContext::for_tests(1);
+        assert!(build(Params::default(), &ctx).is_ok());
+        let bad = Params {
+            alpha: 3.0,
+            ..Params::default()
+        };
+        let e = build(bad, &ctx).err().expect("alpha = 3 accepted");
+        assert!(e.to_string().contains("alpha"), "{e}");
+    }
+}

@@ -1,0 +1,395 @@
+//! The log-odds occupancy grid and its keyframe update.
+//!
+//! The paper's mapping module (Sec. III-A, "Location & mapping", and the OGM of Sec. I) fuses the
+//! detections of each keyframe into an occupancy grid map. Each cell holds the log-odds
+//! `l = ln(p / (1 − p))` of being occupied, starting at 0 (p = 0.5) and marked unknown until some
+//! beam observes it. A keyframe's update follows OctoMap's `insertPointCloud`:
+//!
+//! 1. every detection becomes a world point (docs/conventions.md: `(x + r cos(yaw + boresight + θ),
+//!    y + r sin(yaw + boresight + θ))`); a point outside the grid is ignored and counted;
+//! 2. the cells holding the points form the *hit* set; with `free_space`, the cells each beam
+//!    crosses from the sensor (the AGV centre) up to, not including, its hit cell form the *free*
+//!    set, minus the hit set: a cell hit by one beam and crossed by another in the same keyframe
+//!    counts as hit, because the crossing beam may have passed beside the object within the cell;
+//! 3. each cell of the sets is updated once per keyframe (several echoes from one cell are one
+//!    observation, not several): `l ← min(l + l_hit, l_max)` for hits,
+//!    `l ← max(l + l_miss, l_min)` for free cells.
+//!
+//! The clamps bound how confident a cell gets, so the map can change its mind in a few keyframes
+//! (with the defaults, a cell at 0.97 falls below 0.5 after 9 misses).
+//!
+//! The whole keyframe is checked before any cell changes: a NaN detection is an error and leaves
+//! the map as it was.
+
+use nrslam_msgs::{Detection, Header, Keyframe, MapMetaData, OccupancyGrid, Pose, Time};
+
+use crate::raycast::{clip_to_box, walk_cells};
+use crate::{MapError, Params};
+
+/// A planar pose in the map frame.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Pose2 {
+    /// x, metres.
+    pub x_m: f64,
+    /// y, metres.
+    pub y_m: f64,
+    /// Heading, radians counter-clockwise from +x.
+    pub yaw_rad: f64,
+}
+
+/// What one keyframe did to the map.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct IntegrationReport {
+    /// Detections in the keyframe.
+    pub detections: usize,
+    /// Detections whose point fell outside the grid, ignored.
+    pub out_of_grid: usize,
+    /// Distinct cells updated as hit.
+    pub hit_cells: usize,
+    /// Distinct cells updated as free.
+    pub free_cells: usize,
+}
+
+/// The world point of a detection at (`range_m`, `angle_rad` from boresight) seen from an AGV at
+/// `pose` whose array boresight is `boresight_rad` from its heading (docs/conventions.md).
+pub fn detection_point(pose: Pose2, boresight_rad: f64, range_m: f64, angle_rad: f64) -> [f64; 2] {
+    let bearing_rad = pose.yaw_rad + boresight_rad + angle_rad;
+    [
+        pose.x_m + range_m * bearing_rad.cos(),
+        pose.y_m + range_m * bearing_rad.sin(),
+    ]
+}
+
+/// Log-odds of probability `p`.
+fn logit(p: f64) -> f64 {
+    (p / (1.0 - p)).ln()
+}
+
+/// A log-odds occupancy grid over a fixed rectangle of the map frame.
+///
+/// Cells are stored row-major from the origin corner, x fastest, the layout of
+/// `nav_msgs/OccupancyGrid`: cell (column i, row j) covers
+/// `[origin_x + i·r, origin_x + (i+1)·r) × [origin_y + j·r, origin_y + (j+1)·r)`.
+#[derive(Debug, Clone)]
+pub struct OccupancyMap {
+    resolution_m: f64,
+    origin_x_m: f64,
+    origin_y_m: f64,
+    width_cells: usize,
+    height_cells: usize,
+    hit_log_odds: f64,
+    miss_log_odds: f64,
+    min_log_odds: f64,
+    max_log_odds: f64,
+    free_space: bool,
+    log_odds: Vec<f64>,
+    observed: Vec<bool>,
+    /// Per cell, the last update that touched it: `3·update + 1` in the hit set, `+ 2` in the free
+    /// set, `+ 3` hit and already applied. Membership tests for the per-keyframe sets in O(1),
+    /// without sorting or a hash set; the stride of 3 keeps one update's marks apart from the
+    /// next's, and u64 never wraps.
+    set_mark: Vec<u64>,
+    updates: u64,
+    out_of_grid_total: u64,
+    /// Scratch: the keyframe's hit cells, reused between keyframes.
+    hit_scratch: Vec<(usize, [f64; 2], [i64; 2])>,
+}
+
+impl OccupancyMap {
+    /// An all-unknown grid as `params` describe it.
+    pub fn new(params: &Params) -> Result<Self, nrslam_runtime::InvalidParam> {
+        params.validate()?;
+        // validate() bounds the cell count by MAX_CELLS, so both fit in usize.
+        let width_cells = params.width_cells() as usize;
+        let height_cells = params.height_cells() as usize;
+        let cells = width_cells * height_cells;
+        Ok(Self {
+            resolution_m: params.resolution_m,
+            origin_x_m: params.origin_x_m,
+            origin_y_m: params.origin_y_m,
+            width_cells,
+            height_cells,
+            hit_log_odds: logit(params.hit_probability),
+            miss_log_odds: logit(params.miss_probability),
+            min_log_odds: logit(params.clamp_min_probability),
+            max_log_odds: logit(params.clamp_max_probability),
+            free_space: params.free_space,
+            log_odds: vec![0.0; cells],
+            observed: vec![false; cells],
+            set_mark: vec![0; cells],
+            updates: 0,
+            out_of_grid_total: 0,
+            hit_scratch: Vec::new(),
+        })
+    }
+
+    /// Cell edge, metres.
+    pub fn resolution_m(&self) -> f64 {
+        self.resolution_m
+    }
+
+    /// Map-frame (x, y) of the grid's lower-left corner, metres.
+    pub fn origin_m(&self) -> [f64; 2] {
+        [self.origin_x_m, self.origin_y_m]
+    }
+
+    /// Columns (cells along x).
+    pub fn width_cells(&self) -> usize {
+        self.width_cells
+    }
+
+    /// Rows (cells along y).
+    pub fn height_cells(&self) -> usize {
+        self.height_cells
+    }
+
+    /// Detections ignored because their point fell outside the grid, over all keyframes.
+    pub fn out_of_grid_detections(&self) -> u64 {
+        self.out_of_grid_total
+    }
+
+    /// (column, row) of the cell holding map point (`x_m`, `y_m`), or None outside the grid.
+    pub fn cell_of(&self, x_m: f64, y_m: f64) -> Option<(usize, usize)> {
+        let [u, v] = self.to_cell_units([x_m, y_m]);
+        // Written so that NaN fails every comparison and lands in None.
+        let inside =
+            u >= 0.0 && u < self.width_cells as f64 && v >= 0.0 && v < self.height_cells as f64;
+        // The casts truncate towards zero, which is floor for u, v ≥ 0; min() guards the case
+        // where u rounds up to width within the last cell.
+        inside.then(|| {
+            (
+                (u as usize).min(self.width_cells - 1),
+                (v as usize).min(self.height_cells - 1),
+            )
+        })
+    }
+
+    /// Map-frame centre of cell (`column`, `row`), metres.
+    pub fn cell_centre(&self, column: usize, row: usize) -> [f64; 2] {
+        [
+            self.origin_x_m + (column as f64 + 0.5) * self.resolution_m,
+            self.origin_y_m + (row as f64 + 0.5) * self.resolution_m,
+        ]
+    }
+
+    /// Occupancy probability of cell (`column`, `row`); None if never observed or outside the grid.
+    pub fn probability(&self, column: usize, row: usize) -> Option<f64> {
+        self.log_odds_at(column, row)
+            .map(|l| 1.0 / (1.0 + (-l).exp()))
+    }
+
+    /// Log-odds of cell (`column`, `row`); None if never observed or outside the grid.
+    pub fn log_odds_at(&self, column: usize, row: usize) -> Option<f64> {
+        if column >= self.width_cells || row >= self.height_cells {
+            return None;
+        }
+        let index = row * self.width_cells + column;
+        self.observed[index].then(|| self.log_odds[index])
+    }
+
+    /// Integrates one keyframe: the AGV pose estimate, the array boresight and the detections.
+    pub fn integrate_keyframe(
+        &mut self,
+        keyframe: &Keyframe,
+    ) -> Result<IntegrationReport, MapError> {
+        let (x_m, y_m, yaw_rad) = keyframe.pose.planar();
+        self.integrate_detections(
+            Pose2 { x_m, y_m, yaw_rad },
+            keyframe.boresight_rad,
+            &keyframe.detections,
+        )
+    }
+
+    /// Integrates detections (range, angle from boresight) taken from `pose`, the sensor at the AGV
+    /// centre.
+    ///
+    /// # Errors
+    /// [`MapError::NonFinitePose`] or [`MapError::InvalidDetection`] (NaN or infinite range or
+    /// angle, or a negative range); the map is then unchanged. A zero range is valid: the hit is the
+    /// sensor's own cell and no cell is free.
+    pub fn integrate_detections(
+        &mut self,
+        pose: Pose2,
+        boresight_rad: f64,
+        detections: &[Detection],
+    ) -> Result<IntegrationReport, MapError> {
+        if !(pose.x_m.is_finite()
+            && pose.y_m.is_finite()
+            && pose.yaw_rad.is_finite()
+            && boresight_rad.is_finite())
+        {
+            return Err(MapError::NonFinitePose {
+                x_m: pose.x_m,
+                y_m: pose.y_m,
+                yaw_rad: pose.yaw_rad,
+                boresight_rad,
+            });
+        }
+        if let Some((index, d)) = detections
+            .iter()
+            .enumerate()
+            .find(|(_, d)| !(d.range_m.is_finite() && d.range_m >= 0.0 && d.angle_rad.is_finite()))
+        {
+            return Err(MapError::InvalidDetection {
+                index,
+                range_m: d.range_m,
+                angle_rad: d.angle_rad,
+            });
+        }
+        let points: Vec<[f64; 2]> = detections
+            .iter()
+            .map(|d| detection_point(pose, boresight_rad, d.range_m, d.angle_rad))
+            .collect();
+        self.integrate_points([pose.x_m, pose.y_m], &points)
+    }
+
+    /// Integrates hits at map points `points` seen from `sensor` (map frame, metres): the update
+    /// of the module docs. Sensor-agnostic; [`Self::integrate_detections`] feeds it.
+    ///
+    /// # Errors
+    /// [`MapError::NonFinitePoint`] if the sensor or any point is NaN or infinite (a finite
+    /// detection can still overflow to an infinite point); the map is then unchanged.
+    pub fn integrate_points(
+        &mut self,
+        sensor: [f64; 2],
+        points: &[[f64; 2]],
+    ) -> Result<IntegrationReport, MapError> {
+        let finite = |p: &[f64; 2]| p[0].is_finite() && p[1].is_finite();
+        if !finite(&sensor) {
+            return Err(MapError::NonFinitePoint {
+                what: "sensor".into(),
+                x_m: sensor[0],
+                y_m: sensor[1],
+            });
+        }
+        if let Some((index, p)) = points.iter().enumerate().find(|(_, p)| !finite(p)) {
+            return Err(MapError::NonFinitePoint {
+                what: format!("detection {index}"),
+                x_m: p[0],
+                y_m: p[1],
+            });
+        }
+
+        self.updates += 1;
+        let hit_mark = 3 * self.updates + 1;
+        let free_mark = 3 * self.updates + 2;
+        let applied_mark = 3 * self.updates + 3;
+        let mut report = IntegrationReport {
+            detections: points.len(),
+            ..IntegrationReport::default()
+        };
+
+        // Hit set first, so that the free walks can skip hit cells.
+        let mut hits = std::mem::take(&mut self.hit_scratch);
+        hits.clear();
+        for point in points {
+            match self.cell_of(point[0], point[1]) {
+                None => report.out_of_grid += 1,
+                Some((column, row)) => {
+                    let index = row * self.width_cells + column;
+                    hits.push((
+                        index,
+                        self.to_cell_units(*point),
+                        [column as i64, row as i64],
+                    ));
+                    if self.set_mark[index] != hit_mark {
+                        self.set_mark[index] = hit_mark;
+                        report.hit_cells += 1;
+                    }
+                }
+            }
+        }
+        self.out_of_grid_total += report.out_of_grid as u64;
+
+        if self.free_space {
+            let sensor_cells = self.to_cell_units(sensor);
+            let (width, height) = (self.width_cells as f64, self.height_cells as f64);
+            for &(_, end, end_cell) in &hits {
+                // Sensor outside the grid: start the walk where the beam enters it.
+                let Some((t0, _)) = clip_to_box(sensor_cells, end, width, height) else {
+                    continue;
+                };
+                let start = [
+                    sensor_cells[0] + t0 * (end[0] - sensor_cells[0]),
+                    sensor_cells[1] + t0 * (end[1] - sensor_cells[1]),
+                ];
+                // Clamped, because a start on the far edge (u = width) floors to one past the
+                // last column.
+                let start_cell = [
+                    (start[0].floor() as i64).clamp(0, self.width_cells as i64 - 1),
+                    (start[1].floor() as i64).clamp(0, self.height_cells as i64 - 1),
+                ];
+                let width_cells = self.width_cells;
+                let (set_mark, log_odds, observed) =
+                    (&mut self.set_mark, &mut self.log_odds, &mut self.observed);
+                let (miss, floor) = (self.miss_log_odds, self.min_log_odds);
+                walk_cells(start, end, start_cell, end_cell, |column, row| {
+                    // The walk stays within the box spanned by two in-grid cells.
+                    let index = row as usize * width_cells + column as usize;
+                    if set_mark[index] != hit_mark && set_mark[index] != free_mark {
+                        set_mark[index] = free_mark;
+                        log_odds[index] = (log_odds[index] + miss).max(floor);
+                        observed[index] = true;
+                        report.free_cells += 1;
+                    }
+                });
+            }
+        }
+
+        for &(index, _, _) in &hits {
+            // Each hit cell once, however many detections fell in it.
+            if self.set_mark[index] == hit_mark {
+                self.set_mark[index] = applied_mark;
+                self.log_odds[index] =
+                    (self.log_odds[index] + self.hit_log_odds).min(self.max_log_odds);
+                self.observed[index] = true;
+            }
+        }
+        self.hit_scratch = hits;
+        Ok(report)
+    }
+
+    /// The grid as `nav_msgs/OccupancyGrid` data: row-major from the origin cell, x fastest;
+    /// −1 for never observed cells, else round(100·p).
+    pub fn occupancy_data(&self) -> Vec<i8> {
+        self.log_odds
+            .iter()
+            .zip(&self.observed)
+            .map(|(&l, &observed)| {
+                if observed {
+                    let p = 1.0 / (1.0 + (-l).exp());
+                    // p ∈ (0, 1), so the rounded percentage is in 0..=100.
+                    (100.0 * p).round() as i8
+                } else {
+                    -1
+                }
+            })
+            .collect()
+    }
+
+    /// The whole grid as a message: frame "map", `map_load_time = stamp`, origin at the grid's
+    /// corner with zero yaw.
+    pub fn to_occupancy_grid(&self, stamp: Time) -> OccupancyGrid {
+        OccupancyGrid {
+            header: Header::new(stamp, "map"),
+            info: MapMetaData {
+                map_load_time: stamp,
+                // The message's field is f32 (ROS); the grid itself keeps the f64 value.
+                resolution: self.resolution_m as f32,
+                // validate() bounds width × height by MAX_CELLS < u32::MAX.
+                width: self.width_cells as u32,
+                height: self.height_cells as u32,
+                origin: Pose::from_planar(self.origin_x_m, self.origin_y_m, 0.0),
+            },
+            data: self.occupancy_data(),
+        }
+    }
+
+    /// Map point → continuous cell coordinates (the grid corner at (0, 0), one unit per cell).
+    fn to_cell_units(&self, point: [f64; 2]) -> [f64; 2] {
+        [
+            (point[0] - self.origin_x_m) / self.resolution_m,
+            (point[1] - self.origin_y_m) / self.resolution_m,
+        ]
+    }
+}

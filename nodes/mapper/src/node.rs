@@ -1,0 +1,215 @@
+//! The mapper as a graph node: `/slam/keyframe` in, `/map` out.
+//!
+//! Each keyframe from data association (paper Sec. III-A: "we select key frames in the sensing
+//! data to build the mapping data") is integrated into the [`OccupancyMap`] at the keyframe's SLAM
+//! pose, and the whole grid is published as a `nav_msgs/OccupancyGrid` with the keyframe's stamp in
+//! frame "map" (`map_load_time` = that stamp, origin from the parameters). Publishing the whole grid
+//! each time keeps the segmenter stateless and lets any ROS tool show the latest map.
+
+use nrslam_msgs::topics::{KEYFRAME, MAP};
+use nrslam_msgs::{Keyframe, Message};
+use nrslam_runtime::{Node, NodeContext, NodeError, Outbox};
+
+use crate::{OccupancyMap, Params};
+
+/// [`OccupancyMap`] bound to the node API.
+#[derive(Debug, Clone)]
+pub struct MapperNode {
+    map: OccupancyMap,
+}
+
+/// Builds the mapper from `params` (validated here). The node draws no random numbers and reads no
+/// files, so `ctx` is not used.
+pub fn build(params: Params, _ctx: &NodeContext) -> Result<Box<dyn Node>, NodeError> {
+    Ok(Box::new(MapperNode::new(&params)?))
+}
+
+impl MapperNode {
+    /// A node with an all-unknown map as `params` describe it.
+    pub fn new(params: &Params) -> Result<Self, NodeError> {
+        Ok(Self {
+            map: OccupancyMap::new(params)?,
+        })
+    }
+
+    /// The map built so far.
+    pub fn map(&self) -> &OccupancyMap {
+        &self.map
+    }
+
+    fn on_keyframe(&mut self, keyframe: &Keyframe, outbox: &mut Outbox) -> Result<(), NodeError> {
+        let report = self.map.integrate_keyframe(keyframe).map_err(|e| {
+            NodeError::invalid_input(KEYFRAME, format!("keyframe {}: {e}", keyframe.id))
+        })?;
+        if report.out_of_grid > 0 {
+            tracing::debug!(
+                keyframe = keyframe.id,
+                out_of_grid = report.out_of_grid,
+                total_out_of_grid = self.map.out_of_grid_detections(),
+                "detections outside the map ignored"
+            );
+        }
+        tracing::debug!(
+            keyframe = keyframe.id,
+            detections = report.detections,
+            hit_cells = report.hit_cells,
+            free_cells = report.free_cells,
+            "keyframe integrated"
+        );
+        outbox.publish(MAP, self.map.to_occupancy_grid(keyframe.header.stamp));
+        Ok(())
+    }
+}
+
+impl Node for MapperNode {
+    fn inputs(&self) -> Vec<&'static str> {
+        vec![KEYFRAME]
+    }
+
+    fn outputs(&self) -> Vec<&'static str> {
+        vec![MAP]
+    }
+
+    fn on_message(
+        &mut self,
+        topic: &str,
+        message: &Message,
+        outbox: &mut Outbox,
+    ) -> Result<(), NodeError> {
+        match message {
+            Message::Keyframe(keyframe) if topic == KEYFRAME => self.on_keyframe(keyframe, outbox),
+            other => Err(NodeError::invalid_input(
+                topic,
+                format!(
+                    "the mapper takes nrslam_msgs/msg/Keyframe on {KEYFRAME}, got {}",
+                    other.type_name()
+                ),
+            )),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nrslam_msgs::{Detection, Header, OccupancyGrid, Pose, Time};
+
+    fn params() -> Params {
+        Params {
+            resolution_m: 1.0,
+            origin_x_m: -2.0,
+            origin_y_m: -1.0,
+            width_m: 6.0,
+            height_m: 3.0,
+            ..Params::default()
+        }
+    }
+
+    fn keyframe(id: u32, stamp_s: f64, range_m: f64) -> Keyframe {
+        Keyframe {
+            header: Header::new(Time::from_seconds(stamp_s), "map"),
+            id,
+            pose: Pose::from_planar(-1.5, 0.5, 0.0),
+            boresight_rad: 0.0,
+            detections: vec![Detection {
+                range_m,
+                ..Detection::default()
+            }],
+        }
+    }
+
+    fn publish(node: &mut MapperNode, keyframe: Keyframe) -> OccupancyGrid {
+        let mut outbox = Outbox::new();
+        node.on_message(KEYFRAME, &Message::Keyframe(keyframe), &mut outbox)
+            .unwrap();
+        let mut published: Vec<_> = outbox.drain().collect();
+        assert_eq!(published.len(), 1);
+        match published.pop().unwrap() {
+            (MAP, Message::OccupancyGrid(grid)) => grid,
+            (topic, other) => panic!("unexpected {topic}: {other:?}"),
+        }
+    }
+
+    #[test]
+    fn each_keyframe_publishes_the_whole_grid_with_its_stamp() {
+        let mut node = MapperNode::new(&params()).unwrap();
+        let grid = publish(&mut node, keyframe(0, 2.0, 3.0));
+        assert_eq!(grid.header, Header::new(Time::from_seconds(2.0), "map"));
+        assert_eq!(grid.info.map_load_time, Time::from_seconds(2.0));
+        assert_eq!(
+            (grid.info.width, grid.info.height, grid.info.resolution),
+            (6, 3, 1.0)
+        );
+        assert_eq!(grid.info.origin, Pose::from_planar(-2.0, -1.0, 0.0));
+        // Row 1 (y 0..1): sensor cell and two more free, hit at x = 1.5 (column 3).
+        #[rustfmt::skip]
+        assert_eq!(grid.data, vec![
+            -1, -1, -1, -1, -1, -1,
+            40, 40, 40, 70, -1, -1,
+            -1, -1, -1, -1, -1, -1,
+        ]);
+        // The second keyframe sees through column 3 to column 4: the map accumulates.
+        let grid = publish(&mut node, keyframe(1, 3.0, 4.0));
+        assert_eq!(grid.header.stamp, Time::from_seconds(3.0));
+        assert_eq!(&grid.data[6..12], &[31, 31, 31, 61, 70, -1]);
+    }
+
+    #[test]
+    fn identical_inputs_give_identical_maps() {
+        let run = || {
+            let mut node = MapperNode::new(&params()).unwrap();
+            (0..5)
+                .map(|k| {
+                    publish(
+                        &mut node,
+                        keyframe(k, 1.0 + f64::from(k), 2.0 + 0.7 * f64::from(k)),
+                    )
+                })
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(run(), run());
+    }
+
+    #[test]
+    fn a_nan_keyframe_is_invalid_input_and_publishes_nothing() {
+        let mut node = MapperNode::new(&params()).unwrap();
+        let mut outbox = Outbox::new();
+        let err = node
+            .on_message(
+                KEYFRAME,
+                &Message::Keyframe(keyframe(4, 2.0, f64::NAN)),
+                &mut outbox,
+            )
+            .unwrap_err();
+        assert!(matches!(err, NodeError::InvalidInput { .. }), "{err}");
+        assert!(err.to_string().contains("keyframe 4"), "{err}");
+        assert!(outbox.is_empty());
+        assert!(node.map().occupancy_data().iter().all(|&v| v == -1));
+        let err = node
+            .on_message(
+                KEYFRAME,
+                &Message::Clock(nrslam_msgs::Clock::default()),
+                &mut outbox,
+            )
+            .unwrap_err();
+        assert!(err.to_string().contains("Keyframe"), "{err}");
+    }
+
+    #[test]
+    fn build_refuses_invalid_params_and_declares_the_topics() {
+        let ctx = NodeContext::for_tests(1);
+        let err = build(
+            Params {
+                resolution_m: 0.0,
+                ..Params::default()
+            },
+            &ctx,
+        )
+        .err()
+        .expect("zero resolution refused");
+        assert!(err.to_string().contains("resolution_m"), "{err}");
+        let node = build(Params::default(), &ctx).unwrap();
+        assert_eq!(node.inputs(), vec![KEYFRAME]);
+        assert_eq!(node.outputs(), vec![MAP]);
+    }
+}

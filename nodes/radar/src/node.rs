@@ -1,0 +1,188 @@
+//! The radar as a source node: one [`Simulator`] frame per tick, turned into messages.
+//!
+//! Per tick (frame k, stamp t0 + k·frame_period), in this order:
+//! `/clock`, `/ground_truth/pose` (frame "map"), `/odom` (frame "odom", child "base_link"),
+//! `/radar/detections` (frame "radar"); the first tick publishes `/ground_truth/targets` (frame
+//! "map", stamped t0) before anything else. The tick that publishes the last frame returns
+//! [`Tick::Done`]. The node has no inputs.
+//!
+//! Odometry covariance: the diagonal of the propagated (x, y, yaw) covariance of
+//! [`crate::odometry`]; z, roll and pitch are exactly 0 on the hall's floor, so their variances
+//! are 0. Twist: forward speed and yaw rate over the last frame, with their variances.
+
+use nrslam_msgs::topics::{CLOCK, DETECTIONS, GROUND_TRUTH_POSE, GROUND_TRUTH_TARGETS, ODOM};
+use nrslam_msgs::{
+    Clock, Detections, Header, Message, Odometry, Point, Pose, PoseStamped, PoseWithCovariance,
+    Target as TargetMsg, TargetSet, Time, Twist, TwistWithCovariance, Vector3,
+};
+use nrslam_runtime::{Node, NodeContext, NodeError, Outbox, Tick};
+
+use crate::error::RadarError;
+use crate::geometry::Vec2;
+use crate::params::Params;
+use crate::scene::Scene;
+use crate::sim::{Frame, Simulator};
+use crate::trajectory::T0_S;
+
+/// Frame of the ground truth and of the map.
+pub const MAP_FRAME: &str = "map";
+/// Frame of the dead-reckoned odometry pose.
+pub const ODOM_FRAME: &str = "odom";
+/// The AGV's body frame.
+pub const BASE_FRAME: &str = "base_link";
+/// The radar's frame (at the AGV centre, boresight at `boresight_rad` from the heading).
+pub const RADAR_FRAME: &str = "radar";
+
+/// The radar front end as a [`Node`].
+pub struct RadarNode {
+    sim: Simulator,
+    targets_sent: bool,
+}
+
+/// Builds the radar node: validates `params`, loads the scene (relative to `ctx.base_dir`) and
+/// seeds its noise from `ctx.seed_for("radar")`.
+pub fn build(params: Params, ctx: &NodeContext) -> Result<Box<dyn Node>, NodeError> {
+    params.validate()?;
+    let sim = Simulator::from_params(&params, &ctx.base_dir, ctx.seed_for("radar")).map_err(
+        |e| match e {
+            RadarError::Param(invalid) => NodeError::Params(invalid),
+            RadarError::Scene(scene) => NodeError::algorithm(scene),
+        },
+    )?;
+    Ok(Box::new(RadarNode::new(sim)))
+}
+
+impl RadarNode {
+    /// A node publishing the frames of `sim`.
+    pub fn new(sim: Simulator) -> Self {
+        Self {
+            sim,
+            targets_sent: false,
+        }
+    }
+
+    /// The simulator (scene, frame count).
+    pub fn simulator(&self) -> &Simulator {
+        &self.sim
+    }
+}
+
+impl Node for RadarNode {
+    fn inputs(&self) -> Vec<&'static str> {
+        Vec::new()
+    }
+
+    fn outputs(&self) -> Vec<&'static str> {
+        vec![
+            GROUND_TRUTH_TARGETS,
+            CLOCK,
+            GROUND_TRUTH_POSE,
+            ODOM,
+            DETECTIONS,
+        ]
+    }
+
+    fn on_message(
+        &mut self,
+        topic: &str,
+        _message: &Message,
+        _outbox: &mut Outbox,
+    ) -> Result<(), NodeError> {
+        Err(NodeError::invalid_input(
+            topic,
+            "the radar node subscribes to nothing",
+        ))
+    }
+
+    fn tick(&mut self, outbox: &mut Outbox) -> Result<Tick, NodeError> {
+        if !self.targets_sent {
+            self.targets_sent = true;
+            outbox.publish(
+                GROUND_TRUTH_TARGETS,
+                target_set(self.sim.scene(), Time::from_seconds(T0_S)),
+            );
+        }
+        let Some(frame) = self.sim.next_frame() else {
+            return Ok(Tick::Done);
+        };
+        let boresight_rad = self.sim.scene().sensor.boresight_rad;
+        let stamp = Time::from_seconds(frame.stamp_s);
+        outbox.publish(CLOCK, Clock { clock: stamp });
+        outbox.publish(GROUND_TRUTH_POSE, true_pose(&frame, stamp));
+        outbox.publish(ODOM, odometry(&frame, stamp));
+        outbox.publish(
+            DETECTIONS,
+            Detections {
+                header: Header::new(stamp, RADAR_FRAME),
+                boresight_rad,
+                detections: frame.detections,
+            },
+        );
+        Ok(if frame.index + 1 >= self.sim.frame_count() {
+            Tick::Done
+        } else {
+            Tick::More
+        })
+    }
+}
+
+/// The scene's targets as the `/ground_truth/targets` message.
+pub fn target_set(scene: &Scene, stamp: Time) -> TargetSet {
+    let point = |v: &Vec2| Point::planar(v.x, v.y);
+    TargetSet {
+        header: Header::new(stamp, MAP_FRAME),
+        targets: scene
+            .targets
+            .iter()
+            .map(|t| TargetMsg {
+                id: t.id,
+                shape: t.shape.kind_name().to_owned(),
+                outline: t.shape.outline().iter().map(point).collect(),
+                samples: t.shape.samples().iter().map(point).collect(),
+            })
+            .collect(),
+    }
+}
+
+fn true_pose(frame: &Frame, stamp: Time) -> PoseStamped {
+    let p = frame.true_pose;
+    PoseStamped {
+        header: Header::new(stamp, MAP_FRAME),
+        pose: Pose::from_planar(p.x_m, p.y_m, p.yaw_rad),
+    }
+}
+
+fn odometry(frame: &Frame, stamp: Time) -> Odometry {
+    let o = &frame.odometry;
+    // Row-major 6×6 over (x, y, z, roll, pitch, yaw): diagonal indices 0, 7, 14, 21, 28, 35.
+    let mut pose_covariance = [0.0; 36];
+    pose_covariance[0] = o.pose_variance[0];
+    pose_covariance[7] = o.pose_variance[1];
+    pose_covariance[35] = o.pose_variance[2];
+    let mut twist_covariance = [0.0; 36];
+    twist_covariance[0] = o.linear_variance;
+    twist_covariance[35] = o.angular_variance;
+    Odometry {
+        header: Header::new(stamp, ODOM_FRAME),
+        child_frame_id: BASE_FRAME.to_owned(),
+        pose: PoseWithCovariance {
+            pose: Pose::from_planar(o.pose.x_m, o.pose.y_m, o.pose.yaw_rad),
+            covariance: pose_covariance,
+        },
+        twist: TwistWithCovariance {
+            twist: Twist {
+                linear: Vector3 {
+                    x: o.linear_mps,
+                    y: 0.0,
+                    z: 0.0,
+                },
+                angular: Vector3 {
+                    x: 0.0,
+                    y: 0.0,
+                    z: o.angular_rps,
+                },
+            },
+            covariance: twist_covariance,
+        },
+    }
+}

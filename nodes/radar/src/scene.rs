@@ -1,0 +1,853 @@
+//! The industrial hall: extended targets, their scatterers and ET-GOPSA sample points, loaded from
+//! a TOML scene file.
+//!
+//! The paper (Sec. II-A, Fig. 1b) places "eight rectangular and two circular extended targets" in
+//! an industrial flexible-manufacturing hall around which an AGV loops; its figure is missing, so
+//! the layout in `config/hall.toml` is ours (documented in `docs/scene.md`). Each target carries:
+//!
+//! - its exact shape ([`Shape`]), used for visibility and occlusion;
+//! - an outline polygon for the `/ground_truth/targets` message (a circle as a 64-gon);
+//! - 4 sample points, the ET-GOPSA slots of Sec. IV-C ("four point targets are selected"):
+//!   a rectangle's corners, a circle's points at 0°, 90°, 180° and 270°;
+//! - scatterers along its outline every `scatterer_spacing_m` or closer: the point reflectors the
+//!   radar sees (the `L_p` paths of eq. (2)).
+//!
+//! Validation refuses non-positive sizes, targets outside the hall, targets that overlap or touch
+//! and a trajectory that passes within the AGV radius of a target; every error names its field.
+
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
+use std::path::Path;
+
+use serde::Deserialize;
+
+use crate::error::{FieldError, SceneError};
+use crate::geometry::{
+    convex_polygons_distance, point_convex_polygon_distance, point_in_convex_polygon,
+    point_segment_distance, segment_convex_polygon_distance, segment_meets_convex_polygon, Vec2,
+};
+use crate::trajectory::{Trajectory, TrajectorySpec};
+use crate::visibility::Sensor;
+
+/// Number of vertices of a circle's outline polygon in the ground-truth message.
+pub const CIRCLE_OUTLINE_VERTICES: usize = 64;
+
+/// Default distance between neighbouring scatterers along an outline (m).
+pub const DEFAULT_SCATTERER_SPACING_M: f64 = 0.25;
+
+/// Most scatterers one target may have: a guard against a spacing so small (or a target so
+/// large) that building the scene would exhaust memory instead of failing with a message.
+pub const MAX_SCATTERERS_PER_TARGET: f64 = 1e6;
+
+// ---------------------------------------------------------------------------------------------
+// File schema
+// ---------------------------------------------------------------------------------------------
+
+/// The scene file as written (TOML). See `config/hall.toml` for a commented example.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneSpec {
+    /// Distance between neighbouring scatterers along each outline (m); each edge is divided
+    /// evenly, so the actual spacing is at most this.
+    #[serde(default = "default_spacing")]
+    pub scatterer_spacing_m: f64,
+    /// The hall's floor.
+    pub hall: HallSpec,
+    /// The radar's mounting and visibility limits.
+    #[serde(default)]
+    pub sensor: SensorSpec,
+    /// The AGV's loop.
+    pub trajectory: TrajectorySpec,
+    /// The extended targets, in id order (id = index).
+    #[serde(default)]
+    pub targets: Vec<TargetSpec>,
+}
+
+fn default_spacing() -> f64 {
+    DEFAULT_SCATTERER_SPACING_M
+}
+
+/// The hall's floor: the rectangle [0, width_m] × [0, height_m] of the map frame.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HallSpec {
+    /// Extent along x (m).
+    pub width_m: f64,
+    /// Extent along y (m).
+    pub height_m: f64,
+}
+
+/// The radar as mounted on the AGV (a ULA at the AGV centre, docs/conventions.md).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SensorSpec {
+    /// Array boresight relative to the AGV heading, degrees counter-clockwise (90 = left).
+    pub boresight_deg: f64,
+    /// Farthest range at which a scatterer is detected (m).
+    pub max_range_m: f64,
+    /// Half field of view about boresight (degrees); a ULA sees at most (−90°, 90°).
+    pub half_fov_deg: f64,
+}
+
+impl Default for SensorSpec {
+    fn default() -> Self {
+        Self {
+            boresight_deg: 90.0,
+            max_range_m: 20.0,
+            half_fov_deg: 60.0,
+        }
+    }
+}
+
+/// Kind of an extended target.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ShapeKind {
+    /// A rectangle: `center_m`, `size_m`, optional `yaw_deg`.
+    Rectangle,
+    /// A circle: `center_m`, `radius_m`.
+    Circle,
+}
+
+/// One extended target as written. Fields that do not belong to the shape are refused.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TargetSpec {
+    /// Human-readable name (documentation and error messages only).
+    #[serde(default)]
+    pub name: String,
+    /// "rectangle" or "circle".
+    pub shape: ShapeKind,
+    /// Centre (m), map frame.
+    pub center_m: [f64; 2],
+    /// Rectangle: [width, height] (m) along its own x and y axes.
+    #[serde(default)]
+    pub size_m: Option<[f64; 2]>,
+    /// Rectangle: rotation of its own x axis from the map's +x (degrees, counter-clockwise).
+    #[serde(default)]
+    pub yaw_deg: Option<f64>,
+    /// Circle: radius (m).
+    #[serde(default)]
+    pub radius_m: Option<f64>,
+}
+
+// ---------------------------------------------------------------------------------------------
+// Built scene
+// ---------------------------------------------------------------------------------------------
+
+/// The exact geometry of an extended target (convex).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Shape {
+    /// A (possibly rotated) rectangle, given by its corners counter-clockwise.
+    Rectangle {
+        /// Corners, counter-clockwise, starting at the one at local (−w/2, −h/2).
+        corners: [Vec2; 4],
+    },
+    /// A circle.
+    Circle {
+        /// Centre (m).
+        center: Vec2,
+        /// Radius (m).
+        radius_m: f64,
+    },
+}
+
+impl Shape {
+    /// A rectangle of `width_m` × `height_m` centred on `center`, its x axis at `yaw_rad`.
+    pub fn rectangle(center: Vec2, width_m: f64, height_m: f64, yaw_rad: f64) -> Self {
+        let (s, c) = yaw_rad.sin_cos();
+        let axis_x = Vec2::new(c, s) * (width_m / 2.0);
+        let axis_y = Vec2::new(-s, c) * (height_m / 2.0);
+        Shape::Rectangle {
+            corners: [
+                center - axis_x - axis_y,
+                center + axis_x - axis_y,
+                center + axis_x + axis_y,
+                center - axis_x + axis_y,
+            ],
+        }
+    }
+
+    /// A circle.
+    pub fn circle(center: Vec2, radius_m: f64) -> Self {
+        Shape::Circle { center, radius_m }
+    }
+
+    /// "rectangle" or "circle", as in the `Target` message.
+    pub fn kind_name(&self) -> &'static str {
+        match self {
+            Shape::Rectangle { .. } => "rectangle",
+            Shape::Circle { .. } => "circle",
+        }
+    }
+
+    /// Closed outline polygon, counter-clockwise, last vertex not repeated; a circle as a
+    /// [`CIRCLE_OUTLINE_VERTICES`]-gon with a vertex at 0°.
+    pub fn outline(&self) -> Vec<Vec2> {
+        match self {
+            Shape::Rectangle { corners } => corners.to_vec(),
+            Shape::Circle { center, radius_m } => (0..CIRCLE_OUTLINE_VERTICES)
+                .map(|k| {
+                    let phi = TAU * k as f64 / CIRCLE_OUTLINE_VERTICES as f64;
+                    center + Vec2::new(phi.cos(), phi.sin()) * *radius_m
+                })
+                .collect(),
+        }
+    }
+
+    /// The 4 ET-GOPSA sample points: a rectangle's corners, a circle's points at 0°, 90°, 180°,
+    /// 270°.
+    pub fn samples(&self) -> Vec<Vec2> {
+        match self {
+            Shape::Rectangle { corners } => corners.to_vec(),
+            Shape::Circle { center, radius_m } => (0..4)
+                .map(|k| {
+                    let phi = FRAC_PI_2 * k as f64;
+                    center + Vec2::new(phi.cos(), phi.sin()) * *radius_m
+                })
+                .collect(),
+        }
+    }
+
+    /// Scatterers along the outline, at most `spacing_m` apart, each with its outward normal(s).
+    ///
+    /// A rectangle's edges are each divided evenly, starting at a corner, so the corners are
+    /// scatterers; a corner carries both adjacent edges' normals (it reflects toward either
+    /// side). A circle gets `ceil(2πr / spacing)` scatterers (at least 4) from 0°.
+    pub fn scatterers(&self, spacing_m: f64) -> Vec<Scatterer> {
+        match self {
+            Shape::Rectangle { corners } => {
+                let normal = |i: usize| {
+                    let d = corners[(i + 1) % 4] - corners[i];
+                    Vec2::new(d.y, -d.x).normalize() // outward for a counter-clockwise polygon
+                };
+                let mut out = Vec::new();
+                for i in 0..4 {
+                    let start = corners[i];
+                    let edge = corners[(i + 1) % 4] - start;
+                    let pieces = pieces_for(edge.norm(), spacing_m);
+                    let n_here = normal(i);
+                    let n_before = normal((i + 3) % 4);
+                    for j in 0..pieces {
+                        let position = start + edge * (j as f64 / pieces as f64);
+                        let normals = if j == 0 {
+                            [n_before, n_here]
+                        } else {
+                            [n_here, n_here]
+                        };
+                        out.push(Scatterer { position, normals });
+                    }
+                }
+                out
+            }
+            Shape::Circle { center, radius_m } => {
+                let count = pieces_for(TAU * radius_m, spacing_m).max(4);
+                (0..count)
+                    .map(|k| {
+                        let phi = TAU * k as f64 / count as f64;
+                        let n = Vec2::new(phi.cos(), phi.sin());
+                        Scatterer {
+                            position: center + n * *radius_m,
+                            normals: [n, n],
+                        }
+                    })
+                    .collect()
+            }
+        }
+    }
+
+    /// Length of the outline (m).
+    pub fn perimeter_m(&self) -> f64 {
+        match self {
+            Shape::Rectangle { corners } => crate::geometry::edges(corners)
+                .map(|(a, b)| (b - a).norm())
+                .sum(),
+            Shape::Circle { radius_m, .. } => TAU * radius_m,
+        }
+    }
+
+    /// Whether `p` lies inside or on the shape.
+    pub fn contains(&self, p: Vec2) -> bool {
+        match self {
+            Shape::Rectangle { corners } => point_in_convex_polygon(corners, p),
+            Shape::Circle { center, radius_m } => (p - center).norm() <= *radius_m,
+        }
+    }
+
+    /// Distance from the closed segment [a, b] to the shape (0 if they meet).
+    pub fn distance_to_segment(&self, a: Vec2, b: Vec2) -> f64 {
+        match self {
+            Shape::Rectangle { corners } => segment_convex_polygon_distance(corners, a, b),
+            Shape::Circle { center, radius_m } => {
+                (point_segment_distance(a, b, *center) - radius_m).max(0.0)
+            }
+        }
+    }
+
+    /// Whether the closed segment [a, b] meets the shape (touching counts: a grazing ray is
+    /// blocked). Exact for circles, not through the 64-gon.
+    pub fn blocks_segment(&self, a: Vec2, b: Vec2) -> bool {
+        match self {
+            Shape::Rectangle { corners } => {
+                // Cheap rejection by the circumscribed circle: most lines of sight pass far
+                // from most targets, and this runs for every seen scatterer and target.
+                let center = (corners[0] + corners[2]) / 2.0;
+                let radius_m = (corners[2] - corners[0]).norm() / 2.0;
+                // The small margin keeps the rejection conservative under rounding.
+                point_segment_distance(a, b, center) <= radius_m * (1.0 + 1e-12) + 1e-12
+                    && segment_meets_convex_polygon(corners, a, b)
+            }
+            Shape::Circle { center, radius_m } => {
+                point_segment_distance(a, b, *center) <= *radius_m
+            }
+        }
+    }
+
+    /// Distance between two shapes (0 if they overlap or touch).
+    pub fn distance_to_shape(&self, other: &Shape) -> f64 {
+        match (self, other) {
+            (Shape::Rectangle { corners: a }, Shape::Rectangle { corners: b }) => {
+                convex_polygons_distance(a, b)
+            }
+            (Shape::Rectangle { corners }, Shape::Circle { center, radius_m })
+            | (Shape::Circle { center, radius_m }, Shape::Rectangle { corners }) => {
+                (point_convex_polygon_distance(corners, *center) - radius_m).max(0.0)
+            }
+            (
+                Shape::Circle {
+                    center: c1,
+                    radius_m: r1,
+                },
+                Shape::Circle {
+                    center: c2,
+                    radius_m: r2,
+                },
+            ) => ((c1 - c2).norm() - r1 - r2).max(0.0),
+        }
+    }
+
+    /// Axis-aligned bounding box (min corner, max corner).
+    pub fn bounding_box(&self) -> (Vec2, Vec2) {
+        match self {
+            Shape::Rectangle { corners } => {
+                let min = corners
+                    .iter()
+                    .fold(Vec2::repeat(f64::INFINITY), |m, c| m.inf(c));
+                let max = corners
+                    .iter()
+                    .fold(Vec2::repeat(f64::NEG_INFINITY), |m, c| m.sup(c));
+                (min, max)
+            }
+            Shape::Circle { center, radius_m } => (
+                center - Vec2::repeat(*radius_m),
+                center + Vec2::repeat(*radius_m),
+            ),
+        }
+    }
+}
+
+/// Number of equal pieces a length is cut into so that none is longer than `spacing_m`.
+fn pieces_for(length_m: f64, spacing_m: f64) -> usize {
+    // The small tolerance keeps a 4 m edge at spacing 0.25 at 16 pieces despite rounding.
+    ((length_m / spacing_m) - 1e-9).ceil().max(1.0) as usize
+}
+
+/// A point reflector on a target's outline.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Scatterer {
+    /// Position (m), map frame.
+    pub position: Vec2,
+    /// Outward unit normal(s) of the surface at the scatterer: equal along an edge, the two
+    /// adjacent edges' normals at a corner. The scatterer faces a sensor if either normal does.
+    pub normals: [Vec2; 2],
+}
+
+impl Scatterer {
+    /// Whether the surface at the scatterer faces `sensor_position` (strictly: a sensor in the
+    /// plane of the surface does not see it).
+    pub fn faces(&self, sensor_position: Vec2) -> bool {
+        let to_sensor = sensor_position - self.position;
+        self.normals.iter().any(|n| n.dot(&to_sensor) > 0.0)
+    }
+}
+
+/// One extended target, ready for simulation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Target {
+    /// Identifier (index in the scene file), 0-based.
+    pub id: u32,
+    /// Name from the scene file.
+    pub name: String,
+    /// Exact geometry.
+    pub shape: Shape,
+    /// Scatterers along the outline.
+    pub scatterers: Vec<Scatterer>,
+}
+
+/// A validated scene: hall, sensor, trajectory and targets.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scene {
+    /// Hall extent along x (m).
+    pub hall_width_m: f64,
+    /// Hall extent along y (m).
+    pub hall_height_m: f64,
+    /// Scatterer spacing used to build the targets (m).
+    pub scatterer_spacing_m: f64,
+    /// The radar.
+    pub sensor: Sensor,
+    /// The AGV's loop (validated).
+    pub trajectory: Trajectory,
+    /// The targets, id = index.
+    pub targets: Vec<Target>,
+}
+
+impl Scene {
+    /// Reads and validates a scene file. A missing file is an error naming the path.
+    pub fn load(path: &Path) -> Result<Self, SceneError> {
+        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Self::from_toml_str(&text, &path.display().to_string())
+    }
+
+    /// Parses and validates scene TOML; `origin` names the text in errors (a path or a label).
+    pub fn from_toml_str(text: &str, origin: &str) -> Result<Self, SceneError> {
+        let spec: SceneSpec = toml::from_str(text).map_err(|e| SceneError::Parse {
+            origin: origin.to_owned(),
+            message: e.to_string(),
+        })?;
+        Self::from_spec(&spec).map_err(|error| SceneError::Invalid {
+            origin: origin.to_owned(),
+            error,
+        })
+    }
+
+    /// Validates a parsed scene and builds its targets and trajectory.
+    pub fn from_spec(spec: &SceneSpec) -> Result<Self, FieldError> {
+        let hall = &spec.hall;
+        positive("hall.width_m", hall.width_m)?;
+        positive("hall.height_m", hall.height_m)?;
+        positive("scatterer_spacing_m", spec.scatterer_spacing_m)?;
+        let sensor = sensor_from_spec(&spec.sensor)?;
+
+        let mut targets = Vec::with_capacity(spec.targets.len());
+        for (index, t) in spec.targets.iter().enumerate() {
+            let shape = shape_from_spec(index, t)?;
+            let (min, max) = shape.bounding_box();
+            if min.x < 0.0 || min.y < 0.0 || max.x > hall.width_m || max.y > hall.height_m {
+                return Err(FieldError::new(
+                    target_field(index, t, "center_m"),
+                    format!(
+                        "the target reaches outside the hall [0, {}] × [0, {}] m",
+                        hall.width_m, hall.height_m
+                    ),
+                ));
+            }
+            let perimeter_m = shape.perimeter_m();
+            let count = perimeter_m / spec.scatterer_spacing_m;
+            if !count.is_finite() || count > MAX_SCATTERERS_PER_TARGET {
+                return Err(FieldError::new(
+                    "scatterer_spacing_m",
+                    format!(
+                        "{} m on the {perimeter_m} m outline of targets[{index}]{} gives more \
+                         than {MAX_SCATTERERS_PER_TARGET} scatterers",
+                        spec.scatterer_spacing_m,
+                        name_suffix(&t.name)
+                    ),
+                ));
+            }
+            let scatterers = shape.scatterers(spec.scatterer_spacing_m);
+            targets.push(Target {
+                id: index as u32,
+                name: t.name.clone(),
+                shape,
+                scatterers,
+            });
+        }
+        // Targets must be strictly apart: a shared surface would make occlusion ambiguous and two
+        // touching boxes are one extended target, not two.
+        for i in 0..targets.len() {
+            for j in 0..i {
+                if targets[i].shape.distance_to_shape(&targets[j].shape) <= 0.0 {
+                    return Err(FieldError::new(
+                        target_field(i, &spec.targets[i], "center_m"),
+                        format!(
+                            "overlaps or touches targets[{j}]{}; targets must be apart",
+                            name_suffix(&spec.targets[j].name)
+                        ),
+                    ));
+                }
+            }
+        }
+
+        let trajectory = Trajectory::new(&spec.trajectory)?;
+        check_trajectory_clearance(&trajectory, &targets, &spec.targets, hall)?;
+
+        Ok(Self {
+            hall_width_m: hall.width_m,
+            hall_height_m: hall.height_m,
+            scatterer_spacing_m: spec.scatterer_spacing_m,
+            sensor,
+            trajectory,
+            targets,
+        })
+    }
+
+    /// Total number of scatterers over all targets.
+    pub fn scatterer_count(&self) -> usize {
+        self.targets.iter().map(|t| t.scatterers.len()).sum()
+    }
+}
+
+fn sensor_from_spec(spec: &SensorSpec) -> Result<Sensor, FieldError> {
+    if !(spec.boresight_deg.is_finite() && spec.boresight_deg.abs() <= 180.0) {
+        return Err(FieldError::new(
+            "sensor.boresight_deg",
+            format!("must lie in [−180, 180], got {}", spec.boresight_deg),
+        ));
+    }
+    positive("sensor.max_range_m", spec.max_range_m)?;
+    if !(spec.half_fov_deg > 0.0 && spec.half_fov_deg < 90.0) {
+        return Err(FieldError::new(
+            "sensor.half_fov_deg",
+            format!(
+                "must lie in (0, 90) (a linear array resolves angles within ±90°), got {}",
+                spec.half_fov_deg
+            ),
+        ));
+    }
+    Ok(Sensor {
+        boresight_rad: spec.boresight_deg.to_radians(),
+        max_range_m: spec.max_range_m,
+        half_fov_rad: spec.half_fov_deg.to_radians(),
+    })
+}
+
+fn shape_from_spec(index: usize, t: &TargetSpec) -> Result<Shape, FieldError> {
+    let field = |name: &str| target_field(index, t, name);
+    if !(t.center_m[0].is_finite() && t.center_m[1].is_finite()) {
+        return Err(FieldError::new(field("center_m"), "must be finite"));
+    }
+    let center = Vec2::new(t.center_m[0], t.center_m[1]);
+    match t.shape {
+        ShapeKind::Rectangle => {
+            if t.radius_m.is_some() {
+                return Err(FieldError::new(
+                    field("radius_m"),
+                    "is for circles; a rectangle takes size_m and yaw_deg",
+                ));
+            }
+            let [width_m, height_m] = t.size_m.ok_or_else(|| {
+                FieldError::new(field("size_m"), "is required for shape = \"rectangle\"")
+            })?;
+            positive(&field("size_m[0]"), width_m)?;
+            positive(&field("size_m[1]"), height_m)?;
+            let yaw_deg = t.yaw_deg.unwrap_or(0.0);
+            if !yaw_deg.is_finite() {
+                return Err(FieldError::new(field("yaw_deg"), "must be finite"));
+            }
+            Ok(Shape::rectangle(
+                center,
+                width_m,
+                height_m,
+                yaw_deg.to_radians(),
+            ))
+        }
+        ShapeKind::Circle => {
+            if t.size_m.is_some() {
+                return Err(FieldError::new(
+                    field("size_m"),
+                    "is for rectangles; a circle takes radius_m",
+                ));
+            }
+            if t.yaw_deg.is_some() {
+                return Err(FieldError::new(
+                    field("yaw_deg"),
+                    "is for rectangles; a circle has no orientation",
+                ));
+            }
+            let radius_m = t.radius_m.ok_or_else(|| {
+                FieldError::new(field("radius_m"), "is required for shape = \"circle\"")
+            })?;
+            positive(&field("radius_m"), radius_m)?;
+            Ok(Shape::circle(center, radius_m))
+        }
+    }
+}
+
+/// The AGV body (a disc of `agv_radius_m` about the path) must stay clear of every target and
+/// inside the hall.
+fn check_trajectory_clearance(
+    trajectory: &Trajectory,
+    targets: &[Target],
+    specs: &[TargetSpec],
+    hall: &HallSpec,
+) -> Result<(), FieldError> {
+    let spec = trajectory.spec();
+    let radius_m = spec.agv_radius_m;
+    if spec.x_min_m - radius_m < 0.0
+        || spec.y_min_m - radius_m < 0.0
+        || spec.x_max_m + radius_m > hall.width_m
+        || spec.y_max_m + radius_m > hall.height_m
+    {
+        return Err(FieldError::new(
+            "trajectory",
+            format!(
+                "the loop (with agv_radius_m = {radius_m}) leaves the hall [0, {}] × [0, {}] m",
+                hall.width_m, hall.height_m
+            ),
+        ));
+    }
+    // Chords at most 1° of arc: the sagitta is below 4e-5 of the corner radius.
+    let chords = trajectory.chords(PI / 180.0);
+    for (index, target) in targets.iter().enumerate() {
+        let closest_m = chords
+            .iter()
+            .map(|(a, b)| target.shape.distance_to_segment(*a, *b))
+            .fold(f64::INFINITY, f64::min);
+        if closest_m <= 0.0 || closest_m < radius_m {
+            return Err(FieldError::new(
+                "trajectory",
+                format!(
+                    "the loop passes {closest_m:.3} m from targets[{index}]{}, closer than \
+                     agv_radius_m = {radius_m} m (it must not cross a target)",
+                    name_suffix(&specs[index].name)
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+fn target_field(index: usize, t: &TargetSpec, name: &str) -> String {
+    format!("targets[{index}]{}.{name}", name_suffix(&t.name))
+}
+
+fn name_suffix(name: &str) -> String {
+    if name.is_empty() {
+        String::new()
+    } else {
+        format!(" ({name})")
+    }
+}
+
+/// `value` must be finite and > 0.
+pub(crate) fn positive(field: &str, value: f64) -> Result<(), FieldError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(FieldError::new(
+            field,
+            format!("must be finite and > 0, got {value}"),
+        ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    pub(crate) const MINIMAL: &str = r#"
+        [hall]
+        width_m = 20.0
+        height_m = 20.0
+        [trajectory]
+        x_min_m = 2.0
+        y_min_m = 2.0
+        x_max_m = 18.0
+        y_max_m = 18.0
+        corner_radius_m = 2.0
+        [[targets]]
+        name = "box"
+        shape = "rectangle"
+        center_m = [10.0, 10.0]
+        size_m = [4.0, 2.0]
+        [[targets]]
+        name = "tank"
+        shape = "circle"
+        center_m = [6.0, 6.0]
+        radius_m = 1.0
+    "#;
+
+    fn with(extra_target: &str) -> String {
+        format!("{MINIMAL}\n[[targets]]\n{extra_target}")
+    }
+
+    fn invalid_field(text: &str) -> String {
+        match Scene::from_toml_str(text, "test") {
+            Err(SceneError::Invalid { error, .. }) => error.field,
+            other => panic!("expected a validation error, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn minimal_scene_builds() {
+        let scene = Scene::from_toml_str(MINIMAL, "test").unwrap();
+        assert_eq!(scene.targets.len(), 2);
+        assert_eq!(scene.targets[0].shape.kind_name(), "rectangle");
+        // Box 4 × 2 at spacing 0.25: 16 + 8 + 16 + 8 scatterers.
+        assert_eq!(scene.targets[0].scatterers.len(), 48);
+        // Circle r = 1: ceil(2π / 0.25) = 26.
+        assert_eq!(scene.targets[1].scatterers.len(), 26);
+        assert_eq!(scene.sensor, Sensor::default());
+    }
+
+    #[test]
+    fn outlines_and_samples() {
+        let rect = Shape::rectangle(Vec2::new(1.0, 2.0), 4.0, 2.0, 0.0);
+        let outline = rect.outline();
+        assert_eq!(outline.len(), 4);
+        assert_eq!(outline[0], Vec2::new(-1.0, 1.0));
+        assert_eq!(outline[2], Vec2::new(3.0, 3.0));
+        assert_eq!(rect.samples(), outline);
+        let circle = Shape::circle(Vec2::new(0.0, 0.0), 2.0);
+        let outline = circle.outline();
+        assert_eq!(outline.len(), CIRCLE_OUTLINE_VERTICES);
+        // Counter-clockwise: positive signed area.
+        let area: f64 = (0..outline.len())
+            .map(|i| crate::geometry::cross(outline[i], outline[(i + 1) % outline.len()]))
+            .sum::<f64>()
+            / 2.0;
+        assert!(area > 0.0);
+        let samples = circle.samples();
+        assert_eq!(samples.len(), 4);
+        for (s, expected) in samples
+            .iter()
+            .zip([(2.0, 0.0), (0.0, 2.0), (-2.0, 0.0), (0.0, -2.0)])
+        {
+            assert!((s - Vec2::new(expected.0, expected.1)).norm() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn scatterers_lie_on_outline_at_most_spacing_apart() {
+        let spacing = 0.3;
+        for shape in [
+            Shape::rectangle(Vec2::new(5.0, 5.0), 3.1, 1.7, 0.4),
+            Shape::circle(Vec2::new(1.0, 1.0), 1.3),
+        ] {
+            let s = shape.scatterers(spacing);
+            for (k, sc) in s.iter().enumerate() {
+                let next = s[(k + 1) % s.len()].position;
+                assert!((next - sc.position).norm() <= spacing + 1e-12);
+                // On the outline: inside-or-on, and a nudge outward leaves the shape.
+                assert!(shape.contains(sc.position + (sc.normals[0] + sc.normals[1]) * -1e-9));
+                assert!(!shape.contains(sc.position + (sc.normals[0] + sc.normals[1]) * 1e-6));
+            }
+        }
+    }
+
+    #[test]
+    fn validation_names_fields() {
+        assert_eq!(
+            invalid_field(&with(
+                r#"shape = "circle"
+center_m = [15.0, 15.0]
+radius_m = -1.0"#
+            )),
+            "targets[2].radius_m"
+        );
+        assert_eq!(
+            invalid_field(&with(
+                r#"shape = "rectangle"
+name = "flat"
+center_m = [15.0, 15.0]
+size_m = [0.0, 1.0]"#
+            )),
+            "targets[2] (flat).size_m[0]"
+        );
+        assert_eq!(
+            invalid_field(&with(
+                r#"shape = "circle"
+center_m = [15.0, 15.0]"#
+            )),
+            "targets[2].radius_m"
+        );
+        assert_eq!(
+            invalid_field(&with(
+                r#"shape = "circle"
+center_m = [15.0, 15.0]
+radius_m = 1.0
+yaw_deg = 3.0"#
+            )),
+            "targets[2].yaw_deg"
+        );
+        // Overlapping the box at (10, 10).
+        assert_eq!(
+            invalid_field(&with(
+                r#"shape = "circle"
+center_m = [12.5, 10.0]
+radius_m = 1.0"#
+            )),
+            "targets[2].center_m"
+        );
+        // Touching counts as overlapping.
+        assert_eq!(
+            invalid_field(&with(
+                r#"shape = "circle"
+center_m = [13.0, 10.0]
+radius_m = 1.0"#
+            )),
+            "targets[2].center_m"
+        );
+        // On the loop's bottom straight (y = 2).
+        assert_eq!(
+            invalid_field(&with(
+                r#"shape = "circle"
+center_m = [10.0, 2.5]
+radius_m = 1.0"#
+            )),
+            "trajectory"
+        );
+        // Outside the hall.
+        assert_eq!(
+            invalid_field(&with(
+                r#"shape = "circle"
+center_m = [19.5, 10.0]
+radius_m = 1.0"#
+            )),
+            "targets[2].center_m"
+        );
+        assert_eq!(
+            invalid_field(&MINIMAL.replace("width_m = 20.0", "width_m = 0.0")),
+            "hall.width_m"
+        );
+        // A spacing that would need billions of scatterers is an error, not an abort.
+        assert_eq!(
+            invalid_field(&format!("scatterer_spacing_m = 1e-9\n{MINIMAL}")),
+            "scatterer_spacing_m"
+        );
+    }
+
+    #[test]
+    fn unknown_fields_and_shapes_are_refused() {
+        for bad in [
+            MINIMAL.replace("[hall]", "[hall]\ncolour = 3"),
+            with("shape = \"triangle\"\ncenter_m = [15.0, 15.0]"),
+            with("shape = \"circle\"\ncenter_m = [15.0, 15.0]\nradius = 1.0"),
+        ] {
+            assert!(matches!(
+                Scene::from_toml_str(&bad, "test"),
+                Err(SceneError::Parse { .. })
+            ));
+        }
+    }
+
+    #[test]
+    fn missing_file_names_the_path() {
+        let err = Scene::load(Path::new("/nonexistent/dir/hall.toml")).unwrap_err();
+        assert!(matches!(err, SceneError::Read { .. }));
+        assert!(err.to_string().contains("/nonexistent/dir/hall.toml"));
+    }
+
+    #[test]
+    fn corners_face_both_ways() {
+        let rect = Shape::rectangle(Vec2::new(0.0, 0.0), 2.0, 2.0, 0.0);
+        let s = rect.scatterers(0.5);
+        let corner = s[0]; // (−1, −1)
+        assert_eq!(corner.position, Vec2::new(-1.0, -1.0));
+        assert!(corner.faces(Vec2::new(-5.0, 0.0)));
+        assert!(corner.faces(Vec2::new(0.0, -5.0)));
+        assert!(!corner.faces(Vec2::new(5.0, 5.0)));
+    }
+}

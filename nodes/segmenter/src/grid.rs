@@ -1,0 +1,180 @@
+//! Occupied cells of an occupancy grid, as points for DBSCAN.
+//!
+//! The paper clusters "the mapping of the environment" (the red points of Fig. 3, Sec. IV-A); in
+//! nrslam the map is a `nav_msgs/OccupancyGrid` published by the mapper, and the points handed to
+//! DBSCAN are the centres of the cells whose occupancy reaches a threshold. This module does that
+//! conversion on the grid's raw parts, so it is usable without the message types.
+
+use crate::SegmentError;
+
+/// Where a grid lies in the map frame: the ROS `MapMetaData` fields that locate cells.
+///
+/// Cell (i, j) (column i, row j) covers `[i·r, (i+1)·r) × [j·r, (j+1)·r)` in the grid's own frame,
+/// whose origin is the corner of cell (0, 0) at `(origin_x_m, origin_y_m)` rotated by
+/// `origin_yaw_rad` in the map frame (ROS `MapMetaData.origin`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GridGeometry {
+    /// Cell edge, metres; finite and > 0.
+    pub resolution_m: f64,
+    /// Cells along the grid's x axis.
+    pub width_cells: u32,
+    /// Cells along the grid's y axis.
+    pub height_cells: u32,
+    /// Map-frame x of the outer corner of cell (0, 0), metres.
+    pub origin_x_m: f64,
+    /// Map-frame y of the outer corner of cell (0, 0), metres.
+    pub origin_y_m: f64,
+    /// Rotation of the grid's x axis from the map's +x, radians counter-clockwise.
+    pub origin_yaw_rad: f64,
+}
+
+impl GridGeometry {
+    /// Number of cells, `width × height`.
+    pub fn cell_count(&self) -> usize {
+        self.width_cells as usize * self.height_cells as usize
+    }
+
+    /// Map-frame centre of cell (`column`, `row`), metres.
+    pub fn cell_centre(&self, column: u32, row: u32) -> [f64; 2] {
+        let u = (f64::from(column) + 0.5) * self.resolution_m;
+        let v = (f64::from(row) + 0.5) * self.resolution_m;
+        let (sin, cos) = self.origin_yaw_rad.sin_cos();
+        [
+            self.origin_x_m + cos * u - sin * v,
+            self.origin_y_m + sin * u + cos * v,
+        ]
+    }
+
+    fn check(&self, data_len: usize) -> Result<(), SegmentError> {
+        let valid = self.resolution_m.is_finite()
+            && self.resolution_m > 0.0
+            && self.origin_x_m.is_finite()
+            && self.origin_y_m.is_finite()
+            && self.origin_yaw_rad.is_finite();
+        if !valid {
+            return Err(SegmentError::InvalidGridGeometry {
+                reason: format!(
+                    "resolution must be finite and > 0 and the origin finite; got resolution \
+                     {} m, origin ({}, {}) m, yaw {} rad",
+                    self.resolution_m, self.origin_x_m, self.origin_y_m, self.origin_yaw_rad
+                ),
+            });
+        }
+        if data_len != self.cell_count() {
+            return Err(SegmentError::InvalidGridGeometry {
+                reason: format!(
+                    "data holds {data_len} cells but width × height = {} × {} = {}",
+                    self.width_cells,
+                    self.height_cells,
+                    self.cell_count()
+                ),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Centres (map frame, metres) of the cells whose value is `≥ occupied_threshold` percent.
+///
+/// `data` is ROS layout: row-major from cell (0, 0), x (column) fastest; values 0..=100 or −1
+/// (unknown). Unknown cells are never occupied whatever the threshold. The points come out in data
+/// order, so DBSCAN's cluster numbering follows rows from the origin.
+///
+/// # Errors
+/// [`SegmentError::InvalidGridGeometry`] if the resolution is not finite and positive, the origin is
+/// not finite, or `data.len() != width × height`.
+pub fn occupied_cell_centres(
+    geometry: &GridGeometry,
+    data: &[i8],
+    occupied_threshold: u8,
+) -> Result<Vec<[f64; 2]>, SegmentError> {
+    geometry.check(data.len())?;
+    let width = geometry.width_cells as usize;
+    let threshold = i16::from(occupied_threshold);
+    Ok(data
+        .iter()
+        .enumerate()
+        // i16 so that thresholds above 127 (never reached) compare without wrapping; −1 (unknown)
+        // is below every threshold ≥ 0.
+        .filter(|(_, &value)| value >= 0 && i16::from(value) >= threshold)
+        .map(|(index, _)| {
+            // index < width × height ≤ u32::MAX², so the quotient and remainder fit in u32.
+            let column = (index % width) as u32;
+            let row = (index / width) as u32;
+            geometry.cell_centre(column, row)
+        })
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn geometry(width_cells: u32, height_cells: u32) -> GridGeometry {
+        GridGeometry {
+            resolution_m: 0.5,
+            width_cells,
+            height_cells,
+            origin_x_m: -1.0,
+            origin_y_m: 2.0,
+            origin_yaw_rad: 0.0,
+        }
+    }
+
+    #[test]
+    fn occupied_cells_are_centres_in_row_major_order() {
+        // 3 columns × 2 rows; row 0 is the bottom row (nearest the origin).
+        let data = [65, -1, 64, 0, 100, 90];
+        let points = occupied_cell_centres(&geometry(3, 2), &data, 65).unwrap();
+        assert_eq!(points, vec![[-0.75, 2.25], [-0.25, 2.75], [0.25, 2.75]]);
+    }
+
+    #[test]
+    fn threshold_is_inclusive_and_unknown_is_never_occupied() {
+        let data = [-1, 0, 1, 100];
+        let g = geometry(4, 1);
+        assert_eq!(occupied_cell_centres(&g, &data, 0).unwrap().len(), 3);
+        assert_eq!(occupied_cell_centres(&g, &data, 1).unwrap().len(), 2);
+        assert_eq!(occupied_cell_centres(&g, &data, 100).unwrap().len(), 1);
+        assert_eq!(occupied_cell_centres(&g, &data, 101).unwrap().len(), 0);
+        assert_eq!(occupied_cell_centres(&g, &data, 255).unwrap().len(), 0);
+    }
+
+    #[test]
+    fn rotated_origin_rotates_the_centres() {
+        let g = GridGeometry {
+            origin_yaw_rad: std::f64::consts::FRAC_PI_2,
+            ..geometry(2, 1)
+        };
+        let points = occupied_cell_centres(&g, &[100, 100], 50).unwrap();
+        // The grid's x axis points along the map's +y.
+        for (p, expected) in points.iter().zip([[-1.25, 2.25], [-1.25, 2.75]]) {
+            assert!((p[0] - expected[0]).abs() < 1e-12 && (p[1] - expected[1]).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn bad_geometry_is_refused() {
+        assert!(matches!(
+            occupied_cell_centres(&geometry(3, 2), &[0; 5], 65),
+            Err(SegmentError::InvalidGridGeometry { .. })
+        ));
+        let g = GridGeometry {
+            resolution_m: 0.0,
+            ..geometry(1, 1)
+        };
+        assert!(occupied_cell_centres(&g, &[100], 65).is_err());
+        let g = GridGeometry {
+            origin_x_m: f64::NAN,
+            ..geometry(1, 1)
+        };
+        assert!(occupied_cell_centres(&g, &[100], 65).is_err());
+    }
+
+    #[test]
+    fn empty_grid_gives_no_points() {
+        assert!(occupied_cell_centres(&geometry(0, 0), &[], 65)
+            .unwrap()
+            .is_empty());
+    }
+}

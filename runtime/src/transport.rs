@@ -1,0 +1,337 @@
+//! The zenoh transport: session configuration, a node adapter that runs any [`Node`] over zenoh,
+//! and the start barrier that keeps a multi-process graph from losing its first messages.
+//!
+//! Wire format: each topic is the key expression [`topics::key_expr`] (`/map` → `map`, under an
+//! optional namespace); each sample's payload is the message in ROS 2 CDR (little-endian, 4-byte
+//! encapsulation header); an **empty payload** marks the end of a topic's stream (CDR is never
+//! empty). Publications are reliable with congestion control `Block`: nothing is dropped.
+//!
+//! Start barrier (DESIGN.md, "Traps"): every node declares its subscribers and publishers, then a
+//! liveliness token `nrslam/ready/<node>`; the launcher waits for all tokens and puts
+//! `nrslam/start`; sources tick only after it. Declarations travel ahead of the token on the same
+//! link, so by then every subscriber is known to the router.
+
+use crate::merge::Merger;
+use crate::node::{Node, NodeError, Outbox, Tick};
+use nrslam_msgs::{topics, Message};
+use std::collections::BTreeMap;
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+use zenoh::qos::CongestionControl;
+use zenoh::Wait;
+
+pub use zenoh::Session;
+
+/// Role of the session in the zenoh network.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SessionMode {
+    /// Peer: the default for a launcher that mirrors topics.
+    Peer,
+    /// Client of a router or peer: node processes of a launch.
+    Client,
+    /// Router: the launcher of a multi-process graph, routing between its node processes.
+    Router,
+}
+
+/// How to open a session. Multicast scouting is always off; with no endpoint given a session
+/// listens nowhere (peer) or on nothing but what is configured: nothing leaves loopback unless the
+/// user names a non-loopback endpoint.
+#[derive(Debug, Clone)]
+pub struct TransportConfig {
+    /// Role.
+    pub mode: SessionMode,
+    /// Endpoints to listen on, e.g. `tcp/127.0.0.1:7447`.
+    pub listen: Vec<String>,
+    /// Endpoints to connect to.
+    pub connect: Vec<String>,
+    /// Key prefix for every topic (empty: none).
+    pub namespace: String,
+}
+
+/// A transport failure.
+#[derive(Debug, thiserror::Error)]
+pub enum TransportError {
+    /// zenoh refused the configuration or an operation.
+    #[error("zenoh: {0}")]
+    Zenoh(String),
+    /// The start barrier did not complete.
+    #[error("start barrier: {0}")]
+    Barrier(String),
+    /// A received payload could not be decoded.
+    #[error("{topic}: {reason}")]
+    Decode {
+        /// Topic.
+        topic: String,
+        /// Why.
+        reason: String,
+    },
+    /// The node failed.
+    #[error(transparent)]
+    Node(#[from] NodeError),
+}
+
+fn zerr(error: impl std::fmt::Display) -> TransportError {
+    TransportError::Zenoh(error.to_string())
+}
+
+fn json_list(items: &[String]) -> String {
+    format!("[{}]", items.iter().map(|s| format!("{s:?}")).collect::<Vec<_>>().join(","))
+}
+
+/// The zenoh configuration for `config`.
+pub fn zenoh_config(config: &TransportConfig) -> Result<zenoh::Config, TransportError> {
+    let mut z = zenoh::Config::default();
+    let mode = match config.mode {
+        SessionMode::Peer => "peer",
+        SessionMode::Client => "client",
+        SessionMode::Router => "router",
+    };
+    z.insert_json5("mode", &format!("{mode:?}")).map_err(zerr)?;
+    z.insert_json5("scouting/multicast/enabled", "false").map_err(zerr)?;
+    z.insert_json5("scouting/gossip/enabled", "false").map_err(zerr)?;
+    z.insert_json5("listen/endpoints", &json_list(&config.listen)).map_err(zerr)?;
+    z.insert_json5("connect/endpoints", &json_list(&config.connect)).map_err(zerr)?;
+    // A node process must not start before it reaches its launcher.
+    if config.mode == SessionMode::Client {
+        z.insert_json5("connect/timeout_ms", "10000").map_err(zerr)?;
+    }
+    Ok(z)
+}
+
+/// Opens a session.
+pub fn open(config: &TransportConfig) -> Result<Session, TransportError> {
+    zenoh::open(zenoh_config(config)?).wait().map_err(zerr)
+}
+
+/// Key of the start signal.
+pub fn start_key(namespace: &str) -> String {
+    topics::key_expr(namespace, "/nrslam/start")
+}
+
+/// Liveliness key of node `name`'s readiness.
+pub fn ready_key(namespace: &str, name: &str) -> String {
+    topics::key_expr(namespace, &format!("/nrslam/ready/{name}"))
+}
+
+/// Publishes messages of a graph onto zenoh; used by node adapters and by the launcher to mirror
+/// an in-process graph for outside subscribers.
+pub struct TopicPublisher {
+    session: Session,
+    namespace: String,
+    publishers: BTreeMap<&'static str, zenoh::pubsub::Publisher<'static>>,
+}
+
+impl TopicPublisher {
+    /// Declares one publisher per topic.
+    pub fn new(session: &Session, namespace: &str, topics: &[&'static str]) -> Result<Self, TransportError> {
+        let mut publishers = BTreeMap::new();
+        for &topic in topics {
+            let publisher = session
+                .declare_publisher(topics::key_expr(namespace, topic))
+                .congestion_control(CongestionControl::Block)
+                .wait()
+                .map_err(zerr)?;
+            publishers.insert(topic, publisher);
+        }
+        Ok(Self { session: session.clone(), namespace: namespace.to_owned(), publishers })
+    }
+
+    /// Publishes `message` on `topic` as CDR.
+    pub fn publish(&mut self, topic: &'static str, message: &Message) -> Result<(), TransportError> {
+        let bytes = message.encode().map_err(|e| TransportError::Decode { topic: topic.into(), reason: e.to_string() })?;
+        self.put(topic, bytes)
+    }
+
+    /// Marks the end of `topic`'s stream.
+    pub fn end(&mut self, topic: &'static str) -> Result<(), TransportError> {
+        self.put(topic, Vec::new())
+    }
+
+    fn put(&mut self, topic: &'static str, bytes: Vec<u8>) -> Result<(), TransportError> {
+        if !self.publishers.contains_key(topic) {
+            let publisher = self
+                .session
+                .declare_publisher(topics::key_expr(&self.namespace, topic))
+                .congestion_control(CongestionControl::Block)
+                .wait()
+                .map_err(zerr)?;
+            self.publishers.insert(topic, publisher);
+        }
+        self.publishers[topic].put(bytes).wait().map_err(zerr)
+    }
+}
+
+/// One received sample: the topic and its payload (empty = end of stream).
+pub type Received = (&'static str, Vec<u8>);
+
+/// Subscribes to `topics`, feeding every sample into one unbounded channel (nothing dropped,
+/// zenoh's receive thread never blocked).
+pub fn subscribe(
+    session: &Session,
+    namespace: &str,
+    topics: &[&'static str],
+) -> Result<(Vec<zenoh::pubsub::Subscriber<()>>, mpsc::Receiver<Received>), TransportError> {
+    let (sender, receiver) = mpsc::channel();
+    let mut subscribers = Vec::new();
+    for &topic in topics {
+        let sender = sender.clone();
+        let subscriber = session
+            .declare_subscriber(topics::key_expr(namespace, topic))
+            .callback(move |sample| {
+                let _ = sender.send((topic, sample.payload().to_bytes().into_owned()));
+            })
+            .wait()
+            .map_err(zerr)?;
+        subscribers.push(subscriber);
+    }
+    Ok((subscribers, receiver))
+}
+
+/// Decodes a payload received on `topic` by the catalogue's type.
+pub fn decode(topic: &str, bytes: &[u8]) -> Result<Message, TransportError> {
+    let spec = topics::spec(topic).ok_or_else(|| TransportError::Decode { topic: topic.into(), reason: "not in the topic catalogue".into() })?;
+    Message::decode(spec.type_name, bytes).map_err(|e| TransportError::Decode { topic: topic.into(), reason: e.to_string() })
+}
+
+/// Paces a source at `rate` × real time from the stamps it publishes (`rate` ≤ 0: no pacing).
+#[derive(Debug)]
+pub struct Pacer {
+    rate: f64,
+    origin: Option<(Instant, f64)>,
+}
+
+impl Pacer {
+    /// A pacer at real-time factor `rate`.
+    pub fn new(rate: f64) -> Self {
+        Self { rate, origin: None }
+    }
+
+    /// Sleeps until the wall clock has caught up with simulated time `stamp_s`.
+    pub fn pace(&mut self, stamp_s: f64) {
+        if self.rate <= 0.0 || !self.rate.is_finite() {
+            return;
+        }
+        let (wall, first) = *self.origin.get_or_insert((Instant::now(), stamp_s));
+        let due = Duration::from_secs_f64(((stamp_s - first) / self.rate).max(0.0));
+        if let Some(wait) = due.checked_sub(wall.elapsed()) {
+            std::thread::sleep(wait);
+        }
+    }
+}
+
+/// Runs `node` over zenoh until its inputs end (or, for a source, until it is done).
+///
+/// With `wait_for_start`, the node declares its readiness and a source waits for the launcher's
+/// start signal (at most `start_timeout`); without it a source starts at once.
+pub fn run_node(
+    session: &Session,
+    namespace: &str,
+    name: &str,
+    mut node: Box<dyn Node>,
+    wait_for_start: bool,
+    start_timeout: Duration,
+    rate: f64,
+) -> Result<(), TransportError> {
+    let inputs = node.inputs();
+    let outputs = node.outputs();
+    let mut publisher = TopicPublisher::new(session, namespace, &outputs)?;
+    let (_subscribers, received) = subscribe(session, namespace, &inputs)?;
+    let (_start_subscriber, start) = if inputs.is_empty() && wait_for_start {
+        let (sender, receiver) = mpsc::channel();
+        let subscriber = session
+            .declare_subscriber(start_key(namespace))
+            .callback(move |_| {
+                let _ = sender.send(());
+            })
+            .wait()
+            .map_err(zerr)?;
+        (Some(subscriber), Some(receiver))
+    } else {
+        (None, None)
+    };
+    let _token = session.liveliness().declare_token(ready_key(namespace, name)).wait().map_err(zerr)?;
+    let mut outbox = Outbox::new();
+    let flush = |outbox: &mut Outbox, publisher: &mut TopicPublisher| -> Result<(), TransportError> {
+        for (topic, message) in outbox.drain() {
+            publisher.publish(topic, &message)?;
+        }
+        Ok(())
+    };
+    if inputs.is_empty() {
+        if let Some(start) = start {
+            start
+                .recv_timeout(start_timeout)
+                .map_err(|_| TransportError::Barrier(format!("no start signal within {} s", start_timeout.as_secs())))?;
+        }
+        let mut pacer = Pacer::new(rate);
+        loop {
+            let tick = node.tick(&mut outbox)?;
+            if let Some(stamp) = outbox_latest_stamp(&outbox) {
+                pacer.pace(stamp);
+            }
+            flush(&mut outbox, &mut publisher)?;
+            if tick == Tick::Done {
+                break;
+            }
+        }
+    } else {
+        let mut merger = Merger::new(&inputs);
+        while !merger.finished() {
+            let (topic, bytes) = received.recv().map_err(|_| TransportError::Zenoh("session closed".into()))?;
+            if bytes.is_empty() {
+                let _ = merger.close(topic);
+            } else {
+                let _ = merger.push(topic, decode(topic, &bytes)?);
+            }
+            while let Some((topic, message)) = merger.pop_ready() {
+                node.on_message(topic, &message, &mut outbox)?;
+                flush(&mut outbox, &mut publisher)?;
+            }
+        }
+        node.on_end(&mut outbox)?;
+        flush(&mut outbox, &mut publisher)?;
+    }
+    for topic in outputs {
+        publisher.end(topic)?;
+    }
+    Ok(())
+}
+
+fn outbox_latest_stamp(outbox: &Outbox) -> Option<f64> {
+    outbox.iter().map(|(_, m)| m.stamp().as_seconds()).reduce(f64::max)
+}
+
+/// Waits until every node in `names` has declared readiness, then signals start.
+/// `alive` is polled meanwhile so a node that died is reported instead of waited for.
+pub fn start_barrier(
+    session: &Session,
+    namespace: &str,
+    names: &[String],
+    timeout: Duration,
+    mut alive: impl FnMut() -> Result<(), String>,
+) -> Result<(), TransportError> {
+    let deadline = Instant::now() + timeout;
+    loop {
+        alive().map_err(TransportError::Barrier)?;
+        let replies = session.liveliness().get(topics::key_expr(namespace, "/nrslam/ready/*")).wait().map_err(zerr)?;
+        let mut ready = Vec::new();
+        while let Ok(reply) = replies.recv() {
+            if let Ok(sample) = reply.result() {
+                ready.push(sample.key_expr().as_str().rsplit('/').next().unwrap_or_default().to_owned());
+            }
+        }
+        let missing: Vec<&String> = names.iter().filter(|n| !ready.contains(n)).collect();
+        if missing.is_empty() {
+            break;
+        }
+        if Instant::now() > deadline {
+            return Err(TransportError::Barrier(format!(
+                "nodes not ready after {} s: {}",
+                timeout.as_secs(),
+                missing.iter().map(|s| s.as_str()).collect::<Vec<_>>().join(", ")
+            )));
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    session.put(start_key(namespace), Vec::<u8>::new()).congestion_control(CongestionControl::Block).wait().map_err(zerr)
+}

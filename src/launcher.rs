@@ -1,0 +1,429 @@
+//! `nrslam launch` and `nrslam run`: a graph in one process or one process per node, supervised.
+
+use crate::registry;
+use crate::report::{Reporter, REPORTED};
+use crate::TransportArgs;
+use anyhow::{anyhow, bail, Context, Result};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use nrslam_msgs::{topics, Message};
+use nrslam_runtime::compose::{anyhow_free, Graph, Observer};
+use nrslam_runtime::launch::{Launch, Mode};
+use nrslam_runtime::transport::{self, Pacer, SessionMode, TopicPublisher, TransportConfig};
+use nrslam_runtime::{Node, NodeContext};
+use std::io::BufRead;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+/// `nrslam launch`.
+#[derive(Args, Debug)]
+pub struct LaunchArgs {
+    /// Launch file (TOML), e.g. launch/paper-ideal.toml.
+    pub file: PathBuf,
+    /// Launch arguments as name:=value, e.g. range_std_m:=0.1 angle_std_deg:=5.
+    #[arg(value_name = "NAME:=VALUE")]
+    pub assignments: Vec<String>,
+    /// Run seed: every random stream of every node derives from it.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Output folder (created): summary.json, metrics.csv, map.png, segments.png, run.json.
+    /// Default: out/<launch file name>.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// in-process: all nodes in this process; processes: one OS process per node over zenoh.
+    /// Default: the launch file's mode.
+    #[arg(long, value_name = "MODE")]
+    pub mode: Option<Mode>,
+    /// Real-time factor R: simulated seconds per wall-clock second (2 = twice real time).
+    /// 0 (default): as fast as the nodes go. Nothing is dropped either way.
+    #[arg(long, value_name = "R", default_value_t = 0.0)]
+    pub rate: f64,
+    /// How long node processes may take to come up, in seconds (processes mode).
+    #[arg(long, value_name = "SECONDS", default_value_t = 30)]
+    pub start_timeout_s: u64,
+    #[command(flatten)]
+    pub transport: TransportArgs,
+}
+
+/// `nrslam run`.
+#[derive(Args, Debug)]
+pub struct RunArgs {
+    /// Node kind: radar, association, mapper, segmenter, evaluator.
+    pub kind: String,
+    /// The node's parameters (TOML, the fields of the node's Params at top level). Default: the
+    /// paper's defaults.
+    #[arg(long, value_name = "FILE")]
+    pub params: Option<PathBuf>,
+    /// Instance name (readiness key nrslam/ready/<name>). Default: the kind.
+    #[arg(long)]
+    pub name: Option<String>,
+    /// Run seed (must match the other nodes' for reproducible runs).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Folder that relative paths in the parameters resolve against. Default: the params file's folder.
+    #[arg(long, value_name = "DIR")]
+    pub base_dir: Option<PathBuf>,
+    /// zenoh role of this process: peer, or client (of a router or listening peer).
+    #[arg(long, default_value = "peer", value_name = "ROLE")]
+    pub zenoh_mode: String,
+    /// Declare readiness and, for a source, wait for the launcher's start signal (used by `launch --mode processes`).
+    #[arg(long)]
+    pub start_barrier: bool,
+    /// With --start-barrier: how long to wait for the start signal, in seconds.
+    #[arg(long, value_name = "SECONDS", default_value_t = 60)]
+    pub start_timeout_s: u64,
+    /// Without --start-barrier: seconds a source waits before its first frame, so subscribers can come up.
+    #[arg(long, value_name = "SECONDS", default_value_t = 1.0)]
+    pub startup_delay_s: f64,
+    /// Real-time factor for a source (0: as fast as possible).
+    #[arg(long, value_name = "R", default_value_t = 0.0)]
+    pub rate: f64,
+    #[command(flatten)]
+    pub transport: TransportArgs,
+}
+
+fn check_rate(rate: f64) -> Result<()> {
+    if !rate.is_finite() || rate < 0.0 {
+        bail!("--rate: {rate} is out of range (allowed: 0 for as fast as possible, or a positive real-time factor)");
+    }
+    Ok(())
+}
+
+struct Built {
+    nodes: Vec<(String, Box<dyn Node>)>,
+    expected_frames: Option<u64>,
+}
+
+/// Builds every node of the launch (validating all parameters) and checks the wiring against the
+/// topic catalogue.
+fn build_all(launch: &Launch, seed: u64) -> Result<Built> {
+    let mut nodes = Vec::new();
+    let mut expected_frames = None;
+    for decl in &launch.nodes {
+        let ctx = NodeContext { name: decl.name.clone(), seed, base_dir: launch.base_dir.clone() };
+        let node = registry::build(&decl.kind, decl.params.clone(), &ctx)
+            .map_err(|e| anyhow!("{}: node {}: {e}", launch.path.display(), decl.name))?;
+        expected_frames = expected_frames.or_else(|| registry::expected_frames(&decl.kind, &decl.params, &ctx));
+        nodes.push((decl.name.clone(), node));
+    }
+    for (name, node) in &nodes {
+        for topic in node.inputs().into_iter().chain(node.outputs()) {
+            if topics::spec(topic).is_none() {
+                bail!("{}: node {name}: topic {topic} is not in the catalogue", launch.path.display());
+            }
+        }
+        for topic in node.inputs() {
+            if !nodes.iter().any(|(_, other)| other.outputs().contains(&topic)) {
+                bail!("{}: node {name} subscribes to {topic}, which no node of the launch publishes", launch.path.display());
+            }
+        }
+    }
+    Ok(Built { nodes, expected_frames })
+}
+
+fn progress(frames: Option<u64>) -> ProgressBar {
+    let bar = match frames {
+        Some(n) => ProgressBar::new(n),
+        None => ProgressBar::new_spinner(),
+    };
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} frames  ETA {eta}  {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar
+}
+
+/// The reporter plus what a run shows while it goes: progress and an optional zenoh mirror.
+struct RunObserver {
+    reporter: Reporter,
+    bar: ProgressBar,
+    mirror: Option<TopicPublisher>,
+    pacer: Pacer,
+}
+
+impl Observer for RunObserver {
+    fn observe(&mut self, topic: &'static str, message: &Message) -> anyhow_free::Result {
+        self.reporter.take(topic, message);
+        if topic == topics::CLOCK {
+            self.bar.inc(1);
+            self.pacer.pace(message.stamp().as_seconds());
+        }
+        if let (topics::METRICS, Message::Metrics(m)) = (topic, message) {
+            self.bar.set_message(format!("ET-GOPSA {:.2}  pos err {:.2} m", m.etgospa, m.position_error_m));
+        }
+        if let Some(mirror) = &mut self.mirror {
+            mirror.publish(topic, message)?;
+        }
+        Ok(())
+    }
+
+    fn end(&mut self, topic: &'static str) {
+        self.reporter.ended.push(topic);
+        if let Some(mirror) = &mut self.mirror {
+            let _ = mirror.end(topic);
+        }
+    }
+}
+
+/// `nrslam launch`.
+pub fn launch(args: LaunchArgs) -> Result<()> {
+    check_rate(args.rate)?;
+    let launch = Launch::load(&args.file, &args.assignments)?;
+    let mode = args.mode.unwrap_or(launch.mode);
+    let out = args.out.clone().unwrap_or_else(|| {
+        PathBuf::from("out").join(args.file.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "run".into()))
+    });
+    let built = build_all(&launch, args.seed)?;
+    let started = Instant::now();
+    let reporter = match mode {
+        Mode::InProcess => run_in_process(&args, built)?,
+        Mode::Processes => run_processes(&args, &launch, built, &out)?,
+    };
+    let summary = reporter.summary(&launch.arguments, args.seed, &launch.path.display().to_string());
+    reporter.write_all(&out, &summary)?;
+    let run_info = serde_json::json!({
+        "mode": match mode { Mode::InProcess => "in-process", Mode::Processes => "processes" },
+        "wall_time_s": started.elapsed().as_secs_f64(),
+        "rate": args.rate,
+    });
+    std::fs::write(out.join("run.json"), serde_json::to_string_pretty(&run_info)? + "\n")
+        .with_context(|| format!("cannot write {}", out.join("run.json").display()))?;
+    println!(
+        "{} frames, final ET-GOPSA {}, GOSPA {}, pose RMSE {} m; wrote {}",
+        summary.frames,
+        fmt_opt(summary.etgospa),
+        fmt_opt(summary.gospa),
+        fmt_opt(summary.pose_rmse_m),
+        out.display()
+    );
+    Ok(())
+}
+
+fn fmt_opt(value: Option<f64>) -> String {
+    value.map_or_else(|| "n/a".into(), |v| format!("{v:.3}"))
+}
+
+fn transport_config(mode: SessionMode, args: &TransportArgs) -> TransportConfig {
+    TransportConfig { mode, listen: args.listen.clone(), connect: args.connect.clone(), namespace: args.namespace.clone() }
+}
+
+fn run_in_process(args: &LaunchArgs, built: Built) -> Result<Reporter> {
+    let session = if args.transport.listen.is_empty() && args.transport.connect.is_empty() {
+        None
+    } else {
+        Some(transport::open(&transport_config(SessionMode::Peer, &args.transport)).context("opening the zenoh session")?)
+    };
+    let mirror = match &session {
+        Some(session) => {
+            let all: Vec<&'static str> = topics::CATALOGUE.iter().map(|t| t.name).collect();
+            let publisher = TopicPublisher::new(session, &args.transport.namespace, &all)?;
+            // Give outside subscribers that are already connected a moment to be matched.
+            std::thread::sleep(Duration::from_millis(500));
+            Some(publisher)
+        }
+        None => None,
+    };
+    let mut observer = RunObserver {
+        reporter: Reporter::default(),
+        bar: progress(built.expected_frames),
+        mirror,
+        pacer: Pacer::new(args.rate),
+    };
+    let result = Graph::new(built.nodes).run(&mut observer);
+    observer.bar.finish_and_clear();
+    result?;
+    if let Some(session) = session {
+        let _ = zenoh::Wait::wait(session.close());
+    }
+    Ok(observer.reporter)
+}
+
+fn free_loopback_port() -> Result<u16> {
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").context("finding a free loopback port")?;
+    Ok(listener.local_addr()?.port())
+}
+
+/// A node process with its last stderr line kept for the error report.
+struct NodeProcess {
+    name: String,
+    child: Child,
+    last_error: Arc<Mutex<String>>,
+}
+
+fn spawn_node(
+    exe: &Path,
+    name: &str,
+    kind: &str,
+    params_file: &Path,
+    base_dir: &Path,
+    seed: u64,
+    endpoint: &str,
+    args: &LaunchArgs,
+) -> Result<NodeProcess> {
+    let mut command = Command::new(exe);
+    command
+        .args(["run", kind, "--name", name, "--zenoh-mode", "client", "--start-barrier"])
+        .arg("--params")
+        .arg(params_file)
+        .arg("--base-dir")
+        .arg(base_dir)
+        .args(["--seed", &seed.to_string(), "--connect", endpoint, "--namespace", &args.transport.namespace])
+        .args(["--rate", &args.rate.to_string(), "--start-timeout-s", &args.start_timeout_s.to_string()])
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped());
+    let mut child = command.spawn().with_context(|| format!("starting node process {name}"))?;
+    let last_error = Arc::new(Mutex::new(String::new()));
+    if let Some(stderr) = child.stderr.take() {
+        let last = last_error.clone();
+        let prefix = name.to_owned();
+        std::thread::spawn(move || {
+            for line in std::io::BufReader::new(stderr).lines().map_while(Result::ok) {
+                eprintln!("[{prefix}] {line}");
+                *last.lock().unwrap_or_else(|e| e.into_inner()) = line;
+            }
+        });
+    }
+    Ok(NodeProcess { name: name.to_owned(), child, last_error })
+}
+
+fn check_children(children: &mut [NodeProcess]) -> Result<(), String> {
+    for process in children.iter_mut() {
+        if let Ok(Some(status)) = process.child.try_wait() {
+            if !status.success() {
+                let last = process.last_error.lock().unwrap_or_else(|e| e.into_inner()).clone();
+                return Err(format!("node '{}' exited with {status}: {last}", process.name));
+            }
+        }
+    }
+    Ok(())
+}
+
+fn kill_all(children: &mut [NodeProcess]) {
+    for process in children.iter_mut() {
+        let _ = process.child.kill();
+        let _ = process.child.wait();
+    }
+}
+
+fn run_processes(args: &LaunchArgs, launch: &Launch, built: Built, out: &Path) -> Result<Reporter> {
+    drop(built.nodes);
+    let port = free_loopback_port()?;
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let mut transport_args = args.transport.clone();
+    transport_args.listen.push(endpoint.clone());
+    let session = transport::open(&transport_config(SessionMode::Router, &transport_args)).context("opening the launcher's zenoh router")?;
+    let (_subscribers, received) = transport::subscribe(&session, &args.transport.namespace, REPORTED)?;
+    let params_dir = out.join("params");
+    std::fs::create_dir_all(&params_dir).with_context(|| format!("cannot create {}", params_dir.display()))?;
+    let base_dir = std::fs::canonicalize(&launch.base_dir).with_context(|| format!("resolving {}", launch.base_dir.display()))?;
+    let exe = std::env::current_exe().context("locating the nrslam executable")?;
+    let mut children = Vec::new();
+    for decl in &launch.nodes {
+        let file = params_dir.join(format!("{}.toml", decl.name));
+        std::fs::write(&file, toml::to_string(&decl.params)?).with_context(|| format!("cannot write {}", file.display()))?;
+        match spawn_node(&exe, &decl.name, &decl.kind, &file, &base_dir, args.seed, &endpoint, args) {
+            Ok(child) => children.push(child),
+            Err(error) => {
+                kill_all(&mut children);
+                return Err(error);
+            }
+        }
+    }
+    let names: Vec<String> = launch.nodes.iter().map(|n| n.name.clone()).collect();
+    let barrier = transport::start_barrier(&session, &args.transport.namespace, &names, Duration::from_secs(args.start_timeout_s), || {
+        check_children(&mut children)
+    });
+    if let Err(error) = barrier {
+        kill_all(&mut children);
+        bail!("{error}");
+    }
+    let bar = progress(built.expected_frames);
+    let mut reporter = Reporter::default();
+    let mut open: Vec<&'static str> = REPORTED.to_vec();
+    let outcome = (|| -> Result<()> {
+        while !open.is_empty() {
+            match received.recv_timeout(Duration::from_millis(200)) {
+                Ok((topic, bytes)) if bytes.is_empty() => open.retain(|t| *t != topic),
+                Ok((topic, bytes)) => {
+                    let message = transport::decode(topic, &bytes)?;
+                    if topic == topics::CLOCK {
+                        bar.inc(1);
+                    }
+                    reporter.take(topic, &message);
+                }
+                Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
+                    check_children(&mut children).map_err(|e| anyhow!(e))?;
+                    if children.iter_mut().all(|c| matches!(c.child.try_wait(), Ok(Some(_)))) && received.try_recv().is_err() {
+                        bail!("every node process ended but topics {} never ended", open.join(", "));
+                    }
+                }
+                Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => bail!("zenoh session closed"),
+            }
+        }
+        Ok(())
+    })();
+    bar.finish_and_clear();
+    if let Err(error) = outcome {
+        kill_all(&mut children);
+        return Err(error);
+    }
+    for index in 0..children.len() {
+        let status = children[index].child.wait().with_context(|| format!("waiting for node {}", children[index].name))?;
+        if !status.success() {
+            let last = children[index].last_error.lock().unwrap_or_else(|e| e.into_inner()).clone();
+            let name = children[index].name.clone();
+            kill_all(&mut children);
+            bail!("node '{name}' exited with {status}: {last}");
+        }
+    }
+    let _ = zenoh::Wait::wait(session.close());
+    Ok(reporter)
+}
+
+/// `nrslam run`.
+pub fn run(args: RunArgs) -> Result<()> {
+    check_rate(args.rate)?;
+    let table: toml::Table = match &args.params {
+        Some(path) => {
+            let text = std::fs::read_to_string(path).with_context(|| format!("{}: cannot read", path.display()))?;
+            toml::from_str(&text).map_err(|e| anyhow!("{}: {}", path.display(), e.message()))?
+        }
+        None => toml::Table::new(),
+    };
+    let base_dir = args
+        .base_dir
+        .clone()
+        .or_else(|| args.params.as_ref().and_then(|p| p.parent().map(Path::to_owned)))
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or_else(|| PathBuf::from("."));
+    let name = args.name.clone().unwrap_or_else(|| args.kind.clone());
+    let ctx = NodeContext { name: name.clone(), seed: args.seed, base_dir };
+    let source = args.params.as_ref().map_or_else(|| "defaults".to_owned(), |p| p.display().to_string());
+    let node = registry::build(&args.kind, table, &ctx).map_err(|e| anyhow!("{source}: node {name}: {e}"))?;
+    let mode = match args.zenoh_mode.as_str() {
+        "peer" => SessionMode::Peer,
+        "client" => SessionMode::Client,
+        other => bail!("--zenoh-mode: unknown role {other:?} (allowed: peer, client)"),
+    };
+    let session = transport::open(&transport_config(mode, &args.transport)).context("opening the zenoh session")?;
+    if node.inputs().is_empty() && !args.start_barrier && args.startup_delay_s > 0.0 {
+        std::thread::sleep(Duration::from_secs_f64(args.startup_delay_s.min(3600.0)));
+    }
+    transport::run_node(
+        &session,
+        &args.transport.namespace,
+        &name,
+        node,
+        args.start_barrier,
+        Duration::from_secs(args.start_timeout_s),
+        args.rate,
+    )
+    .map_err(|e| anyhow!("node '{name}' failed: {e}"))?;
+    // Let the last publications leave before the session closes.
+    std::thread::sleep(Duration::from_millis(200));
+    let _ = zenoh::Wait::wait(session.close());
+    Ok(())
+}

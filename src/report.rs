@@ -1,0 +1,174 @@
+//! What a run leaves behind: the reporter listens to the graph's topics (in-process or over zenoh,
+//! the same messages either way) and writes `summary.json`, `metrics.csv`, `map.png` and
+//! `segments.png`.
+
+use anyhow::{Context, Result};
+use nrslam_msgs::{topics, Message, Metrics, OccupancyGrid, Segments, TargetSet};
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// Topics the reporter needs.
+pub const REPORTED: &[&str] = &[
+    topics::CLOCK,
+    topics::GROUND_TRUTH_TARGETS,
+    topics::GROUND_TRUTH_POSE,
+    topics::SLAM_POSE,
+    topics::KEYFRAME,
+    topics::MAP,
+    topics::SEGMENTS,
+    topics::METRICS,
+];
+
+/// Collected run.
+#[derive(Debug, Default)]
+pub struct Reporter {
+    /// Frames seen on /clock.
+    pub frames: u64,
+    /// Keyframes seen.
+    pub keyframes: u64,
+    /// Per-step metrics.
+    pub metrics: Vec<Metrics>,
+    /// Latest map.
+    pub map: Option<OccupancyGrid>,
+    /// Latest segments.
+    pub segments: Option<Segments>,
+    /// True targets.
+    pub targets: Option<TargetSet>,
+    /// True path (x_m, y_m).
+    pub true_path: Vec<(f64, f64)>,
+    /// SLAM path (x_m, y_m).
+    pub slam_path: Vec<(f64, f64)>,
+    /// Topics whose stream has ended.
+    pub ended: Vec<&'static str>,
+}
+
+impl Reporter {
+    /// Takes one message.
+    pub fn take(&mut self, topic: &str, message: &Message) {
+        match (topic, message) {
+            (topics::CLOCK, Message::Clock(_)) => self.frames += 1,
+            (topics::KEYFRAME, Message::Keyframe(_)) => self.keyframes += 1,
+            (topics::METRICS, Message::Metrics(m)) => self.metrics.push(m.clone()),
+            (topics::MAP, Message::OccupancyGrid(m)) => self.map = Some(m.clone()),
+            (topics::SEGMENTS, Message::Segments(s)) => self.segments = Some(s.clone()),
+            (topics::GROUND_TRUTH_TARGETS, Message::TargetSet(t)) => self.targets = Some(t.clone()),
+            (topics::GROUND_TRUTH_POSE, Message::PoseStamped(p)) => {
+                self.true_path.push((p.pose.position.x, p.pose.position.y))
+            }
+            (topics::SLAM_POSE, Message::PoseStamped(p)) => self.slam_path.push((p.pose.position.x, p.pose.position.y)),
+            _ => {}
+        }
+    }
+
+    /// The summary of the run.
+    pub fn summary(&self, arguments: &BTreeMap<String, toml::Value>, seed: u64, launch: &str) -> Summary {
+        let last = self.metrics.last();
+        let squared: Vec<f64> = self.metrics.iter().map(|m| m.position_error_m * m.position_error_m).collect();
+        Summary {
+            etgospa: last.map(|m| m.etgospa),
+            gospa: last.map(|m| m.gospa),
+            pose_rmse_m: (!squared.is_empty()).then(|| (squared.iter().sum::<f64>() / squared.len() as f64).sqrt()),
+            final_position_error_m: last.map(|m| m.position_error_m),
+            frames: self.frames,
+            metric_steps: self.metrics.len() as u64,
+            keyframes: self.keyframes,
+            estimated_targets: last.map(|m| m.estimated_targets),
+            occupied_cells: self.segments.as_ref().map(|s| s.points.len() as u64),
+            seed,
+            launch: launch.to_owned(),
+            arguments: arguments.iter().map(|(k, v)| (k.clone(), toml_to_json(v))).collect(),
+        }
+    }
+
+    /// Writes `metrics.csv`.
+    pub fn write_metrics_csv(&self, path: &Path) -> Result<()> {
+        let mut writer = csv::Writer::from_path(path).with_context(|| format!("cannot write {}", path.display()))?;
+        writer.write_record([
+            "step",
+            "time_s",
+            "etgospa",
+            "etgospa_localisation",
+            "etgospa_confusion",
+            "etgospa_missed",
+            "etgospa_false",
+            "gospa",
+            "gospa_localisation",
+            "gospa_missed",
+            "gospa_false",
+            "position_error_m",
+            "estimated_targets",
+            "estimate_points",
+        ])?;
+        for (step, m) in self.metrics.iter().enumerate() {
+            writer.write_record([
+                step.to_string(),
+                m.header.stamp.as_seconds().to_string(),
+                m.etgospa.to_string(),
+                m.etgospa_localisation.to_string(),
+                m.etgospa_confusion.to_string(),
+                m.etgospa_missed.to_string(),
+                m.etgospa_false.to_string(),
+                m.gospa.to_string(),
+                m.gospa_localisation.to_string(),
+                m.gospa_missed.to_string(),
+                m.gospa_false.to_string(),
+                m.position_error_m.to_string(),
+                m.estimated_targets.to_string(),
+                m.estimate_points.to_string(),
+            ])?;
+        }
+        writer.flush().with_context(|| format!("cannot write {}", path.display()))?;
+        Ok(())
+    }
+
+    /// Writes every output into `dir`.
+    pub fn write_all(&self, dir: &Path, summary: &Summary) -> Result<()> {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        let json = serde_json::to_string_pretty(summary)? + "\n";
+        std::fs::write(dir.join("summary.json"), json).with_context(|| format!("cannot write {}", dir.join("summary.json").display()))?;
+        self.write_metrics_csv(&dir.join("metrics.csv"))?;
+        crate::plot::map_png(&dir.join("map.png"), self)?;
+        crate::plot::segments_png(&dir.join("segments.png"), self)?;
+        Ok(())
+    }
+}
+
+/// `summary.json`: the same for a seed whatever the mode (no wall time in it).
+#[derive(Debug, Serialize, PartialEq)]
+pub struct Summary {
+    /// Final ET-GOPSA.
+    pub etgospa: Option<f64>,
+    /// Final GOSPA.
+    pub gospa: Option<f64>,
+    /// Root mean square of the per-step AGV position error (m).
+    pub pose_rmse_m: Option<f64>,
+    /// Position error at the last step (m).
+    pub final_position_error_m: Option<f64>,
+    /// Radar frames.
+    pub frames: u64,
+    /// Rows of metrics.csv.
+    pub metric_steps: u64,
+    /// Keyframes.
+    pub keyframes: u64,
+    /// Clusters in the final map.
+    pub estimated_targets: Option<u32>,
+    /// Occupied cells in the final map.
+    pub occupied_cells: Option<u64>,
+    /// Run seed.
+    pub seed: u64,
+    /// Launch file.
+    pub launch: String,
+    /// Launch arguments used.
+    pub arguments: BTreeMap<String, serde_json::Value>,
+}
+
+fn toml_to_json(value: &toml::Value) -> serde_json::Value {
+    match value {
+        toml::Value::String(s) => serde_json::Value::String(s.clone()),
+        toml::Value::Integer(i) => serde_json::Value::from(*i),
+        toml::Value::Float(f) => serde_json::Value::from(*f),
+        toml::Value::Boolean(b) => serde_json::Value::Bool(*b),
+        other => serde_json::Value::String(other.to_string()),
+    }
+}
