@@ -38,7 +38,12 @@ pub struct LaunchArgs {
     pub mode: Option<Mode>,
     /// Real-time factor R: simulated seconds per wall-clock second (2 = twice real time).
     /// 0 (default): as fast as the nodes go. Nothing is dropped either way.
-    #[arg(long, value_name = "R", default_value_t = 0.0)]
+    #[arg(
+        long,
+        value_name = "R",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
+    )]
     pub rate: f64,
     /// How long node processes may take to come up, in seconds (processes mode).
     #[arg(long, value_name = "SECONDS", default_value_t = 30)]
@@ -78,7 +83,12 @@ pub struct RunArgs {
     #[arg(long, value_name = "SECONDS", default_value_t = 1.0)]
     pub startup_delay_s: f64,
     /// Real-time factor for a source (0: as fast as possible).
-    #[arg(long, value_name = "R", default_value_t = 0.0)]
+    #[arg(
+        long,
+        value_name = "R",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
+    )]
     pub rate: f64,
     #[command(flatten)]
     pub transport: TransportArgs,
@@ -102,25 +112,42 @@ fn build_all(launch: &Launch, seed: u64) -> Result<Built> {
     let mut nodes = Vec::new();
     let mut expected_frames = None;
     for decl in &launch.nodes {
-        let ctx = NodeContext { name: decl.name.clone(), seed, base_dir: launch.base_dir.clone() };
+        let ctx = NodeContext {
+            name: decl.name.clone(),
+            seed,
+            base_dir: launch.base_dir.clone(),
+        };
         let node = registry::build(&decl.kind, decl.params.clone(), &ctx)
             .map_err(|e| anyhow!("{}: node {}: {e}", launch.path.display(), decl.name))?;
-        expected_frames = expected_frames.or_else(|| registry::expected_frames(&decl.kind, &decl.params, &ctx));
+        expected_frames =
+            expected_frames.or_else(|| registry::expected_frames(&decl.kind, &decl.params, &ctx));
         nodes.push((decl.name.clone(), node));
     }
     for (name, node) in &nodes {
         for topic in node.inputs().into_iter().chain(node.outputs()) {
             if topics::spec(topic).is_none() {
-                bail!("{}: node {name}: topic {topic} is not in the catalogue", launch.path.display());
+                bail!(
+                    "{}: node {name}: topic {topic} is not in the catalogue",
+                    launch.path.display()
+                );
             }
         }
         for topic in node.inputs() {
-            if !nodes.iter().any(|(_, other)| other.outputs().contains(&topic)) {
-                bail!("{}: node {name} subscribes to {topic}, which no node of the launch publishes", launch.path.display());
+            if !nodes
+                .iter()
+                .any(|(_, other)| other.outputs().contains(&topic))
+            {
+                bail!(
+                    "{}: node {name} subscribes to {topic}, which no node of the launch publishes",
+                    launch.path.display()
+                );
             }
         }
     }
-    Ok(Built { nodes, expected_frames })
+    Ok(Built {
+        nodes,
+        expected_frames,
+    })
 }
 
 fn progress(frames: Option<u64>) -> ProgressBar {
@@ -129,8 +156,10 @@ fn progress(frames: Option<u64>) -> ProgressBar {
         None => ProgressBar::new_spinner(),
     };
     bar.set_style(
-        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} frames  ETA {eta}  {msg}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        ProgressStyle::with_template(
+            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} frames  ETA {eta}  {msg}",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     bar
 }
@@ -151,7 +180,10 @@ impl Observer for RunObserver {
             self.pacer.pace(message.stamp().as_seconds());
         }
         if let (topics::METRICS, Message::Metrics(m)) = (topic, message) {
-            self.bar.set_message(format!("ET-GOPSA {:.2}  pos err {:.2} m", m.etgospa, m.position_error_m));
+            self.bar.set_message(format!(
+                "ET-GOPSA {:.2}  pos err {:.2} m",
+                m.etgospa, m.position_error_m
+            ));
         }
         if let Some(mirror) = &mut self.mirror {
             mirror.publish(topic, message)?;
@@ -173,7 +205,12 @@ pub fn launch(args: LaunchArgs) -> Result<()> {
     let launch = Launch::load(&args.file, &args.assignments)?;
     let mode = args.mode.unwrap_or(launch.mode);
     let out = args.out.clone().unwrap_or_else(|| {
-        PathBuf::from("out").join(args.file.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "run".into()))
+        PathBuf::from("out").join(
+            args.file
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| "run".into()),
+        )
     });
     let built = build_all(&launch, args.seed)?;
     let started = Instant::now();
@@ -181,15 +218,22 @@ pub fn launch(args: LaunchArgs) -> Result<()> {
         Mode::InProcess => run_in_process(&args, built)?,
         Mode::Processes => run_processes(&args, &launch, built, &out)?,
     };
-    let summary = reporter.summary(&launch.arguments, args.seed, &launch.path.display().to_string());
+    let summary = reporter.summary(
+        &launch.arguments,
+        args.seed,
+        &launch.path.display().to_string(),
+    );
     reporter.write_all(&out, &summary)?;
     let run_info = serde_json::json!({
         "mode": match mode { Mode::InProcess => "in-process", Mode::Processes => "processes" },
         "wall_time_s": started.elapsed().as_secs_f64(),
         "rate": args.rate,
     });
-    std::fs::write(out.join("run.json"), serde_json::to_string_pretty(&run_info)? + "\n")
-        .with_context(|| format!("cannot write {}", out.join("run.json").display()))?;
+    std::fs::write(
+        out.join("run.json"),
+        serde_json::to_string_pretty(&run_info)? + "\n",
+    )
+    .with_context(|| format!("cannot write {}", out.join("run.json").display()))?;
     println!(
         "{} frames, final ET-GOPSA {}, GOSPA {}, pose RMSE {} m; wrote {}",
         summary.frames,
@@ -206,14 +250,22 @@ fn fmt_opt(value: Option<f64>) -> String {
 }
 
 fn transport_config(mode: SessionMode, args: &TransportArgs) -> TransportConfig {
-    TransportConfig { mode, listen: args.listen.clone(), connect: args.connect.clone(), namespace: args.namespace.clone() }
+    TransportConfig {
+        mode,
+        listen: args.listen.clone(),
+        connect: args.connect.clone(),
+        namespace: args.namespace.clone(),
+    }
 }
 
 fn run_in_process(args: &LaunchArgs, built: Built) -> Result<Reporter> {
     let session = if args.transport.listen.is_empty() && args.transport.connect.is_empty() {
         None
     } else {
-        Some(transport::open(&transport_config(SessionMode::Peer, &args.transport)).context("opening the zenoh session")?)
+        Some(
+            transport::open(&transport_config(SessionMode::Peer, &args.transport))
+                .context("opening the zenoh session")?,
+        )
     };
     let mirror = match &session {
         Some(session) => {
@@ -241,7 +293,8 @@ fn run_in_process(args: &LaunchArgs, built: Built) -> Result<Reporter> {
 }
 
 fn free_loopback_port() -> Result<u16> {
-    let listener = std::net::TcpListener::bind("127.0.0.1:0").context("finding a free loopback port")?;
+    let listener =
+        std::net::TcpListener::bind("127.0.0.1:0").context("finding a free loopback port")?;
     Ok(listener.local_addr()?.port())
 }
 
@@ -264,37 +317,73 @@ fn spawn_node(
 ) -> Result<NodeProcess> {
     let mut command = Command::new(exe);
     command
-        .args(["run", kind, "--name", name, "--zenoh-mode", "client", "--start-barrier"])
+        .args([
+            "run",
+            kind,
+            "--name",
+            name,
+            "--zenoh-mode",
+            "client",
+            "--start-barrier",
+        ])
         .arg("--params")
         .arg(params_file)
         .arg("--base-dir")
         .arg(base_dir)
-        .args(["--seed", &seed.to_string(), "--connect", endpoint, "--namespace", &args.transport.namespace])
-        .args(["--rate", &args.rate.to_string(), "--start-timeout-s", &args.start_timeout_s.to_string()])
+        .args([
+            "--seed",
+            &seed.to_string(),
+            "--connect",
+            endpoint,
+            "--namespace",
+            &args.transport.namespace,
+        ])
+        .args([
+            "--rate",
+            &args.rate.to_string(),
+            "--start-timeout-s",
+            &args.start_timeout_s.to_string(),
+        ])
         .stdin(Stdio::null())
         .stdout(Stdio::null())
         .stderr(Stdio::piped());
-    let mut child = command.spawn().with_context(|| format!("starting node process {name}"))?;
+    let mut child = command
+        .spawn()
+        .with_context(|| format!("starting node process {name}"))?;
     let last_error = Arc::new(Mutex::new(String::new()));
     if let Some(stderr) = child.stderr.take() {
         let last = last_error.clone();
         let prefix = name.to_owned();
         std::thread::spawn(move || {
-            for line in std::io::BufReader::new(stderr).lines().map_while(Result::ok) {
+            for line in std::io::BufReader::new(stderr)
+                .lines()
+                .map_while(Result::ok)
+            {
                 eprintln!("[{prefix}] {line}");
                 *last.lock().unwrap_or_else(|e| e.into_inner()) = line;
             }
         });
     }
-    Ok(NodeProcess { name: name.to_owned(), child, last_error })
+    Ok(NodeProcess {
+        name: name.to_owned(),
+        child,
+        last_error,
+    })
 }
 
 fn check_children(children: &mut [NodeProcess]) -> Result<(), String> {
     for process in children.iter_mut() {
         if let Ok(Some(status)) = process.child.try_wait() {
             if !status.success() {
-                let last = process.last_error.lock().unwrap_or_else(|e| e.into_inner()).clone();
-                return Err(format!("node '{}' exited with {status}: {last}", process.name));
+                let last = process
+                    .last_error
+                    .lock()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .clone();
+                return Err(format!(
+                    "node '{}' exited with {status}: {last}",
+                    process.name
+                ));
             }
         }
     }
@@ -314,17 +403,24 @@ fn run_processes(args: &LaunchArgs, launch: &Launch, built: Built, out: &Path) -
     let endpoint = format!("tcp/127.0.0.1:{port}");
     let mut transport_args = args.transport.clone();
     transport_args.listen.push(endpoint.clone());
-    let session = transport::open(&transport_config(SessionMode::Router, &transport_args)).context("opening the launcher's zenoh router")?;
-    let (_subscribers, received) = transport::subscribe(&session, &args.transport.namespace, REPORTED)?;
+    let session = transport::open(&transport_config(SessionMode::Router, &transport_args))
+        .context("opening the launcher's zenoh router")?;
+    let (_subscribers, received) =
+        transport::subscribe(&session, &args.transport.namespace, REPORTED)?;
     let params_dir = out.join("params");
-    std::fs::create_dir_all(&params_dir).with_context(|| format!("cannot create {}", params_dir.display()))?;
-    let base_dir = std::fs::canonicalize(&launch.base_dir).with_context(|| format!("resolving {}", launch.base_dir.display()))?;
+    std::fs::create_dir_all(&params_dir)
+        .with_context(|| format!("cannot create {}", params_dir.display()))?;
+    let base_dir = std::fs::canonicalize(&launch.base_dir)
+        .with_context(|| format!("resolving {}", launch.base_dir.display()))?;
     let exe = std::env::current_exe().context("locating the nrslam executable")?;
     let mut children = Vec::new();
     for decl in &launch.nodes {
         let file = params_dir.join(format!("{}.toml", decl.name));
-        std::fs::write(&file, toml::to_string(&decl.params)?).with_context(|| format!("cannot write {}", file.display()))?;
-        match spawn_node(&exe, &decl.name, &decl.kind, &file, &base_dir, args.seed, &endpoint, args) {
+        std::fs::write(&file, toml::to_string(&decl.params)?)
+            .with_context(|| format!("cannot write {}", file.display()))?;
+        match spawn_node(
+            &exe, &decl.name, &decl.kind, &file, &base_dir, args.seed, &endpoint, args,
+        ) {
             Ok(child) => children.push(child),
             Err(error) => {
                 kill_all(&mut children);
@@ -333,9 +429,13 @@ fn run_processes(args: &LaunchArgs, launch: &Launch, built: Built, out: &Path) -
         }
     }
     let names: Vec<String> = launch.nodes.iter().map(|n| n.name.clone()).collect();
-    let barrier = transport::start_barrier(&session, &args.transport.namespace, &names, Duration::from_secs(args.start_timeout_s), || {
-        check_children(&mut children)
-    });
+    let barrier = transport::start_barrier(
+        &session,
+        &args.transport.namespace,
+        &names,
+        Duration::from_secs(args.start_timeout_s),
+        || check_children(&mut children),
+    );
     if let Err(error) = barrier {
         kill_all(&mut children);
         bail!("{error}");
@@ -356,11 +456,20 @@ fn run_processes(args: &LaunchArgs, launch: &Launch, built: Built, out: &Path) -
                 }
                 Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
                     check_children(&mut children).map_err(|e| anyhow!(e))?;
-                    if children.iter_mut().all(|c| matches!(c.child.try_wait(), Ok(Some(_)))) && received.try_recv().is_err() {
-                        bail!("every node process ended but topics {} never ended", open.join(", "));
+                    if children
+                        .iter_mut()
+                        .all(|c| matches!(c.child.try_wait(), Ok(Some(_))))
+                        && received.try_recv().is_err()
+                    {
+                        bail!(
+                            "every node process ended but topics {} never ended",
+                            open.join(", ")
+                        );
                     }
                 }
-                Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => bail!("zenoh session closed"),
+                Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+                    bail!("zenoh session closed")
+                }
             }
         }
         Ok(())
@@ -371,9 +480,16 @@ fn run_processes(args: &LaunchArgs, launch: &Launch, built: Built, out: &Path) -
         return Err(error);
     }
     for index in 0..children.len() {
-        let status = children[index].child.wait().with_context(|| format!("waiting for node {}", children[index].name))?;
+        let status = children[index]
+            .child
+            .wait()
+            .with_context(|| format!("waiting for node {}", children[index].name))?;
         if !status.success() {
-            let last = children[index].last_error.lock().unwrap_or_else(|e| e.into_inner()).clone();
+            let last = children[index]
+                .last_error
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .clone();
             let name = children[index].name.clone();
             kill_all(&mut children);
             bail!("node '{name}' exited with {status}: {last}");
@@ -388,7 +504,8 @@ pub fn run(args: RunArgs) -> Result<()> {
     check_rate(args.rate)?;
     let table: toml::Table = match &args.params {
         Some(path) => {
-            let text = std::fs::read_to_string(path).with_context(|| format!("{}: cannot read", path.display()))?;
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("{}: cannot read", path.display()))?;
             toml::from_str(&text).map_err(|e| anyhow!("{}: {}", path.display(), e.message()))?
         }
         None => toml::Table::new(),
@@ -396,19 +513,32 @@ pub fn run(args: RunArgs) -> Result<()> {
     let base_dir = args
         .base_dir
         .clone()
-        .or_else(|| args.params.as_ref().and_then(|p| p.parent().map(Path::to_owned)))
+        .or_else(|| {
+            args.params
+                .as_ref()
+                .and_then(|p| p.parent().map(Path::to_owned))
+        })
         .filter(|p| !p.as_os_str().is_empty())
         .unwrap_or_else(|| PathBuf::from("."));
     let name = args.name.clone().unwrap_or_else(|| args.kind.clone());
-    let ctx = NodeContext { name: name.clone(), seed: args.seed, base_dir };
-    let source = args.params.as_ref().map_or_else(|| "defaults".to_owned(), |p| p.display().to_string());
-    let node = registry::build(&args.kind, table, &ctx).map_err(|e| anyhow!("{source}: node {name}: {e}"))?;
+    let ctx = NodeContext {
+        name: name.clone(),
+        seed: args.seed,
+        base_dir,
+    };
+    let source = args
+        .params
+        .as_ref()
+        .map_or_else(|| "defaults".to_owned(), |p| p.display().to_string());
+    let node = registry::build(&args.kind, table, &ctx)
+        .map_err(|e| anyhow!("{source}: node {name}: {e}"))?;
     let mode = match args.zenoh_mode.as_str() {
         "peer" => SessionMode::Peer,
         "client" => SessionMode::Client,
         other => bail!("--zenoh-mode: unknown role {other:?} (allowed: peer, client)"),
     };
-    let session = transport::open(&transport_config(mode, &args.transport)).context("opening the zenoh session")?;
+    let session = transport::open(&transport_config(mode, &args.transport))
+        .context("opening the zenoh session")?;
     if node.inputs().is_empty() && !args.start_barrier && args.startup_delay_s > 0.0 {
         std::thread::sleep(Duration::from_secs_f64(args.startup_delay_s.min(3600.0)));
     }

@@ -23,8 +23,18 @@ fn plot_error(error: impl std::fmt::Display) -> anyhow::Error {
 
 /// Bounds of everything drawn: targets and paths, with a margin (m).
 fn bounds(report: &Reporter) -> (std::ops::Range<f64>, std::ops::Range<f64>) {
-    let mut xs: Vec<f64> = report.true_path.iter().chain(&report.slam_path).map(|p| p.0).collect();
-    let mut ys: Vec<f64> = report.true_path.iter().chain(&report.slam_path).map(|p| p.1).collect();
+    let mut xs: Vec<f64> = report
+        .true_path
+        .iter()
+        .chain(&report.slam_path)
+        .map(|p| p.0)
+        .collect();
+    let mut ys: Vec<f64> = report
+        .true_path
+        .iter()
+        .chain(&report.slam_path)
+        .map(|p| p.1)
+        .collect();
     if let Some(targets) = &report.targets {
         for point in targets.targets.iter().flat_map(|t| &t.outline) {
             xs.push(point.x);
@@ -32,9 +42,21 @@ fn bounds(report: &Reporter) -> (std::ops::Range<f64>, std::ops::Range<f64>) {
         }
     }
     let range = |values: &[f64]| {
-        let lo = values.iter().copied().filter(|v| v.is_finite()).fold(f64::INFINITY, f64::min);
-        let hi = values.iter().copied().filter(|v| v.is_finite()).fold(f64::NEG_INFINITY, f64::max);
-        if lo.is_finite() && hi.is_finite() { (lo - 2.0)..(hi + 2.0) } else { 0.0..1.0 }
+        let lo = values
+            .iter()
+            .copied()
+            .filter(|v| v.is_finite())
+            .fold(f64::INFINITY, f64::min);
+        let hi = values
+            .iter()
+            .copied()
+            .filter(|v| v.is_finite())
+            .fold(f64::NEG_INFINITY, f64::max);
+        if lo.is_finite() && hi.is_finite() {
+            (lo - 2.0)..(hi + 2.0)
+        } else {
+            0.0..1.0
+        }
     };
     (range(&xs), range(&ys))
 }
@@ -53,19 +75,29 @@ const PALETTE: [RGBColor; 10] = [
 ];
 
 fn draw_outlines<DB: DrawingBackend>(
-    chart: &mut ChartContext<'_, DB, Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>>,
+    chart: &mut ChartContext<
+        '_,
+        DB,
+        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+    >,
     report: &Reporter,
     color: RGBColor,
 ) -> Result<()> {
-    let Some(targets) = &report.targets else { return Ok(()) };
+    let Some(targets) = &report.targets else {
+        return Ok(());
+    };
     for (index, target) in targets.targets.iter().enumerate() {
         let mut points: Vec<(f64, f64)> = target.outline.iter().map(|p| (p.x, p.y)).collect();
         if let Some(first) = points.first().copied() {
             points.push(first);
         }
-        let series = chart.draw_series(LineSeries::new(points, color.stroke_width(2))).map_err(plot_error)?;
+        let series = chart
+            .draw_series(LineSeries::new(points, color.stroke_width(2)))
+            .map_err(plot_error)?;
         if index == 0 {
-            series.label("true outlines").legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2)));
+            series.label("true outlines").legend(move |(x, y)| {
+                PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2))
+            });
         }
     }
     Ok(())
@@ -79,42 +111,75 @@ pub fn map_png(path: &Path, report: &Reporter) -> Result<()> {
     root.fill(&WHITE).map_err(plot_error)?;
     let (x_range, y_range) = bounds(report);
     let mut chart = ChartBuilder::on(&root)
-        .caption("Occupancy map, truth outlines, AGV paths", ("sans-serif", 24))
+        .caption(
+            "Occupancy map, truth outlines, AGV paths",
+            ("sans-serif", 24),
+        )
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(50)
         .build_cartesian_2d(x_range.clone(), y_range.clone())
         .map_err(plot_error)?;
-    chart.configure_mesh().x_desc("x (m)").y_desc("y (m)").disable_mesh().draw().map_err(plot_error)?;
     chart
-        .draw_series(std::iter::once(Rectangle::new([(x_range.start, y_range.start), (x_range.end, y_range.end)], RGBColor(205, 205, 205).filled())))
+        .configure_mesh()
+        .x_desc("x (m)")
+        .y_desc("y (m)")
+        .disable_mesh()
+        .draw()
+        .map_err(plot_error)?;
+    chart
+        .draw_series(std::iter::once(Rectangle::new(
+            [(x_range.start, y_range.start), (x_range.end, y_range.end)],
+            RGBColor(205, 205, 205).filled(),
+        )))
         .map_err(plot_error)?;
     if let Some(grid) = &report.map {
         let resolution = grid.info.resolution as f64;
         let (origin_x, origin_y, _) = grid.info.origin.planar();
         let width = grid.info.width as usize;
-        let cells = grid.data.iter().enumerate().filter(|(_, v)| **v >= 0).map(|(index, &value)| {
-            let (column, row) = (index % width, index / width);
-            let x = origin_x + column as f64 * resolution;
-            let y = origin_y + row as f64 * resolution;
-            let shade = (255.0 * (1.0 - value as f64 / 100.0)).round() as u8;
-            Rectangle::new([(x, y), (x + resolution, y + resolution)], RGBColor(shade, shade, shade).filled())
-        });
+        let cells =
+            grid.data
+                .iter()
+                .enumerate()
+                .filter(|(_, v)| **v >= 0)
+                .map(|(index, &value)| {
+                    let (column, row) = (index % width, index / width);
+                    let x = origin_x + column as f64 * resolution;
+                    let y = origin_y + row as f64 * resolution;
+                    let shade = (255.0 * (1.0 - value as f64 / 100.0)).round() as u8;
+                    Rectangle::new(
+                        [(x, y), (x + resolution, y + resolution)],
+                        RGBColor(shade, shade, shade).filled(),
+                    )
+                });
         chart.draw_series(cells).map_err(plot_error)?;
     }
     draw_outlines(&mut chart, report, RGBColor(31, 119, 180))?;
     let green = RGBColor(0, 150, 0);
     chart
-        .draw_series(DashedLineSeries::new(report.true_path.iter().copied(), 8, 5, green.stroke_width(2)))
+        .draw_series(DashedLineSeries::new(
+            report.true_path.iter().copied(),
+            8,
+            5,
+            green.stroke_width(2),
+        ))
         .map_err(plot_error)?
         .label("true AGV path")
         .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], green.stroke_width(2)));
     chart
-        .draw_series(LineSeries::new(report.slam_path.iter().copied(), RED.stroke_width(2)))
+        .draw_series(LineSeries::new(
+            report.slam_path.iter().copied(),
+            RED.stroke_width(2),
+        ))
         .map_err(plot_error)?
         .label("SLAM AGV path")
         .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], RED.stroke_width(2)));
-    chart.configure_series_labels().background_style(WHITE.mix(0.85)).border_style(BLACK).draw().map_err(plot_error)?;
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(plot_error)?;
     root.present().map_err(plot_error)?;
     Ok(())
 }
@@ -127,22 +192,43 @@ pub fn segments_png(path: &Path, report: &Reporter) -> Result<()> {
     let (x_range, y_range) = bounds(report);
     let clusters = report.segments.as_ref().map_or(0, |s| s.cluster_count);
     let mut chart = ChartBuilder::on(&root)
-        .caption(format!("DBSCAN segments: {clusters} clusters"), ("sans-serif", 24))
+        .caption(
+            format!("DBSCAN segments: {clusters} clusters"),
+            ("sans-serif", 24),
+        )
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(50)
         .build_cartesian_2d(x_range, y_range)
         .map_err(plot_error)?;
-    chart.configure_mesh().x_desc("x (m)").y_desc("y (m)").draw().map_err(plot_error)?;
+    chart
+        .configure_mesh()
+        .x_desc("x (m)")
+        .y_desc("y (m)")
+        .draw()
+        .map_err(plot_error)?;
     if let Some(segments) = &report.segments {
-        let points = segments.points.iter().zip(&segments.labels).map(|(p, &label)| {
-            let (color, size) = if label < 0 { (RGBColor(170, 170, 170), 1) } else { (PALETTE[label as usize % PALETTE.len()], 2) };
-            Circle::new((p.x, p.y), size, color.filled())
-        });
+        let points = segments
+            .points
+            .iter()
+            .zip(&segments.labels)
+            .map(|(p, &label)| {
+                let (color, size) = if label < 0 {
+                    (RGBColor(170, 170, 170), 1)
+                } else {
+                    (PALETTE[label as usize % PALETTE.len()], 2)
+                };
+                Circle::new((p.x, p.y), size, color.filled())
+            });
         chart.draw_series(points).map_err(plot_error)?;
     }
     draw_outlines(&mut chart, report, RGBColor(0, 0, 0))?;
-    chart.configure_series_labels().background_style(WHITE.mix(0.85)).border_style(BLACK).draw().map_err(plot_error)?;
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(plot_error)?;
     root.present().map_err(plot_error)?;
     Ok(())
 }

@@ -2,15 +2,6 @@
 
 use nrslam_runtime::{parse_params, Node, NodeContext, NodeError, ParamsError};
 
-/// Every node kind: (name, what it does, inputs → outputs).
-pub const KINDS: &[(&str, &str)] = &[
-    ("radar", "radar front end: scene, AGV trajectory, detections, odometry, ground truth"),
-    ("association", "data association: odometry + scan-to-map matching, keyframes, SLAM pose"),
-    ("mapper", "log-odds occupancy grid from keyframes"),
-    ("segmenter", "DBSCAN over occupied cells"),
-    ("evaluator", "ET-GOPSA, GOSPA and position error per step"),
-];
-
 /// Why a node could not be built.
 #[derive(Debug, thiserror::Error)]
 pub enum BuildError {
@@ -34,7 +25,11 @@ macro_rules! build_kind {
 }
 
 /// Builds a node of `kind` from its parameter table.
-pub fn build(kind: &str, table: toml::Table, ctx: &NodeContext) -> Result<Box<dyn Node>, BuildError> {
+pub fn build(
+    kind: &str,
+    table: toml::Table,
+    ctx: &NodeContext,
+) -> Result<Box<dyn Node>, BuildError> {
     Ok(match kind {
         "radar" => build_kind!(nrslam_radar, table, ctx),
         "association" => build_kind!(nrslam_association, table, ctx),
@@ -53,5 +48,9 @@ pub fn expected_frames(kind: &str, table: &toml::Table, ctx: &NodeContext) -> Op
     let params: nrslam_radar::Params = parse_params(table.clone()).ok()?;
     let scene = nrslam_radar::scene::Scene::load(&params.scene_path(&ctx.base_dir)).ok()?;
     let all = scene.trajectory.frame_count() as u64;
-    Some(if params.frames == 0 { all } else { all.min(params.frames as u64) })
+    Some(if params.frames == 0 {
+        all
+    } else {
+        all.min(params.frames as u64)
+    })
 }

@@ -56,19 +56,31 @@ impl Reporter {
             (topics::GROUND_TRUTH_POSE, Message::PoseStamped(p)) => {
                 self.true_path.push((p.pose.position.x, p.pose.position.y))
             }
-            (topics::SLAM_POSE, Message::PoseStamped(p)) => self.slam_path.push((p.pose.position.x, p.pose.position.y)),
+            (topics::SLAM_POSE, Message::PoseStamped(p)) => {
+                self.slam_path.push((p.pose.position.x, p.pose.position.y))
+            }
             _ => {}
         }
     }
 
     /// The summary of the run.
-    pub fn summary(&self, arguments: &BTreeMap<String, toml::Value>, seed: u64, launch: &str) -> Summary {
+    pub fn summary(
+        &self,
+        arguments: &BTreeMap<String, toml::Value>,
+        seed: u64,
+        launch: &str,
+    ) -> Summary {
         let last = self.metrics.last();
-        let squared: Vec<f64> = self.metrics.iter().map(|m| m.position_error_m * m.position_error_m).collect();
+        let squared: Vec<f64> = self
+            .metrics
+            .iter()
+            .map(|m| m.position_error_m * m.position_error_m)
+            .collect();
         Summary {
             etgospa: last.map(|m| m.etgospa),
             gospa: last.map(|m| m.gospa),
-            pose_rmse_m: (!squared.is_empty()).then(|| (squared.iter().sum::<f64>() / squared.len() as f64).sqrt()),
+            pose_rmse_m: (!squared.is_empty())
+                .then(|| (squared.iter().sum::<f64>() / squared.len() as f64).sqrt()),
             final_position_error_m: last.map(|m| m.position_error_m),
             frames: self.frames,
             metric_steps: self.metrics.len() as u64,
@@ -77,13 +89,17 @@ impl Reporter {
             occupied_cells: self.segments.as_ref().map(|s| s.points.len() as u64),
             seed,
             launch: launch.to_owned(),
-            arguments: arguments.iter().map(|(k, v)| (k.clone(), toml_to_json(v))).collect(),
+            arguments: arguments
+                .iter()
+                .map(|(k, v)| (k.clone(), toml_to_json(v)))
+                .collect(),
         }
     }
 
     /// Writes `metrics.csv`.
     pub fn write_metrics_csv(&self, path: &Path) -> Result<()> {
-        let mut writer = csv::Writer::from_path(path).with_context(|| format!("cannot write {}", path.display()))?;
+        let mut writer = csv::Writer::from_path(path)
+            .with_context(|| format!("cannot write {}", path.display()))?;
         writer.write_record([
             "step",
             "time_s",
@@ -118,7 +134,9 @@ impl Reporter {
                 m.estimate_points.to_string(),
             ])?;
         }
-        writer.flush().with_context(|| format!("cannot write {}", path.display()))?;
+        writer
+            .flush()
+            .with_context(|| format!("cannot write {}", path.display()))?;
         Ok(())
     }
 
@@ -126,7 +144,8 @@ impl Reporter {
     pub fn write_all(&self, dir: &Path, summary: &Summary) -> Result<()> {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
         let json = serde_json::to_string_pretty(summary)? + "\n";
-        std::fs::write(dir.join("summary.json"), json).with_context(|| format!("cannot write {}", dir.join("summary.json").display()))?;
+        std::fs::write(dir.join("summary.json"), json)
+            .with_context(|| format!("cannot write {}", dir.join("summary.json").display()))?;
         self.write_metrics_csv(&dir.join("metrics.csv"))?;
         crate::plot::map_png(&dir.join("map.png"), self)?;
         crate::plot::segments_png(&dir.join("segments.png"), self)?;

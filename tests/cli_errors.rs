@@ -11,7 +11,11 @@ fn assert_clean_failure(output: &std::process::Output, must_contain: &[&str]) {
     let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
     assert_eq!(lines.len(), 1, "one line expected, got: {stderr}");
     for needle in must_contain {
-        assert!(lines[0].contains(needle), "{needle:?} missing from: {}", lines[0]);
+        assert!(
+            lines[0].contains(needle),
+            "{needle:?} missing from: {}",
+            lines[0]
+        );
     }
 }
 
@@ -25,16 +29,36 @@ fn missing_launch_file() {
 fn argument_out_of_range_names_file_node_field_and_range() {
     let dir = temp();
     let out = dir.path().to_str().unwrap();
-    let output = run(&["launch", "launch/paper-ideal.toml", "angle_std_deg:=-1", "--out", out]);
-    assert_clean_failure(&output, &["launch/paper-ideal.toml", "node radar", "angle_std_deg", "allowed"]);
+    let output = run(&[
+        "launch",
+        "launch/paper-ideal.toml",
+        "angle_std_deg:=-1",
+        "--out",
+        out,
+    ]);
+    assert_clean_failure(
+        &output,
+        &[
+            "launch/paper-ideal.toml",
+            "node radar",
+            "angle_std_deg",
+            "allowed",
+        ],
+    );
 }
 
 #[test]
 fn malformed_and_unknown_arguments() {
     let output = run(&["launch", "launch/paper-ideal.toml", "angle_std_deg:=five"]);
-    assert_clean_failure(&output, &["launch/paper-ideal.toml", "angle_std_deg", "not a number"]);
+    assert_clean_failure(
+        &output,
+        &["launch/paper-ideal.toml", "angle_std_deg", "not a number"],
+    );
     let output = run(&["launch", "launch/paper-ideal.toml", "speed:=2"]);
-    assert_clean_failure(&output, &["launch/paper-ideal.toml", "speed", "not declared"]);
+    assert_clean_failure(
+        &output,
+        &["launch/paper-ideal.toml", "speed", "not declared"],
+    );
     let output = run(&["launch", "launch/paper-ideal.toml", "angle_std_deg=2"]);
     assert_clean_failure(&output, &["name:=value"]);
 }
@@ -43,11 +67,19 @@ fn malformed_and_unknown_arguments() {
 fn unknown_field_in_launch_and_in_node_params() {
     let dir = temp();
     let file = dir.path().join("bad.toml");
-    std::fs::write(&file, "[launch]\nmodee = \"in-process\"\n[[node]]\nname = \"r\"\nkind = \"radar\"\n").unwrap();
+    std::fs::write(
+        &file,
+        "[launch]\nmodee = \"in-process\"\n[[node]]\nname = \"r\"\nkind = \"radar\"\n",
+    )
+    .unwrap();
     let output = run(&["launch", file.to_str().unwrap()]);
     assert_clean_failure(&output, &["bad.toml", "modee", "line 2"]);
 
-    std::fs::write(&file, "[[node]]\nname = \"r\"\nkind = \"radar\"\n[node.params]\nrange_sdt_m = 1.0\n").unwrap();
+    std::fs::write(
+        &file,
+        "[[node]]\nname = \"r\"\nkind = \"radar\"\n[node.params]\nrange_sdt_m = 1.0\n",
+    )
+    .unwrap();
     let output = run(&["launch", file.to_str().unwrap()]);
     assert_clean_failure(&output, &["bad.toml", "node r", "range_sdt_m"]);
 }
@@ -57,9 +89,15 @@ fn unknown_kind_and_unwired_input() {
     let dir = temp();
     let file = dir.path().join("bad.toml");
     std::fs::write(&file, "[[node]]\nname = \"x\"\nkind = \"lidar\"\n").unwrap();
-    assert_clean_failure(&run(&["launch", file.to_str().unwrap()]), &["bad.toml", "node x", "lidar", "known:"]);
+    assert_clean_failure(
+        &run(&["launch", file.to_str().unwrap()]),
+        &["bad.toml", "node x", "lidar", "known:"],
+    );
     std::fs::write(&file, "[[node]]\nname = \"m\"\nkind = \"mapper\"\n").unwrap();
-    assert_clean_failure(&run(&["launch", file.to_str().unwrap()]), &["bad.toml", "node m", "/slam/keyframe", "no node"]);
+    assert_clean_failure(
+        &run(&["launch", file.to_str().unwrap()]),
+        &["bad.toml", "node m", "/slam/keyframe", "no node"],
+    );
 }
 
 #[test]
@@ -67,12 +105,18 @@ fn missing_scene_file_names_the_path() {
     let dir = temp();
     let file = dir.path().join("bad.toml");
     std::fs::write(&file, "[[node]]\nname = \"radar\"\nkind = \"radar\"\n[node.params]\nscene = \"nowhere/hall.toml\"\n").unwrap();
-    assert_clean_failure(&run(&["launch", file.to_str().unwrap()]), &["bad.toml", "node radar", "nowhere/hall.toml"]);
+    assert_clean_failure(
+        &run(&["launch", file.to_str().unwrap()]),
+        &["bad.toml", "node radar", "nowhere/hall.toml"],
+    );
 }
 
 #[test]
 fn bad_rate_is_refused() {
-    assert_clean_failure(&run(&["launch", "launch/paper-ideal.toml", "--rate", "-2"]), &["--rate", "allowed"]);
+    assert_clean_failure(
+        &run(&["launch", "launch/paper-ideal.toml", "--rate", "-2"]),
+        &["--rate", "allowed"],
+    );
 }
 
 #[test]
@@ -82,8 +126,22 @@ fn bad_metric_input_names_file_line_and_column() {
     let estimates = dir.path().join("estimates.csv");
     std::fs::write(&truth, "target,x,y\n0,1,1\n0,abc,2\n").unwrap();
     std::fs::write(&estimates, "x,y\n1,1\n").unwrap();
-    let output = run(&["metric", "--truth", truth.to_str().unwrap(), "--estimates", estimates.to_str().unwrap()]);
+    let output = run(&[
+        "metric",
+        "--truth",
+        truth.to_str().unwrap(),
+        "--estimates",
+        estimates.to_str().unwrap(),
+    ]);
     assert_clean_failure(&output, &["truth.csv", "3"]);
-    let output = run(&["metric", "--truth", truth.to_str().unwrap(), "--estimates", estimates.to_str().unwrap(), "--c", "-1"]);
+    let output = run(&[
+        "metric",
+        "--truth",
+        truth.to_str().unwrap(),
+        "--estimates",
+        estimates.to_str().unwrap(),
+        "--c",
+        "-1",
+    ]);
     assert_clean_failure(&output, &["c"]);
 }

@@ -9,7 +9,17 @@ use rand::{Rng, SeedableRng};
 
 /// Every partial injective assignment of X into Y, exhaustively.
 fn brute_force_gospa(x: &[(f64, f64)], y: &[(f64, f64)], c: f64, p: f64, alpha: f64) -> f64 {
-    fn search(i: usize, used: &mut Vec<bool>, x: &[(f64, f64)], y: &[(f64, f64)], c: f64, p: f64, alpha: f64, cost: f64, best: &mut f64) {
+    fn search(
+        i: usize,
+        used: &mut Vec<bool>,
+        x: &[(f64, f64)],
+        y: &[(f64, f64)],
+        c: f64,
+        p: f64,
+        alpha: f64,
+        cost: f64,
+        best: &mut f64,
+    ) {
         if i == x.len() {
             let assigned = used.iter().filter(|u| **u).count();
             let unassigned_y = y.len() - assigned;
@@ -17,18 +27,40 @@ fn brute_force_gospa(x: &[(f64, f64)], y: &[(f64, f64)], c: f64, p: f64, alpha: 
             return;
         }
         // x_i unassigned.
-        search(i + 1, used, x, y, c, p, alpha, cost + c.powf(p) / alpha, best);
+        search(
+            i + 1,
+            used,
+            x,
+            y,
+            c,
+            p,
+            alpha,
+            cost + c.powf(p) / alpha,
+            best,
+        );
         for j in 0..y.len() {
             if !used[j] {
                 used[j] = true;
-                let d = ((x[i].0 - y[j].0).powi(2) + (x[i].1 - y[j].1).powi(2)).sqrt().min(c);
+                let d = ((x[i].0 - y[j].0).powi(2) + (x[i].1 - y[j].1).powi(2))
+                    .sqrt()
+                    .min(c);
                 search(i + 1, used, x, y, c, p, alpha, cost + d.powf(p), best);
                 used[j] = false;
             }
         }
     }
     let mut best = f64::INFINITY;
-    search(0, &mut vec![false; y.len()], x, y, c, p, alpha, 0.0, &mut best);
+    search(
+        0,
+        &mut vec![false; y.len()],
+        x,
+        y,
+        c,
+        p,
+        alpha,
+        0.0,
+        &mut best,
+    );
     best.powf(1.0 / p)
 }
 
@@ -41,8 +73,12 @@ fn metric_cli_equals_brute_force_gospa_on_small_random_sets() {
     for case in 0..12 {
         let n_truth = rng.random_range(0..5);
         let n_est = rng.random_range(0..6);
-        let x: Vec<(f64, f64)> = (0..n_truth).map(|_| (rng.random_range(0.0..8.0), rng.random_range(0.0..8.0))).collect();
-        let y: Vec<(f64, f64)> = (0..n_est).map(|_| (rng.random_range(0.0..8.0), rng.random_range(0.0..8.0))).collect();
+        let x: Vec<(f64, f64)> = (0..n_truth)
+            .map(|_| (rng.random_range(0.0..8.0), rng.random_range(0.0..8.0)))
+            .collect();
+        let y: Vec<(f64, f64)> = (0..n_est)
+            .map(|_| (rng.random_range(0.0..8.0), rng.random_range(0.0..8.0)))
+            .collect();
         let c = [1.0, 2.0, 5.0][case % 3];
         let p = [1.0, 2.0, 3.0][(case / 3) % 3];
         let alpha = [2.0, 1.0][case % 2];
@@ -71,10 +107,17 @@ fn metric_cli_equals_brute_force_gospa_on_small_random_sets() {
             &alpha.to_string(),
             "--json",
         ]);
-        assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+        assert!(
+            output.status.success(),
+            "{}",
+            String::from_utf8_lossy(&output.stderr)
+        );
         let report: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
         let cli = report["gospa"]["total"].as_f64().unwrap();
         let oracle = brute_force_gospa(&x, &y, c, p, alpha);
-        assert!((cli - oracle).abs() <= 1e-9 * oracle.max(1.0), "case {case}: cli {cli} oracle {oracle} (c {c} p {p} α {alpha})");
+        assert!(
+            (cli - oracle).abs() <= 1e-9 * oracle.max(1.0),
+            "case {case}: cli {cli} oracle {oracle} (c {c} p {p} α {alpha})"
+        );
     }
 }

@@ -17,9 +17,27 @@ fn two_blobs_and_a_noise_point() {
     }
     text += "50,50\n";
     std::fs::write(&input, text).unwrap();
-    let result = run(&["segment", "--input", input.to_str().unwrap(), "--eps", "0.15", "--min-samples", "3", "--output", output.to_str().unwrap()]);
-    assert!(result.status.success(), "{}", String::from_utf8_lossy(&result.stderr));
-    let labels: Vec<i32> = read(&output).lines().skip(1).map(|l| l.rsplit(',').next().unwrap().parse().unwrap()).collect();
+    let result = run(&[
+        "segment",
+        "--input",
+        input.to_str().unwrap(),
+        "--eps",
+        "0.15",
+        "--min-samples",
+        "3",
+        "--output",
+        output.to_str().unwrap(),
+    ]);
+    assert!(
+        result.status.success(),
+        "{}",
+        String::from_utf8_lossy(&result.stderr)
+    );
+    let labels: Vec<i32> = read(&output)
+        .lines()
+        .skip(1)
+        .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
+        .collect();
     assert_eq!(labels, vec![0, 0, 0, 0, 0, 1, 1, 1, 1, 1, -1]);
 }
 
@@ -28,8 +46,19 @@ fn nan_input_is_refused() {
     let dir = temp();
     let input = dir.path().join("points.csv");
     std::fs::write(&input, "x,y\n1,2\nNaN,3\n").unwrap();
-    let result = run(&["segment", "--input", input.to_str().unwrap(), "--eps", "1", "--min-samples", "2"]);
+    let result = run(&[
+        "segment",
+        "--input",
+        input.to_str().unwrap(),
+        "--eps",
+        "1",
+        "--min-samples",
+        "2",
+    ]);
     assert!(!result.status.success());
     let stderr = String::from_utf8_lossy(&result.stderr);
-    assert!(stderr.contains("line 3") && !stderr.contains("panicked"), "{stderr}");
+    assert!(
+        stderr.contains("line 3") && !stderr.contains("panicked"),
+        "{stderr}"
+    );
 }

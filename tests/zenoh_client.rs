@@ -12,13 +12,27 @@ use zenoh::Wait;
 fn client(listen: &[String], connect: &[String]) -> zenoh::Session {
     let mut config = zenoh::Config::default();
     config.insert_json5("mode", "\"peer\"").unwrap();
-    config.insert_json5("scouting/multicast/enabled", "false").unwrap();
-    config.insert_json5("listen/endpoints", &serde_json::to_string(listen).unwrap()).unwrap();
-    config.insert_json5("connect/endpoints", &serde_json::to_string(connect).unwrap()).unwrap();
+    config
+        .insert_json5("scouting/multicast/enabled", "false")
+        .unwrap();
+    config
+        .insert_json5("listen/endpoints", &serde_json::to_string(listen).unwrap())
+        .unwrap();
+    config
+        .insert_json5(
+            "connect/endpoints",
+            &serde_json::to_string(connect).unwrap(),
+        )
+        .unwrap();
     zenoh::open(config).wait().unwrap()
 }
 
-fn subscribe(session: &zenoh::Session) -> (Vec<zenoh::pubsub::Subscriber<()>>, mpsc::Receiver<(String, Vec<u8>)>) {
+fn subscribe(
+    session: &zenoh::Session,
+) -> (
+    Vec<zenoh::pubsub::Subscriber<()>>,
+    mpsc::Receiver<(String, Vec<u8>)>,
+) {
     let (sender, receiver) = mpsc::channel();
     let subscribers = ["map", "slam/pose"]
         .into_iter()
@@ -27,7 +41,10 @@ fn subscribe(session: &zenoh::Session) -> (Vec<zenoh::pubsub::Subscriber<()>>, m
             session
                 .declare_subscriber(key)
                 .callback(move |sample| {
-                    let _ = sender.send((sample.key_expr().as_str().to_owned(), sample.payload().to_bytes().into_owned()));
+                    let _ = sender.send((
+                        sample.key_expr().as_str().to_owned(),
+                        sample.payload().to_bytes().into_owned(),
+                    ));
                 })
                 .wait()
                 .unwrap()
@@ -47,11 +64,16 @@ fn collect(receiver: &mpsc::Receiver<(String, Vec<u8>)>) -> (Vec<OccupancyGrid>,
             continue;
         }
         match key.as_str() {
-            "map" => maps.push(nrslam_msgs::cdr::decode::<OccupancyGrid>(&bytes).expect("map decodes as nav_msgs/OccupancyGrid")),
-            "slam/pose" => match Message::decode("geometry_msgs/msg/PoseStamped", &bytes).unwrap() {
-                Message::PoseStamped(p) => poses.push(p),
-                other => panic!("unexpected {other:?}"),
-            },
+            "map" => maps.push(
+                nrslam_msgs::cdr::decode::<OccupancyGrid>(&bytes)
+                    .expect("map decodes as nav_msgs/OccupancyGrid"),
+            ),
+            "slam/pose" => {
+                match Message::decode("geometry_msgs/msg/PoseStamped", &bytes).unwrap() {
+                    Message::PoseStamped(p) => poses.push(p),
+                    other => panic!("unexpected {other:?}"),
+                }
+            }
             _ => {}
         }
     }
@@ -64,16 +86,33 @@ fn client_listening_where_launch_connects_receives_every_pose() {
     let session = client(std::slice::from_ref(&endpoint), &[]);
     let (_subscribers, receiver) = subscribe(&session);
     let dir = temp();
-    let output = run(&["launch", "launch/paper-ideal.toml", "frames:=30", "--connect", &endpoint, "--out", dir.path().to_str().unwrap()]);
-    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let output = run(&[
+        "launch",
+        "launch/paper-ideal.toml",
+        "frames:=30",
+        "--connect",
+        &endpoint,
+        "--out",
+        dir.path().to_str().unwrap(),
+    ]);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
     let (maps, poses) = collect(&receiver);
     assert_eq!(poses.len(), 30, "every SLAM pose arrives");
-    assert!(poses.windows(2).all(|w| w[0].header.stamp < w[1].header.stamp));
+    assert!(poses
+        .windows(2)
+        .all(|w| w[0].header.stamp < w[1].header.stamp));
     assert!(!maps.is_empty());
     let map = maps.last().unwrap();
     assert_eq!(map.header.frame_id, "map");
     assert_eq!(map.data.len(), (map.info.width * map.info.height) as usize);
-    assert!(map.data.iter().any(|&v| v > 50), "the map has occupied cells");
+    assert!(
+        map.data.iter().any(|&v| v > 50),
+        "the map has occupied cells"
+    );
 }
 
 #[test]
@@ -81,7 +120,17 @@ fn client_connecting_to_launch_listen_endpoint_receives_map_and_pose() {
     let endpoint = format!("tcp/127.0.0.1:{}", free_port());
     let dir = temp();
     let mut child = nrslam()
-        .args(["launch", "launch/paper-ideal.toml", "frames:=40", "--rate", "4", "--listen", &endpoint, "--out", dir.path().to_str().unwrap()])
+        .args([
+            "launch",
+            "launch/paper-ideal.toml",
+            "frames:=40",
+            "--rate",
+            "4",
+            "--listen",
+            &endpoint,
+            "--out",
+            dir.path().to_str().unwrap(),
+        ])
         .stderr(std::process::Stdio::null())
         .spawn()
         .unwrap();
@@ -91,5 +140,7 @@ fn client_connecting_to_launch_listen_endpoint_receives_map_and_pose() {
     assert!(child.wait().unwrap().success());
     assert!(poses.len() >= 10, "only {} poses arrived", poses.len());
     assert!(!maps.is_empty(), "no map arrived");
-    assert!(poses.windows(2).all(|w| w[0].header.stamp < w[1].header.stamp));
+    assert!(poses
+        .windows(2)
+        .all(|w| w[0].header.stamp < w[1].header.stamp));
 }

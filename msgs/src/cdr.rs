@@ -60,10 +60,25 @@ mod tests {
     #[test]
     fn pose_stamped_bytes_match_ros2() {
         let message = PoseStamped {
-            header: Header { stamp: Time { sec: 100, nanosec: 500 }, frame_id: "map".into() },
+            header: Header {
+                stamp: Time {
+                    sec: 100,
+                    nanosec: 500,
+                },
+                frame_id: "map".into(),
+            },
             pose: Pose {
-                position: Point { x: 1.0, y: 2.0, z: 3.0 },
-                orientation: Quaternion { x: 0.0, y: 0.0, z: 0.0, w: 1.0 },
+                position: Point {
+                    x: 1.0,
+                    y: 2.0,
+                    z: 3.0,
+                },
+                orientation: Quaternion {
+                    x: 0.0,
+                    y: 0.0,
+                    z: 0.0,
+                    w: 1.0,
+                },
             },
         };
         let bytes = encode(&message).unwrap();
@@ -75,14 +90,24 @@ mod tests {
     #[test]
     fn occupancy_grid_bytes_match_ros2() {
         let message = OccupancyGrid {
-            header: Header { stamp: Time { sec: 100, nanosec: 0 }, frame_id: "map".into() },
+            header: Header {
+                stamp: Time {
+                    sec: 100,
+                    nanosec: 0,
+                },
+                frame_id: "map".into(),
+            },
             info: MapMetaData {
                 map_load_time: Time { sec: 1, nanosec: 2 },
                 resolution: 0.05,
                 width: 3,
                 height: 2,
                 origin: Pose {
-                    position: Point { x: -1.0, y: -2.0, z: 0.0 },
+                    position: Point {
+                        x: -1.0,
+                        y: -2.0,
+                        z: 0.0,
+                    },
                     orientation: Quaternion::default(),
                 },
             },
@@ -96,8 +121,17 @@ mod tests {
 
     #[test]
     fn short_or_foreign_payloads_are_refused() {
-        assert!(matches!(decode::<Clock>(&[0, 1]), Err(CdrError::TooShort(2))));
-        assert!(matches!(decode::<Clock>(&[0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0]), Err(CdrError::Encapsulation(_))));
-        assert!(matches!(decode::<PoseStamped>(&[0, 1, 0, 0, 1]), Err(CdrError::Malformed(_))));
+        assert!(matches!(
+            decode::<Clock>(&[0, 1]),
+            Err(CdrError::TooShort(2))
+        ));
+        assert!(matches!(
+            decode::<Clock>(&[0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0]),
+            Err(CdrError::Encapsulation(_))
+        ));
+        assert!(matches!(
+            decode::<PoseStamped>(&[0, 1, 0, 0, 1]),
+            Err(CdrError::Malformed(_))
+        ));
     }
 }

@@ -97,8 +97,15 @@ mod tests {
 
     #[test]
     fn decoding_with_the_wrong_type_name_is_an_error_not_a_panic() {
-        let bytes = Message::Clock(Clock { clock: Time::from_seconds(2.0) }).encode().unwrap();
+        let bytes = Message::Clock(Clock {
+            clock: Time::from_seconds(2.0),
+        })
+        .encode()
+        .unwrap();
         assert!(Message::decode("nav_msgs/msg/OccupancyGrid", &bytes).is_err());
-        assert!(matches!(Message::decode("foo/msg/Bar", &bytes), Err(MessageError::UnknownType(_))));
+        assert!(matches!(
+            Message::decode("foo/msg/Bar", &bytes),
+            Err(MessageError::UnknownType(_))
+        ));
     }
 }

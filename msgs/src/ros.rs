@@ -8,7 +8,9 @@ use serde::{Deserialize, Serialize};
 use serde_big_array::BigArray;
 
 /// `builtin_interfaces/msg/Time`: simulated time since the scenario epoch.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default, Serialize, Deserialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default, Serialize, Deserialize,
+)]
 pub struct Time {
     /// Whole seconds.
     pub sec: i32,
@@ -56,7 +58,10 @@ pub struct Header {
 impl Header {
     /// A header at `stamp` in `frame_id`.
     pub fn new(stamp: Time, frame_id: &str) -> Self {
-        Self { stamp, frame_id: frame_id.to_owned() }
+        Self {
+            stamp,
+            frame_id: frame_id.to_owned(),
+        }
     }
 }
 
@@ -74,7 +79,11 @@ pub struct Point {
 impl Point {
     /// A point in the plane z = 0.
     pub fn planar(x_m: f64, y_m: f64) -> Self {
-        Self { x: x_m, y: y_m, z: 0.0 }
+        Self {
+            x: x_m,
+            y: y_m,
+            z: 0.0,
+        }
     }
 }
 
@@ -104,7 +113,12 @@ pub struct Quaternion {
 
 impl Default for Quaternion {
     fn default() -> Self {
-        Self { x: 0.0, y: 0.0, z: 0.0, w: 1.0 }
+        Self {
+            x: 0.0,
+            y: 0.0,
+            z: 0.0,
+            w: 1.0,
+        }
     }
 }
 
@@ -112,7 +126,12 @@ impl Quaternion {
     /// Rotation about z by `yaw_rad`.
     pub fn from_yaw(yaw_rad: f64) -> Self {
         let half = 0.5 * yaw_rad;
-        Self { x: 0.0, y: 0.0, z: half.sin(), w: half.cos() }
+        Self {
+            x: 0.0,
+            y: 0.0,
+            z: half.sin(),
+            w: half.cos(),
+        }
     }
 
     /// Yaw (rad, in (−π, π]) of this rotation, assuming it is about z.
@@ -134,7 +153,10 @@ pub struct Pose {
 impl Pose {
     /// A planar pose: position (m) and yaw (rad, counter-clockwise from +x).
     pub fn from_planar(x_m: f64, y_m: f64, yaw_rad: f64) -> Self {
-        Self { position: Point::planar(x_m, y_m), orientation: Quaternion::from_yaw(yaw_rad) }
+        Self {
+            position: Point::planar(x_m, y_m),
+            orientation: Quaternion::from_yaw(yaw_rad),
+        }
     }
 
     /// `(x_m, y_m, yaw_rad)`.
@@ -164,7 +186,10 @@ pub struct PoseWithCovariance {
 
 impl Default for PoseWithCovariance {
     fn default() -> Self {
-        Self { pose: Pose::default(), covariance: [0.0; 36] }
+        Self {
+            pose: Pose::default(),
+            covariance: [0.0; 36],
+        }
     }
 }
 
@@ -189,7 +214,10 @@ pub struct TwistWithCovariance {
 
 impl Default for TwistWithCovariance {
     fn default() -> Self {
-        Self { twist: Twist::default(), covariance: [0.0; 36] }
+        Self {
+            twist: Twist::default(),
+            covariance: [0.0; 36],
+        }
     }
 }
 

@@ -60,7 +60,10 @@ fn short_name(type_name: &str) -> String {
 }
 
 fn definition(short: &str) -> Option<&'static str> {
-    DEFINITIONS.iter().find(|(name, _)| *name == short).map(|(_, text)| *text)
+    DEFINITIONS
+        .iter()
+        .find(|(name, _)| *name == short)
+        .map(|(_, text)| *text)
 }
 
 /// Field types of a definition that are messages (contain a '/'), array suffixes removed.
@@ -73,7 +76,9 @@ fn message_field_types(text: &str) -> impl Iterator<Item = &str> {
 }
 
 fn collect_dependencies(short: &str, seen: &mut Vec<String>) {
-    let Some(text) = definition(short) else { return };
+    let Some(text) = definition(short) else {
+        return;
+    };
     for dependency in message_field_types(text) {
         if !seen.iter().any(|s| s == dependency) {
             seen.push(dependency.to_owned());
@@ -124,7 +129,10 @@ mod tests {
     fn every_dependency_of_every_definition_is_defined() {
         for (name, text) in DEFINITIONS {
             for dependency in message_field_types(text) {
-                assert!(definition(dependency).is_some(), "{name} uses undefined {dependency}");
+                assert!(
+                    definition(dependency).is_some(),
+                    "{name} uses undefined {dependency}"
+                );
             }
         }
     }
@@ -141,7 +149,13 @@ mod tests {
             assert_eq!(text, expected, "{}", path.display());
             files += 1;
         }
-        assert_eq!(files, DEFINITIONS.iter().filter(|(n, _)| n.starts_with("nrslam_msgs/")).count());
+        assert_eq!(
+            files,
+            DEFINITIONS
+                .iter()
+                .filter(|(n, _)| n.starts_with("nrslam_msgs/"))
+                .count()
+        );
     }
 
     #[test]

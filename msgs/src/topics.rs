@@ -47,8 +47,14 @@ pub struct Qos {
     pub durability: Durability,
 }
 
-const STREAM: Qos = Qos { reliability: Reliability::Reliable, durability: Durability::Volatile };
-const LATCHED: Qos = Qos { reliability: Reliability::Reliable, durability: Durability::TransientLocal };
+const STREAM: Qos = Qos {
+    reliability: Reliability::Reliable,
+    durability: Durability::Volatile,
+};
+const LATCHED: Qos = Qos {
+    reliability: Reliability::Reliable,
+    durability: Durability::TransientLocal,
+};
 
 /// One catalogue entry.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -65,16 +71,66 @@ pub struct TopicSpec {
 
 /// Every topic of the graph.
 pub const CATALOGUE: &[TopicSpec] = &[
-    TopicSpec { name: CLOCK, type_name: "rosgraph_msgs/msg/Clock", qos: STREAM, description: "simulated clock, one per frame" },
-    TopicSpec { name: ODOM, type_name: "nav_msgs/msg/Odometry", qos: STREAM, description: "noisy wheel odometry, dead-reckoned pose in frame odom" },
-    TopicSpec { name: DETECTIONS, type_name: "nrslam_msgs/msg/Detections", qos: STREAM, description: "range/angle detections of one radar frame" },
-    TopicSpec { name: GROUND_TRUTH_POSE, type_name: "geometry_msgs/msg/PoseStamped", qos: STREAM, description: "true AGV pose" },
-    TopicSpec { name: GROUND_TRUTH_TARGETS, type_name: "nrslam_msgs/msg/TargetSet", qos: LATCHED, description: "true extended targets with their ET-GOPSA sample points" },
-    TopicSpec { name: SLAM_POSE, type_name: "geometry_msgs/msg/PoseStamped", qos: STREAM, description: "SLAM estimate of the AGV pose, one per frame" },
-    TopicSpec { name: KEYFRAME, type_name: "nrslam_msgs/msg/Keyframe", qos: STREAM, description: "keyframes: pose and detections" },
-    TopicSpec { name: MAP, type_name: "nav_msgs/msg/OccupancyGrid", qos: STREAM, description: "log-odds occupancy grid, one per keyframe" },
-    TopicSpec { name: SEGMENTS, type_name: "nrslam_msgs/msg/Segments", qos: STREAM, description: "occupied cells labelled by DBSCAN, one per map" },
-    TopicSpec { name: METRICS, type_name: "nrslam_msgs/msg/Metrics", qos: STREAM, description: "ET-GOPSA, GOSPA and position error, one per frame" },
+    TopicSpec {
+        name: CLOCK,
+        type_name: "rosgraph_msgs/msg/Clock",
+        qos: STREAM,
+        description: "simulated clock, one per frame",
+    },
+    TopicSpec {
+        name: ODOM,
+        type_name: "nav_msgs/msg/Odometry",
+        qos: STREAM,
+        description: "noisy wheel odometry, dead-reckoned pose in frame odom",
+    },
+    TopicSpec {
+        name: DETECTIONS,
+        type_name: "nrslam_msgs/msg/Detections",
+        qos: STREAM,
+        description: "range/angle detections of one radar frame",
+    },
+    TopicSpec {
+        name: GROUND_TRUTH_POSE,
+        type_name: "geometry_msgs/msg/PoseStamped",
+        qos: STREAM,
+        description: "true AGV pose",
+    },
+    TopicSpec {
+        name: GROUND_TRUTH_TARGETS,
+        type_name: "nrslam_msgs/msg/TargetSet",
+        qos: LATCHED,
+        description: "true extended targets with their ET-GOPSA sample points",
+    },
+    TopicSpec {
+        name: SLAM_POSE,
+        type_name: "geometry_msgs/msg/PoseStamped",
+        qos: STREAM,
+        description: "SLAM estimate of the AGV pose, one per frame",
+    },
+    TopicSpec {
+        name: KEYFRAME,
+        type_name: "nrslam_msgs/msg/Keyframe",
+        qos: STREAM,
+        description: "keyframes: pose and detections",
+    },
+    TopicSpec {
+        name: MAP,
+        type_name: "nav_msgs/msg/OccupancyGrid",
+        qos: STREAM,
+        description: "log-odds occupancy grid, one per keyframe",
+    },
+    TopicSpec {
+        name: SEGMENTS,
+        type_name: "nrslam_msgs/msg/Segments",
+        qos: STREAM,
+        description: "occupied cells labelled by DBSCAN, one per map",
+    },
+    TopicSpec {
+        name: METRICS,
+        type_name: "nrslam_msgs/msg/Metrics",
+        qos: STREAM,
+        description: "ET-GOPSA, GOSPA and position error, one per frame",
+    },
 ];
 
 /// The catalogue entry of `name`.
@@ -102,7 +158,11 @@ mod tests {
     #[test]
     fn every_topic_type_is_a_message_type_with_a_schema() {
         for topic in CATALOGUE {
-            assert!(Message::TYPE_NAMES.contains(&topic.type_name), "{}", topic.name);
+            assert!(
+                Message::TYPE_NAMES.contains(&topic.type_name),
+                "{}",
+                topic.name
+            );
             assert!(crate::schema::ros2msg(topic.type_name).is_some());
         }
     }
@@ -110,7 +170,11 @@ mod tests {
     #[test]
     fn topic_names_are_unique() {
         for (i, a) in CATALOGUE.iter().enumerate() {
-            assert!(CATALOGUE[i + 1..].iter().all(|b| b.name != a.name), "{}", a.name);
+            assert!(
+                CATALOGUE[i + 1..].iter().all(|b| b.name != a.name),
+                "{}",
+                a.name
+            );
         }
     }
 

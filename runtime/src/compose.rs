@@ -65,7 +65,13 @@ impl Graph {
                 for topic in &inputs {
                     subscribers.entry(topic).or_default().push(index);
                 }
-                Slot { name, merger: Merger::new(&inputs), is_source: inputs.is_empty(), node, ended: false }
+                Slot {
+                    name,
+                    merger: Merger::new(&inputs),
+                    is_source: inputs.is_empty(),
+                    node,
+                    ended: false,
+                }
             })
             .collect();
         Self { slots, subscribers }
@@ -81,7 +87,10 @@ impl Graph {
                     continue;
                 }
                 any_source = true;
-                let tick = self.slots[index].node.tick(&mut outbox).map_err(|error| self.failure(index, error))?;
+                let tick = self.slots[index]
+                    .node
+                    .tick(&mut outbox)
+                    .map_err(|error| self.failure(index, error))?;
                 self.route(&mut outbox, observer)?;
                 if tick == Tick::Done {
                     self.end_node(index, observer)?;
@@ -97,14 +106,22 @@ impl Graph {
     }
 
     fn failure(&self, index: usize, error: NodeError) -> GraphError {
-        GraphError { node: self.slots[index].name.clone(), error }
+        GraphError {
+            node: self.slots[index].name.clone(),
+            error,
+        }
     }
 
-    fn route(&mut self, outbox: &mut Outbox, observer: &mut dyn Observer) -> Result<(), GraphError> {
+    fn route(
+        &mut self,
+        outbox: &mut Outbox,
+        observer: &mut dyn Observer,
+    ) -> Result<(), GraphError> {
         for (topic, message) in outbox.drain() {
-            observer
-                .observe(topic, &message)
-                .map_err(|e| GraphError { node: "observer".into(), error: NodeError::Algorithm(e) })?;
+            observer.observe(topic, &message).map_err(|e| GraphError {
+                node: "observer".into(),
+                error: NodeError::Algorithm(e),
+            })?;
             if let Some(indices) = self.subscribers.get(topic) {
                 for &index in indices {
                     // Wiring comes from the node's own inputs, so the topic is always known.
@@ -147,7 +164,10 @@ impl Graph {
                 }
                 if self.slots[index].merger.finished() {
                     progressed = true;
-                    self.slots[index].node.on_end(&mut outbox).map_err(|error| self.failure(index, error))?;
+                    self.slots[index]
+                        .node
+                        .on_end(&mut outbox)
+                        .map_err(|error| self.failure(index, error))?;
                     self.route(&mut outbox, observer)?;
                     self.end_node(index, observer)?;
                 }

@@ -16,16 +16,33 @@ pub struct InvalidParam {
 
 impl InvalidParam {
     /// A bad `field`: `problem` (include the value), allowed `allowed`.
-    pub fn new(field: impl Into<String>, problem: impl Into<String>, allowed: impl Into<String>) -> Self {
-        Self { field: field.into(), problem: problem.into(), allowed: allowed.into() }
+    pub fn new(
+        field: impl Into<String>,
+        problem: impl Into<String>,
+        allowed: impl Into<String>,
+    ) -> Self {
+        Self {
+            field: field.into(),
+            problem: problem.into(),
+            allowed: allowed.into(),
+        }
     }
 
     /// Checks `lower <= value <= upper` and finiteness for the float parameter `field`.
-    pub fn check_range(field: &str, value: f64, lower: f64, upper: f64) -> Result<(), InvalidParam> {
+    pub fn check_range(
+        field: &str,
+        value: f64,
+        lower: f64,
+        upper: f64,
+    ) -> Result<(), InvalidParam> {
         if value.is_finite() && value >= lower && value <= upper {
             Ok(())
         } else {
-            Err(Self::new(field, format!("{value} is out of range"), format!("{lower} to {upper}")))
+            Err(Self::new(
+                field,
+                format!("{value} is out of range"),
+                format!("{lower} to {upper}"),
+            ))
         }
     }
 }
@@ -43,5 +60,6 @@ pub enum ParamsError {
 
 /// Parses a TOML table into `P` (unknown fields refused by `P`'s `deny_unknown_fields`).
 pub fn parse_params<P: DeserializeOwned>(table: toml::Table) -> Result<P, ParamsError> {
-    P::deserialize(toml::Value::Table(table)).map_err(|e| ParamsError::Parse(e.to_string().trim().to_owned()))
+    P::deserialize(toml::Value::Table(table))
+        .map_err(|e| ParamsError::Parse(e.to_string().trim().to_owned()))
 }

@@ -42,7 +42,9 @@ impl std::str::FromStr for Mode {
         match text {
             "in-process" => Ok(Mode::InProcess),
             "processes" => Ok(Mode::Processes),
-            other => Err(format!("unknown mode {other:?} (allowed: in-process, processes)")),
+            other => Err(format!(
+                "unknown mode {other:?} (allowed: in-process, processes)"
+            )),
         }
     }
 }
@@ -171,7 +173,12 @@ fn type_name(value: &toml::Value) -> &'static str {
 /// Parses `text` as a value of the same type as `default`.
 fn typed_like(default: &toml::Value, text: &str) -> Option<toml::Value> {
     match default {
-        toml::Value::Float(_) => text.trim().parse::<f64>().ok().filter(|v| v.is_finite()).map(toml::Value::Float),
+        toml::Value::Float(_) => text
+            .trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .map(toml::Value::Float),
         toml::Value::Integer(_) => text.trim().parse::<i64>().ok().map(toml::Value::Integer),
         toml::Value::Boolean(_) => text.trim().parse::<bool>().ok().map(toml::Value::Boolean),
         toml::Value::String(_) => Some(toml::Value::String(text.to_owned())),
@@ -187,21 +194,30 @@ fn substitute(
 ) -> Result<(), LaunchError> {
     match value {
         toml::Value::String(text) => {
-            if let Some(name) = text.strip_prefix("$(var ").and_then(|t| t.strip_suffix(')')) {
+            if let Some(name) = text
+                .strip_prefix("$(var ")
+                .and_then(|t| t.strip_suffix(')'))
+            {
                 if !name.contains("$(") {
-                    *value = arguments.get(name.trim()).cloned().ok_or_else(|| LaunchError::Node {
-                        path: path.to_owned(),
-                        node: node.to_owned(),
-                        problem: format!("uses undeclared argument {:?}", name.trim()),
-                    })?;
+                    *value =
+                        arguments
+                            .get(name.trim())
+                            .cloned()
+                            .ok_or_else(|| LaunchError::Node {
+                                path: path.to_owned(),
+                                node: node.to_owned(),
+                                problem: format!("uses undeclared argument {:?}", name.trim()),
+                            })?;
                     return Ok(());
                 }
             }
             while let Some(start) = text.find("$(var ") {
-                let end = text[start..].find(')').map(|e| start + e).ok_or_else(|| LaunchError::Node {
-                    path: path.to_owned(),
-                    node: node.to_owned(),
-                    problem: format!("unterminated $(var ...) in {text:?}"),
+                let end = text[start..].find(')').map(|e| start + e).ok_or_else(|| {
+                    LaunchError::Node {
+                        path: path.to_owned(),
+                        node: node.to_owned(),
+                        problem: format!("unterminated $(var ...) in {text:?}"),
+                    }
                 })?;
                 let name = text[start + 6..end].trim().to_owned();
                 let replacement = match arguments.get(&name) {
@@ -219,8 +235,12 @@ fn substitute(
             }
             Ok(())
         }
-        toml::Value::Array(items) => items.iter_mut().try_for_each(|v| substitute(v, arguments, path, node)),
-        toml::Value::Table(table) => table.iter_mut().try_for_each(|(_, v)| substitute(v, arguments, path, node)),
+        toml::Value::Array(items) => items
+            .iter_mut()
+            .try_for_each(|v| substitute(v, arguments, path, node)),
+        toml::Value::Table(table) => table
+            .iter_mut()
+            .try_for_each(|(_, v)| substitute(v, arguments, path, node)),
         _ => Ok(()),
     }
 }
@@ -228,45 +248,71 @@ fn substitute(
 impl Launch {
     /// Reads `path` and applies `overrides` (`name:=value` strings).
     pub fn load(path: &Path, overrides: &[String]) -> Result<Launch, LaunchError> {
-        let text = std::fs::read_to_string(path).map_err(|source| LaunchError::Read { path: path.to_owned(), source })?;
+        let text = std::fs::read_to_string(path).map_err(|source| LaunchError::Read {
+            path: path.to_owned(),
+            source,
+        })?;
         Self::parse(path, &text, overrides)
     }
 
     /// Parses launch `text` as if read from `path`.
     pub fn parse(path: &Path, text: &str, overrides: &[String]) -> Result<Launch, LaunchError> {
-        let raw: RawLaunch = toml::from_str(text)
-            .map_err(|e| LaunchError::Parse { path: path.to_owned(), message: e.message().to_owned() + &location(text, e.span()) })?;
-        let header = raw.launch.unwrap_or(Header { description: String::new(), mode: Mode::default() });
-        let mut arguments: BTreeMap<String, toml::Value> =
-            raw.arguments.iter().map(|(name, argument)| (name.clone(), argument.default.clone())).collect();
+        let raw: RawLaunch = toml::from_str(text).map_err(|e| LaunchError::Parse {
+            path: path.to_owned(),
+            message: e.message().to_owned() + &location(text, e.span()),
+        })?;
+        let header = raw.launch.unwrap_or(Header {
+            description: String::new(),
+            mode: Mode::default(),
+        });
+        let mut arguments: BTreeMap<String, toml::Value> = raw
+            .arguments
+            .iter()
+            .map(|(name, argument)| (name.clone(), argument.default.clone()))
+            .collect();
         for text in overrides {
             let (name, value) = parse_assignment(text).ok_or_else(|| LaunchError::Argument {
                 path: path.to_owned(),
                 name: text.clone(),
                 problem: "expected name:=value".into(),
             })?;
-            let declared = raw.arguments.get(&name).ok_or_else(|| LaunchError::Argument {
-                path: path.to_owned(),
-                name: name.clone(),
-                problem: format!(
-                    "not declared (declared: {})",
-                    if raw.arguments.is_empty() { "none".to_owned() } else { raw.arguments.keys().cloned().collect::<Vec<_>>().join(", ") }
-                ),
-            })?;
-            let typed = typed_like(&declared.default, &value).ok_or_else(|| LaunchError::Argument {
-                path: path.to_owned(),
-                name: name.clone(),
-                problem: format!("{value:?} is not {}", type_name(&declared.default)),
-            })?;
+            let declared = raw
+                .arguments
+                .get(&name)
+                .ok_or_else(|| LaunchError::Argument {
+                    path: path.to_owned(),
+                    name: name.clone(),
+                    problem: format!(
+                        "not declared (declared: {})",
+                        if raw.arguments.is_empty() {
+                            "none".to_owned()
+                        } else {
+                            raw.arguments.keys().cloned().collect::<Vec<_>>().join(", ")
+                        }
+                    ),
+                })?;
+            let typed =
+                typed_like(&declared.default, &value).ok_or_else(|| LaunchError::Argument {
+                    path: path.to_owned(),
+                    name: name.clone(),
+                    problem: format!("{value:?} is not {}", type_name(&declared.default)),
+                })?;
             arguments.insert(name, typed);
         }
         let mut nodes = raw.node;
         if nodes.is_empty() {
-            return Err(LaunchError::Parse { path: path.to_owned(), message: "no [[node]] declared".into() });
+            return Err(LaunchError::Parse {
+                path: path.to_owned(),
+                message: "no [[node]] declared".into(),
+            });
         }
         for (index, node) in nodes.iter().enumerate() {
             if nodes[..index].iter().any(|other| other.name == node.name) {
-                return Err(LaunchError::Node { path: path.to_owned(), node: node.name.clone(), problem: "name used twice".into() });
+                return Err(LaunchError::Node {
+                    path: path.to_owned(),
+                    node: node.name.clone(),
+                    problem: "name used twice".into(),
+                });
             }
         }
         for node in &mut nodes {
@@ -278,7 +324,11 @@ impl Launch {
         let base_dir = path.parent().map(Path::to_owned).unwrap_or_default();
         Ok(Launch {
             path: path.to_owned(),
-            base_dir: if base_dir.as_os_str().is_empty() { PathBuf::from(".") } else { base_dir },
+            base_dir: if base_dir.as_os_str().is_empty() {
+                PathBuf::from(".")
+            } else {
+                base_dir
+            },
             description: header.description,
             mode: header.mode,
             declared: raw.arguments,
@@ -323,20 +373,40 @@ name = "x-$(var label)-y"
     #[test]
     fn defaults_and_overrides_are_substituted_with_their_types() {
         let launch = load(&[]).unwrap();
-        assert_eq!(launch.nodes[0].params["angle_std_deg"], toml::Value::Float(1.0));
-        assert_eq!(launch.nodes[0].params["name"], toml::Value::String("x-run-y".into()));
+        assert_eq!(
+            launch.nodes[0].params["angle_std_deg"],
+            toml::Value::Float(1.0)
+        );
+        assert_eq!(
+            launch.nodes[0].params["name"],
+            toml::Value::String("x-run-y".into())
+        );
         let launch = load(&["angle_std_deg:=5", "label:=b"]).unwrap();
-        assert_eq!(launch.nodes[0].params["angle_std_deg"], toml::Value::Float(5.0));
-        assert_eq!(launch.nodes[0].params["name"], toml::Value::String("x-b-y".into()));
+        assert_eq!(
+            launch.nodes[0].params["angle_std_deg"],
+            toml::Value::Float(5.0)
+        );
+        assert_eq!(
+            launch.nodes[0].params["name"],
+            toml::Value::String("x-b-y".into())
+        );
         assert_eq!(launch.base_dir, Path::new("launch"));
     }
 
     #[test]
     fn bad_arguments_name_the_file_and_the_argument() {
         let error = load(&["angle_std_deg:=abc"]).unwrap_err().to_string();
-        assert!(error.contains("launch/test.toml") && error.contains("angle_std_deg") && error.contains("number"), "{error}");
+        assert!(
+            error.contains("launch/test.toml")
+                && error.contains("angle_std_deg")
+                && error.contains("number"),
+            "{error}"
+        );
         let error = load(&["nope:=1"]).unwrap_err().to_string();
-        assert!(error.contains("nope") && error.contains("angle_std_deg, label"), "{error}");
+        assert!(
+            error.contains("nope") && error.contains("angle_std_deg, label"),
+            "{error}"
+        );
         let error = load(&["angle_std_deg=1"]).unwrap_err().to_string();
         assert!(error.contains("name:=value"), "{error}");
         assert!(load(&["angle_std_deg:=inf"]).is_err());
@@ -344,17 +414,35 @@ name = "x-$(var label)-y"
 
     #[test]
     fn unknown_fields_and_duplicates_are_refused_with_a_line() {
-        let error = Launch::parse(Path::new("f.toml"), "[launch]\nmode = \"in-process\"\nspeed = 3\n[[node]]\nname=\"a\"\nkind=\"b\"\n", &[])
-            .unwrap_err()
-            .to_string();
-        assert!(error.starts_with("f.toml:") && error.contains("speed") && error.contains("line 3"), "{error}");
-        let error = Launch::parse(Path::new("f.toml"), "[[node]]\nname=\"a\"\nkind=\"b\"\n[[node]]\nname=\"a\"\nkind=\"c\"\n", &[])
-            .unwrap_err()
-            .to_string();
-        assert!(error.contains("node a") && error.contains("twice"), "{error}");
-        let error = Launch::parse(Path::new("f.toml"), "[[node]]\nname=\"a\"\nkind=\"b\"\n[node.params]\nx=\"$(var y)\"\n", &[])
-            .unwrap_err()
-            .to_string();
+        let error = Launch::parse(
+            Path::new("f.toml"),
+            "[launch]\nmode = \"in-process\"\nspeed = 3\n[[node]]\nname=\"a\"\nkind=\"b\"\n",
+            &[],
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            error.starts_with("f.toml:") && error.contains("speed") && error.contains("line 3"),
+            "{error}"
+        );
+        let error = Launch::parse(
+            Path::new("f.toml"),
+            "[[node]]\nname=\"a\"\nkind=\"b\"\n[[node]]\nname=\"a\"\nkind=\"c\"\n",
+            &[],
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            error.contains("node a") && error.contains("twice"),
+            "{error}"
+        );
+        let error = Launch::parse(
+            Path::new("f.toml"),
+            "[[node]]\nname=\"a\"\nkind=\"b\"\n[node.params]\nx=\"$(var y)\"\n",
+            &[],
+        )
+        .unwrap_err()
+        .to_string();
         assert!(error.contains("undeclared argument \"y\""), "{error}");
     }
 }

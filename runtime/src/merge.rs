@@ -38,7 +38,8 @@ impl Merger {
             .iter()
             .map(|&topic| InputQueue {
                 topic,
-                latched: topics::spec(topic).is_some_and(|s| s.qos.durability == Durability::TransientLocal),
+                latched: topics::spec(topic)
+                    .is_some_and(|s| s.qos.durability == Durability::TransientLocal),
                 queue: VecDeque::new(),
                 received: false,
                 closed: false,
@@ -48,7 +49,10 @@ impl Merger {
     }
 
     fn input_mut(&mut self, topic: &str) -> Result<&mut InputQueue, NotAnInput> {
-        self.inputs.iter_mut().find(|i| i.topic == topic).ok_or_else(|| NotAnInput(topic.to_owned()))
+        self.inputs
+            .iter_mut()
+            .find(|i| i.topic == topic)
+            .ok_or_else(|| NotAnInput(topic.to_owned()))
     }
 
     /// Queues a message that arrived on `topic`.
@@ -91,7 +95,10 @@ impl Merger {
         }
         let (index, _) = best?;
         let input = &mut self.inputs[index];
-        input.queue.pop_front().map(|message| (input.topic, message))
+        input
+            .queue
+            .pop_front()
+            .map(|message| (input.topic, message))
     }
 
     /// Every input has ended and everything queued has been delivered.
@@ -112,15 +119,22 @@ mod tests {
     use proptest::prelude::*;
 
     fn pose(t: f64) -> Message {
-        Message::PoseStamped(PoseStamped { header: Header::new(Time::from_seconds(t), "map"), ..Default::default() })
+        Message::PoseStamped(PoseStamped {
+            header: Header::new(Time::from_seconds(t), "map"),
+            ..Default::default()
+        })
     }
 
     fn clock(t: f64) -> Message {
-        Message::Clock(Clock { clock: Time::from_seconds(t) })
+        Message::Clock(Clock {
+            clock: Time::from_seconds(t),
+        })
     }
 
     fn drain(merger: &mut Merger) -> Vec<(&'static str, Time)> {
-        std::iter::from_fn(|| merger.pop_ready()).map(|(t, m)| (t, m.stamp())).collect()
+        std::iter::from_fn(|| merger.pop_ready())
+            .map(|(t, m)| (t, m.stamp()))
+            .collect()
     }
 
     #[test]
@@ -144,7 +158,12 @@ mod tests {
         let mut merger = Merger::new(&[topics::GROUND_TRUTH_TARGETS, topics::SLAM_POSE]);
         merger.push(topics::SLAM_POSE, pose(1.0)).unwrap();
         assert!(merger.pop_ready().is_none());
-        merger.push(topics::GROUND_TRUTH_TARGETS, Message::TargetSet(TargetSet::default())).unwrap();
+        merger
+            .push(
+                topics::GROUND_TRUTH_TARGETS,
+                Message::TargetSet(TargetSet::default()),
+            )
+            .unwrap();
         assert_eq!(merger.pop_ready().unwrap().0, topics::GROUND_TRUTH_TARGETS);
         assert_eq!(merger.pop_ready().unwrap().0, topics::SLAM_POSE);
     }

@@ -72,7 +72,10 @@ pub enum NodeError {
 impl NodeError {
     /// A message on `topic` the node cannot use.
     pub fn invalid_input(topic: &str, reason: impl Into<String>) -> Self {
-        Self::InvalidInput { topic: topic.to_owned(), reason: reason.into() }
+        Self::InvalidInput {
+            topic: topic.to_owned(),
+            reason: reason.into(),
+        }
     }
 
     /// Wraps an algorithm's error.
@@ -122,7 +125,11 @@ pub struct NodeContext {
 impl NodeContext {
     /// A context for tests and tools: name "node", the given seed, the current directory.
     pub fn for_tests(seed: u64) -> Self {
-        Self { name: "node".into(), seed, base_dir: PathBuf::from(".") }
+        Self {
+            name: "node".into(),
+            seed,
+            base_dir: PathBuf::from("."),
+        }
     }
 
     /// A seed for the random stream called `stream`, derived from the run seed so that each

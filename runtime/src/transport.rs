@@ -75,7 +75,14 @@ fn zerr(error: impl std::fmt::Display) -> TransportError {
 }
 
 fn json_list(items: &[String]) -> String {
-    format!("[{}]", items.iter().map(|s| format!("{s:?}")).collect::<Vec<_>>().join(","))
+    format!(
+        "[{}]",
+        items
+            .iter()
+            .map(|s| format!("{s:?}"))
+            .collect::<Vec<_>>()
+            .join(",")
+    )
 }
 
 /// The zenoh configuration for `config`.
@@ -87,13 +94,18 @@ pub fn zenoh_config(config: &TransportConfig) -> Result<zenoh::Config, Transport
         SessionMode::Router => "router",
     };
     z.insert_json5("mode", &format!("{mode:?}")).map_err(zerr)?;
-    z.insert_json5("scouting/multicast/enabled", "false").map_err(zerr)?;
-    z.insert_json5("scouting/gossip/enabled", "false").map_err(zerr)?;
-    z.insert_json5("listen/endpoints", &json_list(&config.listen)).map_err(zerr)?;
-    z.insert_json5("connect/endpoints", &json_list(&config.connect)).map_err(zerr)?;
+    z.insert_json5("scouting/multicast/enabled", "false")
+        .map_err(zerr)?;
+    z.insert_json5("scouting/gossip/enabled", "false")
+        .map_err(zerr)?;
+    z.insert_json5("listen/endpoints", &json_list(&config.listen))
+        .map_err(zerr)?;
+    z.insert_json5("connect/endpoints", &json_list(&config.connect))
+        .map_err(zerr)?;
     // A node process must not start before it reaches its launcher.
     if config.mode == SessionMode::Client {
-        z.insert_json5("connect/timeout_ms", "10000").map_err(zerr)?;
+        z.insert_json5("connect/timeout_ms", "10000")
+            .map_err(zerr)?;
     }
     Ok(z)
 }
@@ -123,7 +135,11 @@ pub struct TopicPublisher {
 
 impl TopicPublisher {
     /// Declares one publisher per topic.
-    pub fn new(session: &Session, namespace: &str, topics: &[&'static str]) -> Result<Self, TransportError> {
+    pub fn new(
+        session: &Session,
+        namespace: &str,
+        topics: &[&'static str],
+    ) -> Result<Self, TransportError> {
         let mut publishers = BTreeMap::new();
         for &topic in topics {
             let publisher = session
@@ -133,12 +149,23 @@ impl TopicPublisher {
                 .map_err(zerr)?;
             publishers.insert(topic, publisher);
         }
-        Ok(Self { session: session.clone(), namespace: namespace.to_owned(), publishers })
+        Ok(Self {
+            session: session.clone(),
+            namespace: namespace.to_owned(),
+            publishers,
+        })
     }
 
     /// Publishes `message` on `topic` as CDR.
-    pub fn publish(&mut self, topic: &'static str, message: &Message) -> Result<(), TransportError> {
-        let bytes = message.encode().map_err(|e| TransportError::Decode { topic: topic.into(), reason: e.to_string() })?;
+    pub fn publish(
+        &mut self,
+        topic: &'static str,
+        message: &Message,
+    ) -> Result<(), TransportError> {
+        let bytes = message.encode().map_err(|e| TransportError::Decode {
+            topic: topic.into(),
+            reason: e.to_string(),
+        })?;
         self.put(topic, bytes)
     }
 
@@ -189,8 +216,14 @@ pub fn subscribe(
 
 /// Decodes a payload received on `topic` by the catalogue's type.
 pub fn decode(topic: &str, bytes: &[u8]) -> Result<Message, TransportError> {
-    let spec = topics::spec(topic).ok_or_else(|| TransportError::Decode { topic: topic.into(), reason: "not in the topic catalogue".into() })?;
-    Message::decode(spec.type_name, bytes).map_err(|e| TransportError::Decode { topic: topic.into(), reason: e.to_string() })
+    let spec = topics::spec(topic).ok_or_else(|| TransportError::Decode {
+        topic: topic.into(),
+        reason: "not in the topic catalogue".into(),
+    })?;
+    Message::decode(spec.type_name, bytes).map_err(|e| TransportError::Decode {
+        topic: topic.into(),
+        reason: e.to_string(),
+    })
 }
 
 /// Paces a source at `rate` × real time from the stamps it publishes (`rate` ≤ 0: no pacing).
@@ -249,19 +282,27 @@ pub fn run_node(
     } else {
         (None, None)
     };
-    let _token = session.liveliness().declare_token(ready_key(namespace, name)).wait().map_err(zerr)?;
+    let _token = session
+        .liveliness()
+        .declare_token(ready_key(namespace, name))
+        .wait()
+        .map_err(zerr)?;
     let mut outbox = Outbox::new();
-    let flush = |outbox: &mut Outbox, publisher: &mut TopicPublisher| -> Result<(), TransportError> {
-        for (topic, message) in outbox.drain() {
-            publisher.publish(topic, &message)?;
-        }
-        Ok(())
-    };
+    let flush =
+        |outbox: &mut Outbox, publisher: &mut TopicPublisher| -> Result<(), TransportError> {
+            for (topic, message) in outbox.drain() {
+                publisher.publish(topic, &message)?;
+            }
+            Ok(())
+        };
     if inputs.is_empty() {
         if let Some(start) = start {
-            start
-                .recv_timeout(start_timeout)
-                .map_err(|_| TransportError::Barrier(format!("no start signal within {} s", start_timeout.as_secs())))?;
+            start.recv_timeout(start_timeout).map_err(|_| {
+                TransportError::Barrier(format!(
+                    "no start signal within {} s",
+                    start_timeout.as_secs()
+                ))
+            })?;
         }
         let mut pacer = Pacer::new(rate);
         loop {
@@ -277,7 +318,9 @@ pub fn run_node(
     } else {
         let mut merger = Merger::new(&inputs);
         while !merger.finished() {
-            let (topic, bytes) = received.recv().map_err(|_| TransportError::Zenoh("session closed".into()))?;
+            let (topic, bytes) = received
+                .recv()
+                .map_err(|_| TransportError::Zenoh("session closed".into()))?;
             if bytes.is_empty() {
                 let _ = merger.close(topic);
             } else {
@@ -298,7 +341,10 @@ pub fn run_node(
 }
 
 fn outbox_latest_stamp(outbox: &Outbox) -> Option<f64> {
-    outbox.iter().map(|(_, m)| m.stamp().as_seconds()).reduce(f64::max)
+    outbox
+        .iter()
+        .map(|(_, m)| m.stamp().as_seconds())
+        .reduce(f64::max)
 }
 
 /// Waits until every node in `names` has declared readiness, then signals start.
@@ -313,11 +359,23 @@ pub fn start_barrier(
     let deadline = Instant::now() + timeout;
     loop {
         alive().map_err(TransportError::Barrier)?;
-        let replies = session.liveliness().get(topics::key_expr(namespace, "/nrslam/ready/*")).wait().map_err(zerr)?;
+        let replies = session
+            .liveliness()
+            .get(topics::key_expr(namespace, "/nrslam/ready/*"))
+            .wait()
+            .map_err(zerr)?;
         let mut ready = Vec::new();
         while let Ok(reply) = replies.recv() {
             if let Ok(sample) = reply.result() {
-                ready.push(sample.key_expr().as_str().rsplit('/').next().unwrap_or_default().to_owned());
+                ready.push(
+                    sample
+                        .key_expr()
+                        .as_str()
+                        .rsplit('/')
+                        .next()
+                        .unwrap_or_default()
+                        .to_owned(),
+                );
             }
         }
         let missing: Vec<&String> = names.iter().filter(|n| !ready.contains(n)).collect();
@@ -328,10 +386,18 @@ pub fn start_barrier(
             return Err(TransportError::Barrier(format!(
                 "nodes not ready after {} s: {}",
                 timeout.as_secs(),
-                missing.iter().map(|s| s.as_str()).collect::<Vec<_>>().join(", ")
+                missing
+                    .iter()
+                    .map(|s| s.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
             )));
         }
         std::thread::sleep(Duration::from_millis(50));
     }
-    session.put(start_key(namespace), Vec::<u8>::new()).congestion_control(CongestionControl::Block).wait().map_err(zerr)
+    session
+        .put(start_key(namespace), Vec::<u8>::new())
+        .congestion_control(CongestionControl::Block)
+        .wait()
+        .map_err(zerr)
 }

@@ -49,7 +49,10 @@ pub use gospa::{gospa, GospaParams, GospaResult};
 pub use node::{build, EvaluatorNode};
 pub use params::Params;
 pub use point::{distance_to_outline_m, Point2};
-pub use representatives::{representatives, ClusterRepresentatives, RepresentativesError};
+pub use representatives::{
+    box_corners, representatives, representatives_with, ClusterRepresentatives, RepresentativeMode,
+    RepresentativesError,
+};
 
 /// A node parameter outside its allowed range (the runtime's shared type).
 pub use nrslam_runtime::InvalidParam;

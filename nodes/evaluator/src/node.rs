@@ -21,7 +21,7 @@ use crate::etgospa::{etgospa, EtGospaParams, EtGospaResult, ExtendedTarget};
 use crate::gospa::{gospa, GospaResult};
 use crate::params::Params;
 use crate::point::Point2;
-use crate::representatives::{flatten, representatives};
+use crate::representatives::{flatten, representatives_with};
 
 /// The evaluator's state between messages.
 #[derive(Debug)]
@@ -98,10 +98,11 @@ impl EvaluatorNode {
             .iter()
             .map(|p| Point2::new(p.x, p.y))
             .collect();
-        let clusters = representatives(
+        let clusters = representatives_with(
             &points,
             &segments.labels,
             self.params.points_per_estimate as usize,
+            self.params.representatives,
         )
         .map_err(|e| NodeError::invalid_input(SEGMENTS, e.to_string()))?;
         self.estimated_targets = u32::try_from(clusters.len())

@@ -26,6 +26,9 @@ pub struct Params {
     /// Estimate points taken from each map cluster by farthest-point sampling, ≥ 1. Default 4,
     /// matching the paper's 4 sample points per target (Sec. IV-C).
     pub points_per_estimate: u32,
+    /// How each map cluster becomes estimate points: `box-corners` (default: the 4 corners of
+    /// its principal-axis bounding box) or `farthest-point` (`points_per_estimate` points).
+    pub representatives: crate::representatives::RepresentativeMode,
 }
 
 impl Default for Params {
@@ -37,6 +40,7 @@ impl Default for Params {
             distance: DistanceMode::Samples,
             squared_distance: false,
             points_per_estimate: 4,
+            representatives: crate::representatives::RepresentativeMode::BoxCorners,
         }
     }
 }

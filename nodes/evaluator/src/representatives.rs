@@ -6,6 +6,13 @@
 //! (label ≥ 0; noise, label −1, is left out) is represented by k points spread over it, k = 4 by
 //! default to match the 4 slots per target.
 //!
+//! Two ways to choose them ([`RepresentativeMode`]):
+//! - `box-corners` (default): the 4 corners of the cluster's principal-axis bounding box (axes
+//!   from the eigenvectors of the points' 2×2 covariance). A cluster that covers a rectangle's
+//!   whole outline gives its corners, which are the rectangle's sample points, so the metric
+//!   rewards a map that fills in; a partial view gives a smaller box and costs localisation.
+//! - `farthest-point`: farthest-point sampling, below.
+//!
 //! The spread is farthest-point sampling: start at the point farthest from the cluster centroid,
 //! then repeatedly add the point farthest from those already chosen. Ties go to the lowest index,
 //! distances are compared squared (exact for the comparisons), clusters come out in increasing
@@ -22,6 +29,17 @@ use crate::point::Point2;
 
 /// Label of a noise point in [`nrslam_msgs::Segments`].
 pub const NOISE_LABEL: i32 = -1;
+
+/// How a cluster becomes estimate points.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum RepresentativeMode {
+    /// The 4 corners of the principal-axis bounding box.
+    #[default]
+    BoxCorners,
+    /// k points by farthest-point sampling.
+    FarthestPoint,
+}
 
 /// The representatives of one cluster.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -85,6 +103,20 @@ pub fn representatives(
     labels: &[i32],
     k: usize,
 ) -> Result<Vec<ClusterRepresentatives>, RepresentativesError> {
+    representatives_with(points, labels, k, RepresentativeMode::FarthestPoint)
+}
+
+/// As [`representatives`], choosing the points by `mode` (`k` is used by farthest-point
+/// sampling only; box corners are always 4, fewer when corners coincide).
+///
+/// # Errors
+/// As [`representatives`].
+pub fn representatives_with(
+    points: &[Point2],
+    labels: &[i32],
+    k: usize,
+    mode: RepresentativeMode,
+) -> Result<Vec<ClusterRepresentatives>, RepresentativesError> {
     if points.len() != labels.len() {
         return Err(RepresentativesError::LengthMismatch {
             points: points.len(),
@@ -116,10 +148,13 @@ pub fn representatives(
             ClusterRepresentatives {
                 label,
                 size: cluster.len(),
-                points: farthest_point_sampling(&cluster, k)
-                    .into_iter()
-                    .map(|i| cluster[i])
-                    .collect(),
+                points: match mode {
+                    RepresentativeMode::FarthestPoint => farthest_point_sampling(&cluster, k)
+                        .into_iter()
+                        .map(|i| cluster[i])
+                        .collect(),
+                    RepresentativeMode::BoxCorners => box_corners(&cluster),
+                },
             }
         })
         .collect())
@@ -131,6 +166,56 @@ pub fn flatten(clusters: &[ClusterRepresentatives]) -> Vec<Point2> {
         .iter()
         .flat_map(|c| c.points.iter().copied())
         .collect()
+}
+
+/// Corners of the principal-axis bounding box of `cluster` (counter-clockwise from the
+/// (min, min) corner in the box frame), duplicates removed.
+pub fn box_corners(cluster: &[Point2]) -> Vec<Point2> {
+    if cluster.is_empty() {
+        return Vec::new();
+    }
+    let n = cluster.len() as f64;
+    let (mean_x, mean_y) = cluster
+        .iter()
+        .fold((0.0, 0.0), |(x, y), p| (x + p.x_m / n, y + p.y_m / n));
+    let (mut sxx, mut syy, mut sxy) = (0.0, 0.0, 0.0);
+    for p in cluster {
+        let (dx, dy) = (p.x_m - mean_x, p.y_m - mean_y);
+        sxx += dx * dx;
+        syy += dy * dy;
+        sxy += dx * dy;
+    }
+    // Orientation of the major axis of the covariance ellipse.
+    let angle = 0.5 * (2.0 * sxy).atan2(sxx - syy);
+    let (u, v) = ((angle.cos(), angle.sin()), (-angle.sin(), angle.cos()));
+    let (mut lo_u, mut hi_u, mut lo_v, mut hi_v) = (
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    );
+    for p in cluster {
+        let (dx, dy) = (p.x_m - mean_x, p.y_m - mean_y);
+        let (a, b) = (dx * u.0 + dy * u.1, dx * v.0 + dy * v.1);
+        lo_u = lo_u.min(a);
+        hi_u = hi_u.max(a);
+        lo_v = lo_v.min(b);
+        hi_v = hi_v.max(b);
+    }
+    let corner =
+        |a: f64, b: f64| Point2::new(mean_x + a * u.0 + b * v.0, mean_y + a * u.1 + b * v.1);
+    let mut corners: Vec<Point2> = Vec::with_capacity(4);
+    for candidate in [
+        corner(lo_u, lo_v),
+        corner(hi_u, lo_v),
+        corner(hi_u, hi_v),
+        corner(lo_u, hi_v),
+    ] {
+        if !corners.iter().any(|c| c.distance_sq_m2(&candidate) < 1e-18) {
+            corners.push(candidate);
+        }
+    }
+    corners
 }
 
 /// Indices of up to `k` points of `cluster` chosen by farthest-point sampling.
@@ -173,6 +258,49 @@ fn farthest_point_sampling(cluster: &[Point2], k: usize) -> Vec<usize> {
         }
     }
     chosen
+}
+
+#[cfg(test)]
+mod box_tests {
+    use super::*;
+
+    #[test]
+    fn box_corners_of_a_rotated_rectangle_outline_are_its_corners() {
+        let (w, h, yaw) = (4.0f64, 1.0f64, 0.35f64);
+        let mut outline = Vec::new();
+        for i in 0..=40 {
+            let t = i as f64 / 40.0;
+            for (a, b) in [(t * w, 0.0), (t * w, h), (0.0, t * h), (w, t * h)] {
+                outline.push(Point2::new(
+                    10.0 + a * yaw.cos() - b * yaw.sin(),
+                    5.0 + a * yaw.sin() + b * yaw.cos(),
+                ));
+            }
+        }
+        let corners = box_corners(&outline);
+        assert_eq!(corners.len(), 4);
+        for (a, b) in [(0.0, 0.0), (w, 0.0), (w, h), (0.0, h)] {
+            let truth = Point2::new(
+                10.0 + a * yaw.cos() - b * yaw.sin(),
+                5.0 + a * yaw.sin() + b * yaw.cos(),
+            );
+            let nearest = corners
+                .iter()
+                .map(|c| c.distance_m(&truth))
+                .fold(f64::INFINITY, f64::min);
+            assert!(nearest < 1e-9, "corner {truth:?} off by {nearest}");
+        }
+    }
+
+    #[test]
+    fn degenerate_clusters_give_fewer_corners() {
+        assert_eq!(box_corners(&[Point2::new(1.0, 1.0)]).len(), 1);
+        assert_eq!(
+            box_corners(&[Point2::new(0.0, 0.0), Point2::new(2.0, 0.0)]).len(),
+            2
+        );
+        assert!(box_corners(&[]).is_empty());
+    }
 }
 
 #[cfg(test)]

@@ -3,8 +3,8 @@
 //! The paper builds an occupancy grid map (Sec. I and III-A) without stating its sensor model or
 //! cell size; the sensor model defaults are OctoMap's (Hornung et al., Auton. Robots 2013:
 //! hit 0.7, miss 0.4, clamping 0.1192..0.971, rounded here to 0.12..0.97), the cell size is the
-//! 0.1 m the range resolution of Table I (0.122 m) suggests, and the extent, 50 m × 40 m from
-//! (−5, −5), covers the 40 m × 30 m hall of docs/scene.md (x 0..40 m, y 0..30 m) with a 5 m margin
+//! 0.1 m the range resolution of Table I (0.122 m) suggests, and the extent, 60 m × 50 m from
+//! (−3, −3), covers the 54 m × 44 m hall of docs/scene.md (x 0..54 m, y 0..44 m) with a 3 m margin
 //! on every side.
 
 use serde::{Deserialize, Serialize};
@@ -23,13 +23,13 @@ pub struct Params {
     pub resolution_m: f64,
     /// Map-frame x of the grid's lower-left corner, metres. Finite. Default −5.
     pub origin_x_m: f64,
-    /// Map-frame y of the grid's lower-left corner, metres. Finite. Default −5.
+    /// Map-frame y of the grid's lower-left corner, metres. Finite. Default −3.
     pub origin_y_m: f64,
     /// Extent along x, metres; the grid has ⌈width_m / resolution_m⌉ columns. Finite, > 0.
-    /// Default 50 (the 40 m hall and 5 m either side).
+    /// Default 60 (the 54 m hall and 3 m either side).
     pub width_m: f64,
-    /// Extent along y, metres; ⌈height_m / resolution_m⌉ rows. Finite, > 0. Default 40 (the
-    /// 30 m hall and 5 m either side).
+    /// Extent along y, metres; ⌈height_m / resolution_m⌉ rows. Finite, > 0. Default 50 (the
+    /// 44 m hall and 3 m either side).
     pub height_m: f64,
     /// P(occupied | a detection ends in the cell). In (0.5, 1). Default 0.7.
     pub hit_probability: f64,
@@ -55,10 +55,10 @@ impl Default for Params {
     fn default() -> Self {
         Self {
             resolution_m: 0.1,
-            origin_x_m: -5.0,
-            origin_y_m: -5.0,
-            width_m: 50.0,
-            height_m: 40.0,
+            origin_x_m: -3.0,
+            origin_y_m: -3.0,
+            width_m: 60.0,
+            height_m: 50.0,
             hit_probability: 0.7,
             miss_probability: 0.4,
             clamp_min_probability: 0.12,
@@ -207,10 +207,10 @@ mod tests {
     fn defaults_are_valid_and_cover_the_hall_with_margin() {
         let p = Params::default();
         p.validate().unwrap();
-        assert_eq!((p.width_cells(), p.height_cells()), (500, 400));
-        // Hall corners (0, 0) and (40, 30) (docs/scene.md) are inside with 5 m to spare.
-        assert!(p.origin_x_m <= -5.0 && p.origin_x_m + p.width_m >= 45.0);
-        assert!(p.origin_y_m <= -5.0 && p.origin_y_m + p.height_m >= 35.0);
+        assert_eq!((p.width_cells(), p.height_cells()), (600, 500));
+        // Hall corners (0, 0) and (54, 44) (docs/scene.md) are inside with 3 m to spare.
+        assert!(p.origin_x_m <= -3.0 && p.origin_x_m + p.width_m >= 57.0);
+        assert!(p.origin_y_m <= -3.0 && p.origin_y_m + p.height_m >= 47.0);
     }
 
     #[test]

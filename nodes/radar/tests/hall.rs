@@ -50,6 +50,29 @@ fn distance_to_outlines(scene: &Scene, p: nrslam_radar::Vec2) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
+/// Frames of the whole run, worked out from the trajectory spec independently of `Trajectory`:
+/// a rounded rectangle of 4 straights and 4 quarter circles, one frame every
+/// `speed · period` metres, strictly before the end of the last lap (no pose repeated).
+fn expected_frame_count(scene: &Scene) -> usize {
+    let t = scene.trajectory.spec();
+    let r = t.corner_radius_m;
+    let lap_m = 2.0 * ((t.x_max_m - t.x_min_m - 2.0 * r) + (t.y_max_m - t.y_min_m - 2.0 * r))
+        + std::f64::consts::TAU * r;
+    assert!((scene.trajectory.lap_length_m() - lap_m).abs() < 1e-9);
+    (t.laps * lap_m / (t.speed_mps * t.frame_period_s)).ceil() as usize
+}
+
+/// `text` with `from` replaced by `to`; `from` must occur exactly once, so that a test editing
+/// the scene file cannot silently become a no-op when the file changes.
+fn replace_once(text: &str, from: &str, to: &str) -> String {
+    assert_eq!(
+        text.matches(from).count(),
+        1,
+        "{from:?} in config/hall.toml"
+    );
+    text.replacen(from, to, 1)
+}
+
 #[test]
 fn hall_layout_matches_the_paper() {
     let scene = hall();
@@ -64,8 +87,37 @@ fn hall_layout_matches_the_paper() {
         .filter(|t| t.shape.kind_name() == "circle")
         .count();
     assert_eq!((rectangles, circles), (8, 2));
-    assert_eq!(scene.trajectory.frame_count(), 198);
+    assert_eq!(scene.targets.len(), 10);
     assert!(scene.targets.iter().all(|t| t.shape.samples().len() == 4));
+    // One lap, one frame every 0.5 m; the last frame falls short of the start.
+    let frames = scene.trajectory.frame_count();
+    assert_eq!(frames, expected_frame_count(&scene));
+    let lap_m = scene.trajectory.lap_length_m() * scene.trajectory.spec().laps;
+    assert!(scene.trajectory.distance_at_frame_m(frames - 1) < lap_m);
+    assert!(scene.trajectory.distance_at_frame_m(frames) >= lap_m);
+}
+
+/// The layout's point (docs/scene.md): sample points of different targets are farther apart
+/// than ET-GOPSA's cut-off c = 5 m (Table I), so no well-placed estimate pays the confusion term.
+#[test]
+fn sample_points_of_different_targets_are_more_than_the_cutoff_apart() {
+    const ETGOSPA_CUTOFF_M: f64 = 5.0;
+    let scene = hall();
+    let mut closest = (f64::INFINITY, 0, 0);
+    for (i, a) in scene.targets.iter().enumerate() {
+        for (j, b) in scene.targets.iter().enumerate().skip(i + 1) {
+            for p in a.shape.samples() {
+                for q in b.shape.samples() {
+                    let d = (p - q).norm();
+                    if d < closest.0 {
+                        closest = (d, i, j);
+                    }
+                }
+            }
+        }
+    }
+    println!("closest sample points of different targets: {closest:?}");
+    assert!(closest.0 > ETGOSPA_CUTOFF_M, "{closest:?}");
 }
 
 #[test]
@@ -226,9 +278,10 @@ fn frame_cap_and_stamps() {
         1,
     );
     assert_eq!(frames.len(), 7);
+    let period_s = hall().trajectory.frame_period_s();
     for (k, f) in frames.iter().enumerate() {
         assert_eq!(f.index, k);
-        assert_eq!(f.stamp_s, 1.0 + 0.5 * k as f64);
+        assert_eq!(f.stamp_s, 1.0 + period_s * k as f64);
     }
     // A cap beyond the lap runs the lap.
     let all = simulate(
@@ -238,30 +291,61 @@ fn frame_cap_and_stamps() {
         },
         1,
     );
-    assert_eq!(all.len(), 198);
+    assert_eq!(all.len(), expected_frame_count(&hall()));
 }
 
 #[test]
 fn zero_length_trajectory_is_refused() {
-    let text = hall_text()
-        .replace("x_max_m = 36.0", "x_max_m = 4.0")
-        .replace("y_max_m = 25.0", "y_max_m = 5.0")
-        .replace("corner_radius_m = 3.0", "corner_radius_m = 0.0");
+    // Collapse the loop onto its bottom-left corner: x_max = x_min, y_max = y_min, no rounding.
+    let t = hall().trajectory.spec().clone();
+    let text = replace_once(
+        &hall_text(),
+        &format!("x_max_m = {:?}", t.x_max_m),
+        &format!("x_max_m = {:?}", t.x_min_m),
+    );
+    let text = replace_once(
+        &text,
+        &format!("y_max_m = {:?}", t.y_max_m),
+        &format!("y_max_m = {:?}", t.y_min_m),
+    );
+    let text = replace_once(
+        &text,
+        &format!("corner_radius_m = {:?}", t.corner_radius_m),
+        "corner_radius_m = 0.0",
+    );
     let err = Scene::from_toml_str(&text, "zero-length").unwrap_err();
     assert_eq!(err.field(), Some("trajectory"), "{err}");
     assert!(err.to_string().contains("zero length"), "{err}");
-    let laps = hall_text().replace("laps = 1.0", "laps = 0.0");
+    let laps = replace_once(&hall_text(), "laps = 1.0", "laps = 0.0");
     let err = Scene::from_toml_str(&laps, "no laps").unwrap_err();
     assert_eq!(err.field(), Some("trajectory.laps"));
 }
 
 #[test]
 fn trajectory_crossing_a_target_is_refused() {
-    // Move the pillar onto the right straight (x = 36).
-    let text = hall_text().replace("center_m = [27.0, 15.0]", "center_m = [35.5, 15.0]");
+    // Move the pillar onto the right straight (x = x_max_m), keeping its height.
+    let scene = hall();
+    let (id, pillar) = scene
+        .targets
+        .iter()
+        .enumerate()
+        .find(|(_, t)| t.name == "pillar")
+        .unwrap();
+    let Shape::Circle { center, .. } = pillar.shape else {
+        panic!("the pillar is a {}", pillar.shape.kind_name());
+    };
+    let x_max = scene.trajectory.spec().x_max_m;
+    let text = replace_once(
+        &hall_text(),
+        &format!("center_m = [{:?}, {:?}]", center.x, center.y),
+        &format!("center_m = [{:?}, {:?}]", x_max - 0.5, center.y),
+    );
     let err = Scene::from_toml_str(&text, "crossing").unwrap_err();
     assert_eq!(err.field(), Some("trajectory"), "{err}");
-    assert!(err.to_string().contains("targets[9] (pillar)"), "{err}");
+    assert!(
+        err.to_string().contains(&format!("targets[{id}] (pillar)")),
+        "{err}"
+    );
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -293,6 +377,11 @@ fn run_node(params: Params, seed: u64) -> Vec<(&'static str, Message)> {
 
 #[test]
 fn node_publishes_each_frame_in_order() {
+    let scene = hall();
+    let spec = scene.trajectory.spec();
+    // Frame 0 is the middle of the bottom straight, heading +x.
+    assert_eq!(spec.start_offset_m, 0.0);
+    let start = ((spec.x_min_m + spec.x_max_m) / 2.0, spec.y_min_m, 0.0);
     let published = run_node(
         Params {
             frames: 5,
@@ -317,7 +406,7 @@ fn node_publishes_each_frame_in_order() {
     assert_eq!(circle.outline.len(), 64);
 
     for (k, chunk) in published[1..].chunks(4).enumerate() {
-        let stamp = 1.0 + 0.5 * k as f64;
+        let stamp = 1.0 + spec.frame_period_s * k as f64;
         let topics: Vec<_> = chunk.iter().map(|(t, _)| *t).collect();
         assert_eq!(topics, [CLOCK, GROUND_TRUTH_POSE, ODOM, DETECTIONS]);
         assert!(chunk.iter().all(|(_, m)| m.stamp().as_seconds() == stamp));
@@ -337,8 +426,8 @@ fn node_publishes_each_frame_in_order() {
                 }
                 if k == 0 {
                     assert_eq!(odom.pose.pose, truth.pose);
-                    assert_eq!((truth.pose.planar().0, truth.pose.planar().1), (20.0, 5.0));
-                    assert_eq!(odom.twist.twist.linear.x, 1.0);
+                    assert_eq!(truth.pose.planar(), start);
+                    assert_eq!(odom.twist.twist.linear.x, spec.speed_mps);
                 } else {
                     assert!(odom.pose.covariance[0] > 0.0);
                     assert!(odom.pose.covariance[35] > 0.0);
@@ -356,21 +445,20 @@ fn node_runs_the_whole_lap_in_a_graph() {
     let mut counts = std::collections::BTreeMap::<&str, usize>::new();
     let mut detections = 0usize;
     graph
-        .run(
-            &mut |topic: &'static str, message: &Message| {
-                *counts.entry(topic).or_default() += 1;
-                if let Message::Detections(d) = message {
-                    detections += d.detections.len();
-                }
+        .run(&mut |topic: &'static str, message: &Message| {
+            *counts.entry(topic).or_default() += 1;
+            if let Message::Detections(d) = message {
+                detections += d.detections.len();
             }
-        )
+        })
         .unwrap();
+    let frames = expected_frame_count(&hall());
     assert_eq!(counts[GROUND_TRUTH_TARGETS], 1);
-    assert_eq!(counts[CLOCK], 198);
-    assert_eq!(counts[DETECTIONS], 198);
+    assert_eq!(counts[CLOCK], frames);
+    assert_eq!(counts[DETECTIONS], frames);
     println!(
         "mean detections per frame over the lap: {:.1}",
-        detections as f64 / 198.0
+        detections as f64 / frames as f64
     );
 }
 
