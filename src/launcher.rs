@@ -8,7 +8,7 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use nrslam_msgs::{topics, Message};
 use nrslam_runtime::compose::{anyhow_free, Graph, Observer};
-use nrslam_runtime::launch::{Launch, Mode};
+use nrslam_runtime::launch::{Launch, Mode, NodeDecl};
 use nrslam_runtime::transport::{self, Pacer, SessionMode, TopicPublisher, TransportConfig};
 use nrslam_runtime::{Node, NodeContext};
 use std::io::BufRead;
@@ -307,14 +307,13 @@ struct NodeProcess {
 
 fn spawn_node(
     exe: &Path,
-    name: &str,
-    kind: &str,
+    decl: &NodeDecl,
     params_file: &Path,
     base_dir: &Path,
-    seed: u64,
     endpoint: &str,
     args: &LaunchArgs,
 ) -> Result<NodeProcess> {
+    let (name, kind, seed) = (decl.name.as_str(), decl.kind.as_str(), args.seed);
     let mut command = Command::new(exe);
     command
         .args([
@@ -418,9 +417,7 @@ fn run_processes(args: &LaunchArgs, launch: &Launch, built: Built, out: &Path) -
         let file = params_dir.join(format!("{}.toml", decl.name));
         std::fs::write(&file, toml::to_string(&decl.params)?)
             .with_context(|| format!("cannot write {}", file.display()))?;
-        match spawn_node(
-            &exe, &decl.name, &decl.kind, &file, &base_dir, args.seed, &endpoint, args,
-        ) {
+        match spawn_node(&exe, decl, &file, &base_dir, &endpoint, args) {
             Ok(child) => children.push(child),
             Err(error) => {
                 kill_all(&mut children);

@@ -9,58 +9,28 @@ use rand::{Rng, SeedableRng};
 
 /// Every partial injective assignment of X into Y, exhaustively.
 fn brute_force_gospa(x: &[(f64, f64)], y: &[(f64, f64)], c: f64, p: f64, alpha: f64) -> f64 {
-    fn search(
-        i: usize,
-        used: &mut Vec<bool>,
-        x: &[(f64, f64)],
-        y: &[(f64, f64)],
-        c: f64,
-        p: f64,
-        alpha: f64,
-        cost: f64,
-        best: &mut f64,
-    ) {
+    let unassigned = c.powf(p) / alpha;
+    let mut best = f64::INFINITY;
+    // Stack of (next x index, used y flags, cost so far): depth-first over all partial assignments.
+    let mut stack = vec![(0usize, vec![false; y.len()], 0.0f64)];
+    while let Some((i, used, cost)) = stack.pop() {
         if i == x.len() {
-            let assigned = used.iter().filter(|u| **u).count();
-            let unassigned_y = y.len() - assigned;
-            *best = best.min(cost + c.powf(p) / alpha * unassigned_y as f64);
-            return;
+            let free_y = used.iter().filter(|u| !**u).count();
+            best = best.min(cost + unassigned * free_y as f64);
+            continue;
         }
-        // x_i unassigned.
-        search(
-            i + 1,
-            used,
-            x,
-            y,
-            c,
-            p,
-            alpha,
-            cost + c.powf(p) / alpha,
-            best,
-        );
+        stack.push((i + 1, used.clone(), cost + unassigned));
         for j in 0..y.len() {
             if !used[j] {
-                used[j] = true;
                 let d = ((x[i].0 - y[j].0).powi(2) + (x[i].1 - y[j].1).powi(2))
                     .sqrt()
                     .min(c);
-                search(i + 1, used, x, y, c, p, alpha, cost + d.powf(p), best);
-                used[j] = false;
+                let mut next = used.clone();
+                next[j] = true;
+                stack.push((i + 1, next, cost + d.powf(p)));
             }
         }
     }
-    let mut best = f64::INFINITY;
-    search(
-        0,
-        &mut vec![false; y.len()],
-        x,
-        y,
-        c,
-        p,
-        alpha,
-        0.0,
-        &mut best,
-    );
     best.powf(1.0 / p)
 }
 

@@ -27,12 +27,10 @@ fn client(listen: &[String], connect: &[String]) -> zenoh::Session {
     zenoh::open(config).wait().unwrap()
 }
 
-fn subscribe(
-    session: &zenoh::Session,
-) -> (
-    Vec<zenoh::pubsub::Subscriber<()>>,
-    mpsc::Receiver<(String, Vec<u8>)>,
-) {
+/// Samples as (key, payload).
+type Samples = mpsc::Receiver<(String, Vec<u8>)>;
+
+fn subscribe(session: &zenoh::Session) -> (Vec<zenoh::pubsub::Subscriber<()>>, Samples) {
     let (sender, receiver) = mpsc::channel();
     let subscribers = ["map", "slam/pose"]
         .into_iter()
@@ -54,7 +52,7 @@ fn subscribe(
 }
 
 /// Collects until the pose stream ends (empty payload) or 60 s pass; returns (maps, poses).
-fn collect(receiver: &mpsc::Receiver<(String, Vec<u8>)>) -> (Vec<OccupancyGrid>, Vec<PoseStamped>) {
+fn collect(receiver: &Samples) -> (Vec<OccupancyGrid>, Vec<PoseStamped>) {
     let (mut maps, mut poses) = (Vec::new(), Vec::new());
     while let Ok((key, bytes)) = receiver.recv_timeout(Duration::from_secs(60)) {
         if bytes.is_empty() {

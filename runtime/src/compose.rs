@@ -178,3 +178,84 @@ impl Graph {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nrslam_msgs::{topics, Clock, Time};
+
+    struct Ticker {
+        left: u32,
+    }
+
+    impl Node for Ticker {
+        fn inputs(&self) -> Vec<&'static str> {
+            vec![]
+        }
+        fn outputs(&self) -> Vec<&'static str> {
+            vec![topics::CLOCK]
+        }
+        fn on_message(&mut self, _: &str, _: &Message, _: &mut Outbox) -> Result<(), NodeError> {
+            Ok(())
+        }
+        fn tick(&mut self, outbox: &mut Outbox) -> Result<Tick, NodeError> {
+            self.left -= 1;
+            outbox.publish(topics::CLOCK, Clock { clock: Time::from_seconds(10.0 - self.left as f64) });
+            Ok(if self.left == 0 { Tick::Done } else { Tick::More })
+        }
+    }
+
+    /// Fails on its `fail_at`-th message; counts what it saw and whether it was told the end.
+    struct Counter {
+        seen: std::sync::Arc<std::sync::Mutex<(u32, bool)>>,
+        fail_at: u32,
+    }
+
+    impl Node for Counter {
+        fn inputs(&self) -> Vec<&'static str> {
+            vec![topics::CLOCK]
+        }
+        fn outputs(&self) -> Vec<&'static str> {
+            vec![]
+        }
+        fn on_message(&mut self, topic: &str, _: &Message, _: &mut Outbox) -> Result<(), NodeError> {
+            let mut seen = self.seen.lock().unwrap();
+            seen.0 += 1;
+            if seen.0 == self.fail_at {
+                return Err(NodeError::invalid_input(topic, "boom"));
+            }
+            Ok(())
+        }
+        fn on_end(&mut self, _: &mut Outbox) -> Result<(), NodeError> {
+            self.seen.lock().unwrap().1 = true;
+            Ok(())
+        }
+    }
+
+    fn graph(fail_at: u32) -> (Graph, std::sync::Arc<std::sync::Mutex<(u32, bool)>>) {
+        let seen = std::sync::Arc::new(std::sync::Mutex::new((0, false)));
+        let nodes: Vec<(String, Box<dyn Node>)> = vec![
+            ("ticker".into(), Box::new(Ticker { left: 5 })),
+            ("counter".into(), Box::new(Counter { seen: seen.clone(), fail_at })),
+        ];
+        (Graph::new(nodes), seen)
+    }
+
+    #[test]
+    fn every_message_is_delivered_and_the_end_is_signalled() {
+        let (mut graph, seen) = graph(u32::MAX);
+        let mut published = 0;
+        graph.run(&mut |_: &'static str, _: &Message| published += 1).unwrap();
+        assert_eq!(published, 5);
+        assert_eq!(*seen.lock().unwrap(), (5, true));
+    }
+
+    #[test]
+    fn a_failing_node_stops_the_graph_with_its_name_and_error() {
+        let (mut graph, seen) = graph(3);
+        let error = graph.run(&mut |_: &'static str, _: &Message| {}).unwrap_err();
+        assert_eq!(error.node, "counter");
+        assert!(error.to_string().contains("node 'counter' failed") && error.to_string().contains("boom"), "{error}");
+        assert_eq!(*seen.lock().unwrap(), (3, false), "nothing after the failure");
+    }
+}

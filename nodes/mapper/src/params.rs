@@ -21,7 +21,7 @@ pub struct Params {
     /// Cell edge, metres. Finite, > 0, and small enough that the grid has at most [`MAX_CELLS`]
     /// cells. Default 0.1.
     pub resolution_m: f64,
-    /// Map-frame x of the grid's lower-left corner, metres. Finite. Default −5.
+    /// Map-frame x of the grid's lower-left corner, metres. Finite. Default −3.
     pub origin_x_m: f64,
     /// Map-frame y of the grid's lower-left corner, metres. Finite. Default −3.
     pub origin_y_m: f64,
