@@ -82,6 +82,8 @@ messages! {
     Segments => "nrslam_msgs/msg/Segments", |m: &Segments| m.header.stamp;
     TargetSet => "nrslam_msgs/msg/TargetSet", |m: &TargetSet| m.header.stamp;
     Metrics => "nrslam_msgs/msg/Metrics", |m: &Metrics| m.header.stamp;
+    RadarEcho => "nrslam_msgs/msg/RadarEcho", |m: &RadarEcho| m.header.stamp;
+    RadarSpectrum => "nrslam_msgs/msg/RadarSpectrum", |m: &RadarSpectrum| m.header.stamp;
 }
 
 #[cfg(test)]

@@ -117,3 +117,56 @@ pub struct Metrics {
     /// Estimate points fed to the metrics.
     pub estimate_points: u32,
 }
+
+/// One frame of raw OFDM sensing data (`/radar/echo`, `waveform` fidelity): the received
+/// resource grids Y(k, m, n) of every antenna and the transmitted X(m, n) (paper eqs. (1)-(2)).
+/// Complex values are interleaved (re, im) f64.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct RadarEcho {
+    /// Stamp of the frame, frame "radar".
+    pub header: Header,
+    /// Array boresight relative to the AGV heading (rad).
+    pub boresight_rad: f64,
+    /// Carrier frequency f_c (Hz).
+    pub carrier_frequency_hz: f64,
+    /// Subcarrier spacing Δf (Hz).
+    pub subcarrier_spacing_hz: f64,
+    /// Whole OFDM symbol duration T (s).
+    pub symbol_duration_s: f64,
+    /// Element spacing d in wavelengths.
+    pub antenna_spacing_wavelengths: f64,
+    /// Per-element SNR of a unit echo (dB).
+    pub snr_db: f64,
+    /// Antennas K.
+    pub antennas: u32,
+    /// Symbols M.
+    pub symbols: u32,
+    /// Subcarriers N.
+    pub subcarriers: u32,
+    /// Y, index `((k * M + m) * N + n) * 2` (+1 for the imaginary part).
+    pub received: Vec<f64>,
+    /// X, index `(m * N + n) * 2` (+1 for the imaginary part).
+    pub transmitted: Vec<f64>,
+}
+
+/// One frame's processed range × angle response (`/radar/spectrum`, `spectral` fidelity):
+/// complex values interleaved (re, im), index `(range_bin * angle_bins + angle_bin) * 2`.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct RadarSpectrum {
+    /// Stamp of the frame, frame "radar".
+    pub header: Header,
+    /// Array boresight relative to the AGV heading (rad).
+    pub boresight_rad: f64,
+    /// Range of one range bin (m).
+    pub range_bin_m: f64,
+    /// Element spacing d in wavelengths (sets the angle of each angle bin).
+    pub antenna_spacing_wavelengths: f64,
+    /// Noise power per cell, in the units of |value|².
+    pub noise_power: f64,
+    /// Range bins.
+    pub range_bins: u32,
+    /// Angle bins.
+    pub angle_bins: u32,
+    /// The values.
+    pub values: Vec<f64>,
+}

@@ -47,6 +47,14 @@ const DEFINITIONS: &[(&str, &str)] = &[
         "nrslam_msgs/Target",
         "uint32 id\nstring shape\ngeometry_msgs/Point[] outline\ngeometry_msgs/Point[] samples\n",
     ),
+    (
+        "nrslam_msgs/RadarEcho",
+        "std_msgs/Header header\nfloat64 boresight_rad\nfloat64 carrier_frequency_hz\nfloat64 subcarrier_spacing_hz\nfloat64 symbol_duration_s\nfloat64 antenna_spacing_wavelengths\nfloat64 snr_db\nuint32 antennas\nuint32 symbols\nuint32 subcarriers\nfloat64[] received\nfloat64[] transmitted\n",
+    ),
+    (
+        "nrslam_msgs/RadarSpectrum",
+        "std_msgs/Header header\nfloat64 boresight_rad\nfloat64 range_bin_m\nfloat64 antenna_spacing_wavelengths\nfloat64 noise_power\nuint32 range_bins\nuint32 angle_bins\nfloat64[] values\n",
+    ),
     ("nrslam_msgs/TargetSet", "std_msgs/Header header\nnrslam_msgs/Target[] targets\n"),
     (
         "nrslam_msgs/Metrics",

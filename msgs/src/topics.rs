@@ -7,6 +7,10 @@ pub const CLOCK: &str = "/clock";
 pub const ODOM: &str = "/odom";
 /// Range/angle detections of one radar frame.
 pub const DETECTIONS: &str = "/radar/detections";
+/// Raw OFDM resource grids of one frame (`waveform` fidelity).
+pub const ECHO: &str = "/radar/echo";
+/// Processed range × angle response of one frame (`spectral` fidelity).
+pub const SPECTRUM: &str = "/radar/spectrum";
 /// True AGV pose.
 pub const GROUND_TRUTH_POSE: &str = "/ground_truth/pose";
 /// True extended targets (latched).

@@ -200,8 +200,17 @@ mod tests {
         }
         fn tick(&mut self, outbox: &mut Outbox) -> Result<Tick, NodeError> {
             self.left -= 1;
-            outbox.publish(topics::CLOCK, Clock { clock: Time::from_seconds(10.0 - self.left as f64) });
-            Ok(if self.left == 0 { Tick::Done } else { Tick::More })
+            outbox.publish(
+                topics::CLOCK,
+                Clock {
+                    clock: Time::from_seconds(10.0 - self.left as f64),
+                },
+            );
+            Ok(if self.left == 0 {
+                Tick::Done
+            } else {
+                Tick::More
+            })
         }
     }
 
@@ -218,7 +227,12 @@ mod tests {
         fn outputs(&self) -> Vec<&'static str> {
             vec![]
         }
-        fn on_message(&mut self, topic: &str, _: &Message, _: &mut Outbox) -> Result<(), NodeError> {
+        fn on_message(
+            &mut self,
+            topic: &str,
+            _: &Message,
+            _: &mut Outbox,
+        ) -> Result<(), NodeError> {
             let mut seen = self.seen.lock().unwrap();
             seen.0 += 1;
             if seen.0 == self.fail_at {
@@ -236,7 +250,13 @@ mod tests {
         let seen = std::sync::Arc::new(std::sync::Mutex::new((0, false)));
         let nodes: Vec<(String, Box<dyn Node>)> = vec![
             ("ticker".into(), Box::new(Ticker { left: 5 })),
-            ("counter".into(), Box::new(Counter { seen: seen.clone(), fail_at })),
+            (
+                "counter".into(),
+                Box::new(Counter {
+                    seen: seen.clone(),
+                    fail_at,
+                }),
+            ),
         ];
         (Graph::new(nodes), seen)
     }
@@ -245,7 +265,9 @@ mod tests {
     fn every_message_is_delivered_and_the_end_is_signalled() {
         let (mut graph, seen) = graph(u32::MAX);
         let mut published = 0;
-        graph.run(&mut |_: &'static str, _: &Message| published += 1).unwrap();
+        graph
+            .run(&mut |_: &'static str, _: &Message| published += 1)
+            .unwrap();
         assert_eq!(published, 5);
         assert_eq!(*seen.lock().unwrap(), (5, true));
     }
@@ -253,9 +275,19 @@ mod tests {
     #[test]
     fn a_failing_node_stops_the_graph_with_its_name_and_error() {
         let (mut graph, seen) = graph(3);
-        let error = graph.run(&mut |_: &'static str, _: &Message| {}).unwrap_err();
+        let error = graph
+            .run(&mut |_: &'static str, _: &Message| {})
+            .unwrap_err();
         assert_eq!(error.node, "counter");
-        assert!(error.to_string().contains("node 'counter' failed") && error.to_string().contains("boom"), "{error}");
-        assert_eq!(*seen.lock().unwrap(), (3, false), "nothing after the failure");
+        assert!(
+            error.to_string().contains("node 'counter' failed")
+                && error.to_string().contains("boom"),
+            "{error}"
+        );
+        assert_eq!(
+            *seen.lock().unwrap(),
+            (3, false),
+            "nothing after the failure"
+        );
     }
 }

@@ -80,6 +80,10 @@ pub struct NodeDecl {
     /// Parameters of the node kind (its `Params` fields).
     #[serde(default)]
     pub params: toml::Table,
+    /// Run the node only when each named argument has one of the listed values, e.g.
+    /// `when = { fidelity = ["spectral", "waveform"] }` (as ROS 2 launch's `IfCondition`).
+    #[serde(default)]
+    pub when: std::collections::BTreeMap<String, Vec<String>>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -315,6 +319,33 @@ impl Launch {
                 });
             }
         }
+        for node in &nodes {
+            for (argument, allowed) in &node.when {
+                if !arguments.contains_key(argument) {
+                    return Err(LaunchError::Node {
+                        path: path.to_owned(),
+                        node: node.name.clone(),
+                        problem: format!("`when` names undeclared argument {argument:?}"),
+                    });
+                }
+                if allowed.is_empty() {
+                    return Err(LaunchError::Node {
+                        path: path.to_owned(),
+                        node: node.name.clone(),
+                        problem: format!("`when.{argument}` lists no value"),
+                    });
+                }
+            }
+        }
+        nodes.retain(|node| {
+            node.when.iter().all(|(argument, allowed)| {
+                let value = match &arguments[argument] {
+                    toml::Value::String(text) => text.clone(),
+                    other => other.to_string(),
+                };
+                allowed.contains(&value)
+            })
+        });
         for node in &mut nodes {
             let name = node.name.clone();
             for (_, value) in node.params.iter_mut() {
@@ -410,6 +441,41 @@ name = "x-$(var label)-y"
         let error = load(&["angle_std_deg=1"]).unwrap_err().to_string();
         assert!(error.contains("name:=value"), "{error}");
         assert!(load(&["angle_std_deg:=inf"]).is_err());
+    }
+
+    #[test]
+    fn when_conditions_select_nodes_by_argument_value() {
+        let text = r#"
+[arguments.fidelity]
+default = "spectral"
+[[node]]
+name = "radar"
+kind = "radar"
+[[node]]
+name = "estimator"
+kind = "estimator"
+when = { fidelity = ["spectral", "waveform"] }
+"#;
+        let names = |overrides: &[&str]| {
+            let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
+            Launch::parse(Path::new("l.toml"), text, &overrides)
+                .unwrap()
+                .nodes
+                .into_iter()
+                .map(|n| n.name)
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(names(&[]), ["radar", "estimator"]);
+        assert_eq!(names(&["fidelity:=waveform"]), ["radar", "estimator"]);
+        assert_eq!(names(&["fidelity:=ideal"]), ["radar"]);
+        let bad = text.replace("when = { fidelity", "when = { fidel");
+        let error = Launch::parse(Path::new("l.toml"), &bad, &[])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.contains("node estimator") && error.contains("fidel"),
+            "{error}"
+        );
     }
 
     #[test]
