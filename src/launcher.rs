@@ -55,7 +55,7 @@ pub struct LaunchArgs {
 /// `nrslam run`.
 #[derive(Args, Debug)]
 pub struct RunArgs {
-    /// Node kind: radar, association, mapper, segmenter, evaluator.
+    /// Node kind: radar, estimator, association, mapper, segmenter, evaluator.
     pub kind: String,
     /// The node's parameters (TOML, the fields of the node's Params at top level). Default: the
     /// paper's defaults.

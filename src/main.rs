@@ -3,6 +3,7 @@
 //! Thin entry point: parse the command line, hand each verb to its module, turn errors into one
 //! line on stderr and a non-zero exit.
 
+mod accuracy;
 mod launcher;
 mod plot;
 mod registry;
@@ -48,6 +49,8 @@ enum Command {
     Metric(tools::MetricArgs),
     /// DBSCAN on a CSV of points `x,y`, writing `x,y,label` (label -1: noise).
     Segment(tools::SegmentArgs),
+    /// Single-scatterer range and angle RMSE against SNR, beside the Cramér–Rao bounds and grid limits.
+    Accuracy(accuracy::AccuracyArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -66,6 +69,7 @@ fn main() -> std::process::ExitCode {
         Command::Echo(args) => tools::echo(args),
         Command::Metric(args) => tools::metric(args),
         Command::Segment(args) => tools::segment(args),
+        Command::Accuracy(args) => accuracy::accuracy(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -6,7 +6,7 @@ use nrslam_runtime::{parse_params, Node, NodeContext, NodeError, ParamsError};
 #[derive(Debug, thiserror::Error)]
 pub enum BuildError {
     /// No such kind.
-    #[error("unknown node kind {0:?} (known: radar, association, mapper, segmenter, evaluator)")]
+    #[error("unknown node kind {0:?} (known: radar, estimator, association, mapper, segmenter, evaluator)")]
     UnknownKind(String),
     /// Bad parameters.
     #[error(transparent)]
@@ -36,6 +36,7 @@ pub fn build(
         "mapper" => build_kind!(nrslam_mapper, table, ctx),
         "segmenter" => build_kind!(nrslam_segmenter, table, ctx),
         "evaluator" => build_kind!(nrslam_evaluator, table, ctx),
+        "estimator" => build_kind!(nrslam_estimator, table, ctx),
         other => return Err(BuildError::UnknownKind(other.to_owned())),
     })
 }

@@ -88,6 +88,18 @@ pub const CATALOGUE: &[TopicSpec] = &[
         description: "noisy wheel odometry, dead-reckoned pose in frame odom",
     },
     TopicSpec {
+        name: ECHO,
+        type_name: "nrslam_msgs/msg/RadarEcho",
+        qos: STREAM,
+        description: "OFDM resource grids Y and X of one frame (waveform fidelity)",
+    },
+    TopicSpec {
+        name: SPECTRUM,
+        type_name: "nrslam_msgs/msg/RadarSpectrum",
+        qos: STREAM,
+        description: "processed range x angle response of one frame (spectral fidelity)",
+    },
+    TopicSpec {
         name: DETECTIONS,
         type_name: "nrslam_msgs/msg/Detections",
         qos: STREAM,

@@ -302,13 +302,13 @@ fn keyframe_pose_boresight_and_angle_add_up_as_the_conventions_say() {
 #[test]
 fn default_grid_integrates_a_wide_keyframe() {
     let mut map = OccupancyMap::new(&Params::default()).unwrap();
-    assert_eq!((map.width_cells(), map.height_cells()), (500, 400));
+    assert_eq!((map.width_cells(), map.height_cells()), (600, 500));
     // 181 echoes on a 20 m arc in front of an AGV at the hall centre (docs/scene.md).
     let detections: Vec<Detection> = (-90..=90)
         .map(|k| echo(20.0, f64::from(k).to_radians() * 0.99))
         .collect();
     let report = map
-        .integrate_detections(at(20.0, 15.0), 0.0, &detections)
+        .integrate_detections(at(27.0, 22.0), 0.0, &detections)
         .unwrap();
     assert_eq!(report.out_of_grid, 0);
     // Consecutive echoes 0.35 m apart on the arc: each lands in its own cell.

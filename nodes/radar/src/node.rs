@@ -2,7 +2,8 @@
 //!
 //! Per tick (frame k, stamp t0 + k·frame_period), in this order:
 //! `/clock`, `/ground_truth/pose` (frame "map"), `/odom` (frame "odom", child "base_link"),
-//! `/radar/detections` (frame "radar"); the first tick publishes `/ground_truth/targets` (frame
+//! `/radar/detections` (frame "radar"; `ideal`) or `/radar/spectrum` (`spectral`) or
+//! `/radar/echo` (`waveform`); the first tick publishes `/ground_truth/targets` (frame
 //! "map", stamped t0) before anything else. The tick that publishes the last frame returns
 //! [`Tick::Done`]. The node has no inputs.
 //!
@@ -10,16 +11,19 @@
 //! [`crate::odometry`]; z, roll and pitch are exactly 0 on the hall's floor, so their variances
 //! are 0. Twist: forward speed and yaw rate over the last frame, with their variances.
 
-use nrslam_msgs::topics::{CLOCK, DETECTIONS, GROUND_TRUTH_POSE, GROUND_TRUTH_TARGETS, ODOM};
+use nrslam_msgs::topics::{
+    CLOCK, DETECTIONS, ECHO, GROUND_TRUTH_POSE, GROUND_TRUTH_TARGETS, ODOM, SPECTRUM,
+};
 use nrslam_msgs::{
     Clock, Detections, Header, Message, Odometry, Point, Pose, PoseStamped, PoseWithCovariance,
-    Target as TargetMsg, TargetSet, Time, Twist, TwistWithCovariance, Vector3,
+    RadarEcho, RadarSpectrum, Target as TargetMsg, TargetSet, Time, Twist, TwistWithCovariance,
+    Vector3,
 };
 use nrslam_runtime::{Node, NodeContext, NodeError, Outbox, Tick};
 
 use crate::error::RadarError;
 use crate::geometry::Vec2;
-use crate::params::Params;
+use crate::params::{Fidelity, Params};
 use crate::scene::Scene;
 use crate::sim::{Frame, Simulator};
 use crate::trajectory::T0_S;
@@ -36,27 +40,81 @@ pub const RADAR_FRAME: &str = "radar";
 /// The radar front end as a [`Node`].
 pub struct RadarNode {
     sim: Simulator,
+    ofdm: nrslam_ofdm::OfdmParams,
     targets_sent: bool,
+}
+
+fn interleave(values: &[num_complex::Complex64]) -> Vec<f64> {
+    values.iter().flat_map(|v| [v.re, v.im]).collect()
+}
+
+/// A synthesised range × angle map as `/radar/spectrum`.
+pub fn spectrum_message(
+    header: Header,
+    boresight_rad: f64,
+    ofdm: &nrslam_ofdm::OfdmParams,
+    spectrum: nrslam_ofdm::RangeAngleSpectrum,
+) -> RadarSpectrum {
+    RadarSpectrum {
+        header,
+        boresight_rad,
+        range_bin_m: spectrum.range_bin_m,
+        antenna_spacing_wavelengths: ofdm.antenna_spacing_wavelengths,
+        noise_power: spectrum.noise_power,
+        range_bins: spectrum.range_bins as u32,
+        angle_bins: spectrum.angle_bins as u32,
+        values: interleave(&spectrum.values),
+    }
+}
+
+/// Synthesised resource grids as `/radar/echo`.
+pub fn echo_message(
+    header: Header,
+    boresight_rad: f64,
+    ofdm: &nrslam_ofdm::OfdmParams,
+    grid: nrslam_ofdm::ResourceGrid,
+) -> RadarEcho {
+    RadarEcho {
+        header,
+        boresight_rad,
+        carrier_frequency_hz: ofdm.carrier_frequency_hz,
+        subcarrier_spacing_hz: ofdm.subcarrier_spacing_hz,
+        symbol_duration_s: ofdm.symbol_duration_s,
+        antenna_spacing_wavelengths: ofdm.antenna_spacing_wavelengths,
+        snr_db: ofdm.snr_db,
+        antennas: grid.antennas as u32,
+        symbols: grid.symbols as u32,
+        subcarriers: grid.subcarriers as u32,
+        received: interleave(&grid.received),
+        transmitted: interleave(&grid.transmitted),
+    }
 }
 
 /// Builds the radar node: validates `params`, loads the scene (relative to `ctx.base_dir`) and
 /// seeds its noise from `ctx.seed_for("radar")`.
 pub fn build(params: Params, ctx: &NodeContext) -> Result<Box<dyn Node>, NodeError> {
     params.validate()?;
+    let ofdm = params.ofdm;
     let sim = Simulator::from_params(&params, &ctx.base_dir, ctx.seed_for("radar")).map_err(
         |e| match e {
             RadarError::Param(invalid) => NodeError::Params(invalid),
             RadarError::Scene(scene) => NodeError::algorithm(scene),
         },
     )?;
-    Ok(Box::new(RadarNode::new(sim)))
+    Ok(Box::new(RadarNode::with_ofdm(sim, ofdm)))
 }
 
 impl RadarNode {
     /// A node publishing the frames of `sim`.
     pub fn new(sim: Simulator) -> Self {
+        Self::with_ofdm(sim, nrslam_ofdm::OfdmParams::default())
+    }
+
+    /// A node publishing the frames of `sim`, describing its OFDM frames with `ofdm`.
+    pub fn with_ofdm(sim: Simulator, ofdm: nrslam_ofdm::OfdmParams) -> Self {
         Self {
             sim,
+            ofdm,
             targets_sent: false,
         }
     }
@@ -73,12 +131,17 @@ impl Node for RadarNode {
     }
 
     fn outputs(&self) -> Vec<&'static str> {
+        let measurement = match self.sim.fidelity() {
+            Fidelity::Ideal => DETECTIONS,
+            Fidelity::Spectral => SPECTRUM,
+            Fidelity::Waveform => ECHO,
+        };
         vec![
             GROUND_TRUTH_TARGETS,
             CLOCK,
             GROUND_TRUTH_POSE,
             ODOM,
-            DETECTIONS,
+            measurement,
         ]
     }
 
@@ -102,7 +165,7 @@ impl Node for RadarNode {
                 target_set(self.sim.scene(), Time::from_seconds(T0_S)),
             );
         }
-        let Some(frame) = self.sim.next_frame() else {
+        let Some(frame) = self.sim.try_next_frame().map_err(NodeError::algorithm)? else {
             return Ok(Tick::Done);
         };
         let boresight_rad = self.sim.scene().sensor.boresight_rad;
@@ -110,15 +173,26 @@ impl Node for RadarNode {
         outbox.publish(CLOCK, Clock { clock: stamp });
         outbox.publish(GROUND_TRUTH_POSE, true_pose(&frame, stamp));
         outbox.publish(ODOM, odometry(&frame, stamp));
-        outbox.publish(
-            DETECTIONS,
-            Detections {
-                header: Header::new(stamp, RADAR_FRAME),
-                boresight_rad,
-                detections: frame.detections,
-            },
-        );
-        Ok(if frame.index + 1 >= self.sim.frame_count() {
+        let header = Header::new(stamp, RADAR_FRAME);
+        let index = frame.index;
+        match (frame.spectrum, frame.echo) {
+            (Some(spectrum), _) => outbox.publish(
+                SPECTRUM,
+                spectrum_message(header, boresight_rad, &self.ofdm, spectrum),
+            ),
+            (_, Some(echo)) => {
+                outbox.publish(ECHO, echo_message(header, boresight_rad, &self.ofdm, echo))
+            }
+            _ => outbox.publish(
+                DETECTIONS,
+                Detections {
+                    header,
+                    boresight_rad,
+                    detections: frame.detections,
+                },
+            ),
+        }
+        Ok(if index + 1 >= self.sim.frame_count() {
             Tick::Done
         } else {
             Tick::More

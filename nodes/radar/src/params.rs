@@ -17,9 +17,11 @@ pub enum Fidelity {
     /// Each seen scatterer's true range and angle plus Gaussian errors ΔR, Δθ ([`crate::ideal`]).
     #[default]
     Ideal,
-    /// Closed-form post-FFT response of each scatterer plus noise. Not implemented yet.
+    /// Closed-form post-FFT range × angle response of each scatterer plus the processed noise
+    /// ([`nrslam_ofdm::spectral`]), published on `/radar/spectrum`.
     Spectral,
-    /// The OFDM resource grid of Table I, end to end. Not implemented yet.
+    /// The OFDM resource grids of Table I with AWGN ([`nrslam_ofdm::waveform`]), published on
+    /// `/radar/echo`.
     Waveform,
 }
 
@@ -32,22 +34,14 @@ impl Fidelity {
             Fidelity::Waveform => "waveform",
         }
     }
-
-    /// The error for a level that is not implemented yet.
-    pub(crate) fn not_implemented(self) -> InvalidParam {
-        InvalidParam::new(
-            "fidelity",
-            format!("\"{}\" is not implemented yet", self.name()),
-            "\"ideal\"",
-        )
-    }
 }
 
 /// Parameters of the radar front end.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Params {
-    /// Fidelity level; only `ideal` is implemented.
+    /// Fidelity level: `ideal` (detections), `spectral` (range × angle maps) or `waveform`
+    /// (resource grids); the last two need an estimator node downstream.
     pub fidelity: Fidelity,
     /// Scene file (TOML), relative paths resolved against the launch's base directory.
     pub scene: PathBuf,
@@ -65,6 +59,14 @@ pub struct Params {
     pub odom_scale_bias: f64,
     /// Systematic heading drift of the odometry (degrees per metre, counter-clockwise positive).
     pub odom_rotation_bias_deg_per_m: f64,
+    /// OFDM radar parameters for `spectral` and `waveform` (Table I; `symbols` defaults to 1,
+    /// which is all a static scene needs: Table I's M = 256 adds Doppler resolution only, and at
+    /// `waveform` 256 symbols × 10240 subcarriers × 32 antennas is 1.3 GB per frame).
+    pub ofdm: nrslam_ofdm::OfdmParams,
+    /// Knobs of the `spectral` synthesis (kept range, zero padding, evaluation window).
+    pub spectral: nrslam_ofdm::spectral::SpectralConfig,
+    /// Knobs of the `waveform` synthesis (modulation, noise, memory cap).
+    pub waveform: nrslam_ofdm::waveform::WaveformConfig,
 }
 
 impl Default for Params {
@@ -79,6 +81,12 @@ impl Default for Params {
             odom_rotation_noise_deg_per_m: 0.5,
             odom_scale_bias: 0.0,
             odom_rotation_bias_deg_per_m: 0.0,
+            ofdm: nrslam_ofdm::OfdmParams {
+                symbols: 1,
+                ..nrslam_ofdm::OfdmParams::default()
+            },
+            spectral: nrslam_ofdm::spectral::SpectralConfig::default(),
+            waveform: nrslam_ofdm::waveform::WaveformConfig::default(),
         }
     }
 }
@@ -88,7 +96,13 @@ impl Params {
     /// Never panics. (The scene file is checked when it is loaded.)
     pub fn validate(&self) -> Result<(), InvalidParam> {
         if self.fidelity != Fidelity::Ideal {
-            return Err(self.fidelity.not_implemented());
+            let ofdm = |e: nrslam_ofdm::OfdmError| {
+                InvalidParam::new("ofdm", e.to_string(), "see the field named")
+            };
+            self.ofdm.validate().map_err(ofdm)?;
+            if self.fidelity == Fidelity::Spectral {
+                self.spectral.validate().map_err(ofdm)?;
+            }
         }
         if self.scene.as_os_str().is_empty() {
             return Err(InvalidParam::new(
@@ -165,9 +179,16 @@ mod tests {
         assert!(toml::from_str::<Params>("range_std = 0.1").is_err());
         assert!(toml::from_str::<Params>("fidelity = \"magic\"").is_err());
         let spectral: Params = toml::from_str("fidelity = \"spectral\"").unwrap();
-        let err = spectral.validate().unwrap_err();
-        assert_eq!(err.field, "fidelity");
-        assert!(err.problem.contains("not implemented"));
+        spectral.validate().unwrap();
+        let bad: Params = toml::from_str("fidelity = \"spectral\"\n[ofdm]\nsnr_db = nan").unwrap();
+        let err = bad.validate().unwrap_err();
+        assert_eq!(err.field, "ofdm");
+        assert!(err.problem.contains("snr_db"), "{}", err.problem);
+        let table_i: Params = toml::from_str("[ofdm]\nsymbols = 256").unwrap();
+        assert_eq!(
+            (table_i.ofdm.subcarriers, table_i.ofdm.symbols),
+            (10240, 256)
+        );
         for (text, field) in [
             ("range_std_m = -0.1", "range_std_m"),
             ("angle_std_deg = nan", "angle_std_deg"),

@@ -17,7 +17,10 @@ use crate::ideal::IdealModel;
 use crate::odometry::{OdometryReading, WheelOdometry};
 use crate::params::{Fidelity, Params};
 use crate::scene::Scene;
-use crate::visibility::observe;
+use crate::visibility::{observe, Sighting};
+use nrslam_ofdm::{OfdmParams, RangeAngleSpectrum, ResourceGrid, Scatterer};
+use num_complex::Complex64;
+use rand::Rng;
 
 /// ChaCha stream of the measurement noise; the odometry uses [`ODOMETRY_STREAM`]. Separate
 /// streams keep the odometry noise identical when the measurement parameters change.
@@ -38,19 +41,61 @@ pub struct Frame {
     pub odometry: OdometryReading,
     /// Number of scatterers seen (before measurement drops).
     pub seen_scatterers: usize,
-    /// Detections in the sensor frame.
+    /// Detections in the sensor frame (`ideal`; empty at the other levels).
     pub detections: Vec<Detection>,
+    /// The processed range × angle map (`spectral`).
+    pub spectrum: Option<RangeAngleSpectrum>,
+    /// The resource grids (`waveform`).
+    pub echo: Option<ResourceGrid>,
 }
 
 /// The measurement model of the chosen fidelity level. New levels add variants.
 #[derive(Debug, Clone)]
 enum Model {
     Ideal(IdealModel),
+    Spectral {
+        ofdm: OfdmParams,
+        config: nrslam_ofdm::spectral::SpectralConfig,
+        rng: ChaCha8Rng,
+    },
+    Waveform {
+        ofdm: OfdmParams,
+        config: nrslam_ofdm::waveform::WaveformConfig,
+        rng: ChaCha8Rng,
+    },
+}
+
+/// The OFDM view of the sightings: every scatterer echoes with unit amplitude, i.e. at the
+/// per-element SNR of `ofdm.snr_db` (the paper's "SNR of the received signal", Sec. IV), with an
+/// independent uniformly random phase (distinct reflectors), and the radial velocity of a static
+/// point seen from the moving AGV: −v cos(boresight + angle).
+fn scatterers(
+    sightings: &[Sighting],
+    speed_mps: f64,
+    boresight_rad: f64,
+    rng: &mut ChaCha8Rng,
+) -> Vec<Scatterer> {
+    sightings
+        .iter()
+        .map(|s| Scatterer {
+            range_m: s.range_m,
+            angle_rad: s.angle_rad,
+            radial_velocity_mps: -speed_mps * (boresight_rad + s.angle_rad).cos(),
+            amplitude: Complex64::from_polar(1.0, rng.random_range(0.0..std::f64::consts::TAU)),
+        })
+        .collect()
+}
+
+fn measurement_rng(seed: u64) -> ChaCha8Rng {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    rng.set_stream(MEASUREMENT_STREAM);
+    rng
 }
 
 /// Generates the frames of one run.
 #[derive(Debug, Clone)]
 pub struct Simulator {
+    fidelity: Fidelity,
     scene: Scene,
     model: Model,
     odometry: WheelOdometry,
@@ -80,10 +125,16 @@ impl Simulator {
                     rng,
                 ))
             }
-            // `validate` already refuses these; explicit so a new level cannot be forgotten here.
-            level @ (Fidelity::Spectral | Fidelity::Waveform) => {
-                return Err(level.not_implemented().into())
-            }
+            Fidelity::Spectral => Model::Spectral {
+                ofdm: params.ofdm,
+                config: params.spectral,
+                rng: measurement_rng(seed),
+            },
+            Fidelity::Waveform => Model::Waveform {
+                ofdm: params.ofdm,
+                config: params.waveform,
+                rng: measurement_rng(seed),
+            },
         };
         let mut odometry_rng = ChaCha8Rng::seed_from_u64(seed);
         odometry_rng.set_stream(ODOMETRY_STREAM);
@@ -95,12 +146,18 @@ impl Simulator {
             cap => whole.min(cap as usize),
         };
         Ok(Self {
+            fidelity: params.fidelity,
             scene,
             model,
             odometry,
             frame_count,
             next_frame: 0,
         })
+    }
+
+    /// The fidelity level.
+    pub fn fidelity(&self) -> Fidelity {
+        self.fidelity
     }
 
     /// The scene.
@@ -113,11 +170,12 @@ impl Simulator {
         self.frame_count
     }
 
-    /// The next frame, or `None` after the last.
-    pub fn next_frame(&mut self) -> Option<Frame> {
+    /// The next frame, or `None` after the last; an error only if the OFDM synthesis refuses
+    /// its input (e.g. the waveform's memory cap).
+    pub fn try_next_frame(&mut self) -> Result<Option<Frame>, nrslam_ofdm::OfdmError> {
         let k = self.next_frame;
         if k >= self.frame_count {
-            return None;
+            return Ok(None);
         }
         self.next_frame += 1;
         let trajectory = &self.scene.trajectory;
@@ -133,17 +191,46 @@ impl Simulator {
             self.odometry.step(true_pose, trajectory.frame_period_s())
         };
         let sightings = observe(&self.scene.targets, &self.scene.sensor, true_pose);
-        let detections = match &mut self.model {
-            Model::Ideal(model) => model.measure(&sightings),
-        };
-        Some(Frame {
+        let speed_mps = trajectory.spec().speed_mps;
+        let boresight_rad = self.scene.sensor.boresight_rad;
+        let (mut detections, mut spectrum, mut echo) = (Vec::new(), None, None);
+        match &mut self.model {
+            Model::Ideal(model) => detections = model.measure(&sightings),
+            Model::Spectral { ofdm, config, rng } => {
+                let scatterers = scatterers(&sightings, speed_mps, boresight_rad, rng);
+                spectrum = Some(nrslam_ofdm::spectral::synthesize(
+                    ofdm,
+                    &scatterers,
+                    config,
+                    rng,
+                )?);
+            }
+            Model::Waveform { ofdm, config, rng } => {
+                let scatterers = scatterers(&sightings, speed_mps, boresight_rad, rng);
+                echo = Some(nrslam_ofdm::waveform::synthesize(
+                    ofdm,
+                    &scatterers,
+                    config,
+                    rng,
+                )?);
+            }
+        }
+        Ok(Some(Frame {
             index: k,
             stamp_s: trajectory.stamp_s(k),
             true_pose,
             odometry,
             seen_scatterers: sightings.len(),
             detections,
-        })
+            spectrum,
+            echo,
+        }))
+    }
+
+    /// The next frame, or `None` after the last (or if the OFDM synthesis fails; use
+    /// [`Self::try_next_frame`] to see why).
+    pub fn next_frame(&mut self) -> Option<Frame> {
+        self.try_next_frame().ok().flatten()
     }
 }
 

@@ -480,14 +480,15 @@ fn node_errors_name_the_problem() {
         other => panic!("{other}"),
     }
 
-    let spectral = Params {
+    let mut spectral = Params {
         fidelity: nrslam_radar::Fidelity::Spectral,
         ..Params::default()
     };
+    spectral.ofdm.antennas = 0;
     match build(spectral, &context(0)).err().unwrap() {
         NodeError::Params(p) => {
-            assert_eq!(p.field, "fidelity");
-            assert!(p.problem.contains("not implemented"));
+            assert_eq!(p.field, "ofdm");
+            assert!(p.problem.contains("antennas"), "{}", p.problem);
         }
         other => panic!("{other}"),
     }

@@ -1,0 +1,78 @@
+//! Per-frame estimator time at Table I sizes with M = 1 (N 10240, K 32) beside the floor: the
+//! bare rustfft transforms the stage needs (K inverse FFTs of N, N forward FFTs of K, planned
+//! once, in place, scratch reused). Acceptance bar: estimator ≤ 1.5 × floor.
+//!
+//! `cargo bench -p nrslam-estimator -- --warm-up-time 1 --measurement-time 3`
+
+#[path = "../tests/common/mod.rs"]
+mod common;
+
+use common::{grid, params, Echo};
+use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
+use nrslam_estimator::{Estimator, EstimatorConfig, Refinement};
+use num_complex::Complex64;
+use rustfft::FftPlanner;
+use std::hint::black_box;
+
+fn table_one(c: &mut Criterion) {
+    let p = params(10240, 32, 1);
+    let (n, k) = (p.subcarriers, p.antennas);
+    let dr = p.range_bin_m();
+    // Twenty echoes spread over the first 20 m, at the paper's 10 dB per element.
+    let echoes: Vec<Echo> = (0..20)
+        .map(|i| Echo::at_sine((12.0 + 7.3 * i as f64) * dr, -0.9 + 0.09 * i as f64))
+        .collect();
+    let g = grid(&p, &echoes, Some(p.snr_db), 1);
+
+    let mut group = c.benchmark_group("table1_m1");
+    group.sample_size(20);
+
+    let mut planner = FftPlanner::<f64>::new();
+    let ifft = planner.plan_fft_inverse(n);
+    let fft = planner.plan_fft_forward(k);
+    let mut scratch = vec![
+        Complex64::new(0.0, 0.0);
+        ifft.get_inplace_scratch_len()
+            .max(fft.get_inplace_scratch_len())
+    ];
+    let source = g.received.clone();
+    group.bench_function("floor_rustfft", |b| {
+        b.iter_batched_ref(
+            || (source.clone(), source.clone()),
+            |(kn, nk)| {
+                ifft.process_with_scratch(kn, &mut scratch);
+                fft.process_with_scratch(nk, &mut scratch);
+                black_box((kn[1], nk[1]));
+            },
+            BatchSize::LargeInput,
+        )
+    });
+
+    for (name, cfg) in [
+        ("estimator_default", EstimatorConfig::default()),
+        (
+            "estimator_interpolation",
+            EstimatorConfig {
+                refinement: Refinement::Interpolation,
+                ..Default::default()
+            },
+        ),
+        (
+            "estimator_max_range_20m",
+            EstimatorConfig {
+                max_range_m: Some(20.0),
+                ..Default::default()
+            },
+        ),
+    ] {
+        let mut est = Estimator::new(&p, cfg).unwrap();
+        assert!(!est.process_grid(&g).unwrap().is_empty());
+        group.bench_function(name, |b| {
+            b.iter(|| black_box(est.process_grid(black_box(&g)).unwrap()))
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, table_one);
+criterion_main!(benches);

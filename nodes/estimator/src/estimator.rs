@@ -1,0 +1,929 @@
+//! The estimator: FFT plans and buffers made once, then one frame at a time.
+
+use std::f64::consts::PI;
+use std::sync::Arc;
+
+use nrslam_ofdm::{OfdmParams, RangeAngleSpectrum, ResourceGrid};
+use nrslam_runtime::InvalidParam;
+use num_complex::Complex64;
+use rustfft::{Fft, FftPlanner};
+use serde::{Deserialize, Serialize};
+
+use crate::config::{EstimatorConfig, Refinement};
+use crate::detect::{DetectScratch, Lobes, MapView, Peak};
+use crate::error::EstimatorError;
+use crate::refine;
+
+const ZERO: Complex64 = Complex64 { re: 0.0, im: 0.0 };
+
+/// Complex cells per angle-transform tile: 64 range bins × 32 angles (32 KiB) at Table I.
+const TILE_CELLS: usize = 2048;
+
+/// Largest K · M · N · zero padding the estimator accepts (2³⁰ cells = 16 GiB of work buffer).
+const MAX_WORK_CELLS: usize = 1 << 30;
+
+/// Complex cells (one 64-byte cache line) added to each work row; see `Estimator::stride`.
+const ROW_PAD: usize = 4;
+
+/// One detected scatterer.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct RangeAngleDetection {
+    /// Range (m), modulo the unambiguous range R_u = c/(2Δf), in [0, R_u − Δr/2]: a refined
+    /// position below 0 (a peak at bin 0 with a negative sub-bin offset) is reported as 0, so an
+    /// echo within half a bin below R_u (or a multiple of it) appears at 0, never at R_u − ε.
+    pub range_m: f64,
+    /// Angle from boresight, counter-clockwise positive (rad), in [−π/2, π/2]:
+    /// sin θ = s · (2/A) / (2d/λ) with s the signed angle bin (plus its sub-bin offset) and A the
+    /// (padded) number of angle bins.
+    pub angle_rad: f64,
+    /// Power of the peak cell, 10·log10|S|² in map units (a unit echo at a bin centre peaks at
+    /// |S| = K: range IDFT scaled 1/N, Doppler DFT scaled 1/M, array DFT unscaled — the
+    /// normalisation of `nrslam_ofdm`).
+    pub power_db: f64,
+    /// Range bin of the peak (in the padded grid: range = bin · range_bin_m before refinement).
+    pub range_bin: usize,
+    /// Angle bin of the peak after fftshift: broadside is A/2 (the `RangeAngleSpectrum` order).
+    pub angle_bin: usize,
+}
+
+/// The range-angle estimator of paper Sec. III-B.
+///
+/// Sign conventions (shared with the `waveform` front end): an echo at range r and angle θ is
+/// Y(k, m, n) = a · X(m, n) · e^(−j2π nΔf · 2r/c) · e^(+j2π (d/λ) k sin θ) (+ Doppler over m).
+/// The range IDFT (kernel e^(+j2π ni/N), scaled 1/N as the paper) puts it at bin i = r/Δr; the
+/// array DFT (kernel e^(−j2π kj/A)) at signed bin s = A (d/λ) sin θ; so positive angles lie right
+/// of broadside after fftshift.
+pub struct Estimator {
+    config: EstimatorConfig,
+    n: usize,
+    k: usize,
+    m: usize,
+    n_pad: usize,
+    /// Row stride of `work`: n_pad plus one cache line, so the K·M rows (read one bin at a time
+    /// by the angle transform) do not all fall in the same cache set when n_pad·16 B is a
+    /// multiple of 4 KiB.
+    stride: usize,
+    a: usize,
+    rows: usize,
+    search_rows: usize,
+    circular_range: bool,
+    range_bin_m: f64,
+    unambiguous_m: f64,
+    spacing_wl: f64,
+    ifft_range: Arc<dyn Fft<f64>>,
+    fft_angle: Arc<dyn Fft<f64>>,
+    fft_doppler: Arc<dyn Fft<f64>>,
+    scratch: Vec<Complex64>,
+    inv_x: Vec<Complex64>,
+    work: Vec<Complex64>,
+    tile: Vec<Complex64>,
+    tile2: Vec<Complex64>,
+    tile_bins: usize,
+    power: Vec<f64>,
+    row_max: Vec<f64>,
+    doppler_bin: Vec<u16>,
+    visible_fft: Vec<bool>,
+    visible_shifted: Vec<bool>,
+    tw_angle: Vec<Complex64>,
+    tw_doppler: Vec<Complex64>,
+    det: DetectScratch,
+    detections: Vec<RangeAngleDetection>,
+    floor: f64,
+}
+
+impl std::fmt::Debug for Estimator {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Estimator")
+            .field("config", &self.config)
+            .field("subcarriers", &self.n)
+            .field("antennas", &self.k)
+            .field("symbols", &self.m)
+            .field("range_bins", &self.rows)
+            .field("angle_bins", &self.a)
+            .finish_non_exhaustive()
+    }
+}
+
+fn check_size(field: &str, value: usize, lower: usize, upper: usize) -> Result<(), InvalidParam> {
+    if (lower..=upper).contains(&value) {
+        Ok(())
+    } else {
+        Err(InvalidParam::new(
+            field,
+            format!("{value} is out of range"),
+            format!("{lower} to {upper}"),
+        ))
+    }
+}
+
+/// Checks the OFDM parameters the estimator uses; fields are named `ofdm.<field>`.
+pub fn validate_params(p: &OfdmParams) -> Result<(), InvalidParam> {
+    check_size("ofdm.subcarriers", p.subcarriers, 1, 1 << 24)?;
+    check_size("ofdm.symbols", p.symbols, 1, u16::MAX as usize)?;
+    check_size("ofdm.antennas", p.antennas, 1, 1 << 16)?;
+    InvalidParam::check_range(
+        "ofdm.carrier_frequency_hz",
+        p.carrier_frequency_hz,
+        1.0,
+        1e13,
+    )?;
+    InvalidParam::check_range(
+        "ofdm.subcarrier_spacing_hz",
+        p.subcarrier_spacing_hz,
+        1.0,
+        1e10,
+    )?;
+    InvalidParam::check_range(
+        "ofdm.antenna_spacing_wavelengths",
+        p.antenna_spacing_wavelengths,
+        1e-3,
+        100.0,
+    )?;
+    Ok(())
+}
+
+fn alloc<T: Clone>(len: usize, value: T) -> Result<Vec<T>, EstimatorError> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(len)
+        .map_err(|_| EstimatorError::Allocation {
+            bytes: len.saturating_mul(std::mem::size_of::<T>()),
+        })?;
+    v.resize(len, value);
+    Ok(v)
+}
+
+fn twiddles(len: usize) -> Vec<Complex64> {
+    (0..len)
+        .map(|q| Complex64::from_polar(1.0, -2.0 * PI * q as f64 / len as f64))
+        .collect()
+}
+
+/// Gathers range bins `i0..i0 + bb` of the K·M antenna-major work rows into the bin-major tile
+/// `t[(b·M + m)·A + k]`: four bins (one cache line of each row) at a time, with the line a few
+/// lines ahead in each row prefetched, since K·M concurrent streams outrun the hardware
+/// prefetchers.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn gather(
+    work: &[Complex64],
+    t: &mut [Complex64],
+    i0: usize,
+    bb: usize,
+    k: usize,
+    m: usize,
+    a: usize,
+    stride: usize,
+) {
+    const AHEAD: usize = 16;
+    let mut b = 0;
+    if m == 1 {
+        // The Table I case: four bins of each antenna row per step, bounds checked once.
+        let rows_end = (k - 1) * stride + i0 + bb;
+        assert!(rows_end <= work.len() && bb * a <= t.len() && k <= a);
+        let (src, dst) = (work.as_ptr(), t.as_mut_ptr());
+        while b + 4 <= bb {
+            for kk in 0..k {
+                let base = kk * stride + i0 + b;
+                // SAFETY: base + 3 < (k − 1)·stride + i0 + bb ≤ work.len() and
+                // (b + 3)·a + kk < bb·a ≤ t.len() (asserted above); prefetch is only a hint.
+                unsafe {
+                    #[cfg(target_arch = "x86_64")]
+                    {
+                        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+                        _mm_prefetch::<_MM_HINT_T0>(src.wrapping_add(base + AHEAD) as *const i8);
+                    }
+                    let d = dst.add(b * a + kk);
+                    *d = *src.add(base);
+                    *d.add(a) = *src.add(base + 1);
+                    *d.add(2 * a) = *src.add(base + 2);
+                    *d.add(3 * a) = *src.add(base + 3);
+                }
+            }
+            b += 4;
+        }
+    }
+    while b + 4 <= bb {
+        for kk in 0..k {
+            for mm in 0..m {
+                let base = (kk * m + mm) * stride + i0 + b;
+                let src = &work[base..base + 4];
+                #[cfg(target_arch = "x86_64")]
+                if base + AHEAD < work.len() {
+                    // SAFETY: prefetch is a hint; the address is inside `work`.
+                    unsafe {
+                        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+                        _mm_prefetch::<_MM_HINT_T0>(work.as_ptr().add(base + AHEAD) as *const i8);
+                    }
+                }
+                for (j, v) in src.iter().enumerate() {
+                    t[((b + j) * m + mm) * a + kk] = *v;
+                }
+            }
+        }
+        b += 4;
+    }
+    for b in b..bb {
+        for mm in 0..m {
+            for kk in 0..k {
+                t[(b * m + mm) * a + kk] = work[(kk * m + mm) * stride + i0 + b];
+            }
+        }
+    }
+}
+
+/// `out[i] = |line[i]|²`, returning the maximum, or NaN when any power is not finite (a sum
+/// rides along to carry NaN/∞: the max alone would skip NaN). Four lanes so it vectorises.
+#[inline]
+fn norm_sqr_max(line: &[Complex64], out: &mut [f64]) -> f64 {
+    let mut lanes = [0.0f64; 4];
+    let mut sums = [0.0f64; 4];
+    let mut chunks = line.chunks_exact(4);
+    let mut outs = out.chunks_exact_mut(4);
+    for (c, o) in (&mut chunks).zip(&mut outs) {
+        for l in 0..4 {
+            let p = c[l].re * c[l].re + c[l].im * c[l].im;
+            o[l] = p;
+            lanes[l] = if p > lanes[l] { p } else { lanes[l] };
+            sums[l] += p;
+        }
+    }
+    for (v, o) in chunks.remainder().iter().zip(outs.into_remainder()) {
+        *o = v.norm_sqr();
+        lanes[0] = if *o > lanes[0] { *o } else { lanes[0] };
+        sums[0] += *o;
+    }
+    let mx = lanes.into_iter().fold(0.0, f64::max);
+    if sums.iter().sum::<f64>().is_finite() {
+        mx
+    } else {
+        f64::NAN
+    }
+}
+
+/// Signed angle bin of an FFT-order column: c for c < A − ⌊A/2⌋, c − A above.
+fn signed_fft(col: usize, a: usize) -> isize {
+    if col < a - a / 2 {
+        col as isize
+    } else {
+        col as isize - a as isize
+    }
+}
+
+/// Visibility mask (|sin θ| ≤ 1) of the columns, given each column's signed bin.
+fn visibility(a: usize, spacing_wl: f64, signed: impl Fn(usize) -> isize) -> Vec<bool> {
+    let limit = a as f64 * spacing_wl * (1.0 + 1e-12);
+    (0..a).map(|c| (signed(c) as f64).abs() <= limit).collect()
+}
+
+/// Where the complex values of a map come from, for refinement.
+enum Values<'a> {
+    /// Recomputed from the range-transformed rows (grid path): a K-term (× M-term) DFT.
+    Grid {
+        work: &'a [Complex64],
+        k: usize,
+        m: usize,
+        stride: usize,
+        tw_angle: &'a [Complex64],
+        tw_doppler: &'a [Complex64],
+        doppler_bin: &'a [u16],
+        cols: usize,
+    },
+    /// Stored (spectrum path).
+    Stored {
+        values: &'a [Complex64],
+        cols: usize,
+    },
+}
+
+impl Values<'_> {
+    /// Complex value at (row, col) — for the grid path at the Doppler bin of cell `peak`.
+    fn at(&self, row: usize, col: usize, peak: (usize, usize)) -> Complex64 {
+        match *self {
+            Values::Grid {
+                work,
+                k,
+                m,
+                stride,
+                tw_angle,
+                tw_doppler,
+                doppler_bin,
+                cols,
+            } => {
+                let d = if m > 1 {
+                    doppler_bin[peak.0 * cols + peak.1] as usize
+                } else {
+                    0
+                };
+                let mut acc = ZERO;
+                for kk in 0..k {
+                    let wa = tw_angle[(kk * col) % cols];
+                    for mm in 0..m {
+                        let wd = tw_doppler[(mm * d) % m];
+                        acc += work[(kk * m + mm) * stride + row] * wa * wd;
+                    }
+                }
+                acc
+            }
+            Values::Stored { values, cols } => values[row * cols + col],
+        }
+    }
+}
+
+/// Everything refinement needs about one map.
+struct RefineCtx<'a> {
+    values: Values<'a>,
+    rows: usize,
+    cols: usize,
+    circular_range: bool,
+    interpolate: bool,
+    /// Unpadded range transform length, or `None` when range is zero-padded.
+    range_len: Option<usize>,
+    /// Unpadded angle transform length, or `None` when angle is zero-padded.
+    angle_len: Option<usize>,
+    range_bin_m: f64,
+    spacing_wl: f64,
+    signed: &'a dyn Fn(usize) -> isize,
+    shifted: &'a dyn Fn(usize) -> usize,
+}
+
+impl RefineCtx<'_> {
+    fn range_offset(&self, pk: &Peak) -> f64 {
+        if !self.interpolate {
+            return 0.0;
+        }
+        let at = |row| self.values.at(row, pk.col, (pk.row, pk.col));
+        let (i, rows) = (pk.row, self.rows);
+        let below = if i > 0 {
+            Some(i - 1)
+        } else if self.circular_range && rows > 2 {
+            Some(rows - 1)
+        } else {
+            None
+        };
+        let above = if i + 1 < rows {
+            Some(i + 1)
+        } else if self.circular_range && rows > 2 {
+            Some(0)
+        } else {
+            None
+        };
+        let x0 = at(i);
+        let delta = match (below, above, self.range_len) {
+            (Some(b), Some(a), Some(len)) => refine::candan(at(b), x0, at(a), len),
+            (Some(b), Some(a), None) => {
+                refine::parabolic_log(at(b).norm_sqr(), x0.norm_sqr(), at(a).norm_sqr())
+            }
+            (None, Some(a), Some(len)) => refine::rife(x0.norm_sqr(), at(a).norm_sqr(), 1.0, len),
+            (Some(b), None, Some(len)) => refine::rife(x0.norm_sqr(), at(b).norm_sqr(), -1.0, len),
+            _ => None,
+        };
+        delta.unwrap_or(0.0)
+    }
+
+    fn angle_offset(&self, pk: &Peak) -> f64 {
+        if !self.interpolate || self.cols < 3 {
+            return 0.0;
+        }
+        let c = self.cols;
+        let at = |col| self.values.at(pk.row, col, (pk.row, pk.col));
+        let (xm, x0, xp) = (at((pk.col + c - 1) % c), at(pk.col), at((pk.col + 1) % c));
+        let delta = match self.angle_len {
+            Some(len) => refine::candan(xm, x0, xp, len),
+            None => refine::parabolic_log(xm.norm_sqr(), x0.norm_sqr(), xp.norm_sqr()),
+        };
+        delta.unwrap_or(0.0)
+    }
+
+    fn detection(&self, pk: &Peak) -> RangeAngleDetection {
+        let range_m = ((pk.row as f64 + self.range_offset(pk)) * self.range_bin_m).max(0.0);
+        let a = self.cols as f64;
+        let s = (self.signed)(pk.col) as f64 + self.angle_offset(pk);
+        let s = (s + a / 2.0).rem_euclid(a) - a / 2.0;
+        let sin = (s / (a * self.spacing_wl)).clamp(-1.0, 1.0);
+        RangeAngleDetection {
+            range_m,
+            angle_rad: sin.asin(),
+            power_db: 10.0 * pk.power.log10(),
+            range_bin: pk.row,
+            angle_bin: (self.shifted)(pk.col),
+        }
+    }
+}
+
+impl Estimator {
+    /// Plans every FFT and allocates every buffer for frames of `params`' sizes.
+    ///
+    /// Memory: K·M·N·padding complex cells for the range-transformed rows, plus rows × A power
+    /// cells (rows = the range window). Errors name the bad field; nothing panics.
+    pub fn new(params: &OfdmParams, config: EstimatorConfig) -> Result<Self, EstimatorError> {
+        validate_params(params)?;
+        config.validate()?;
+        let (n, k, m) = (params.subcarriers, params.antennas, params.symbols);
+        let n_pad = n * config.range_padding();
+        let a = k * config.zero_padding_angle;
+        let stride = n_pad + ROW_PAD;
+        let work_cells = k
+            .checked_mul(m)
+            .and_then(|x| x.checked_mul(stride))
+            .filter(|&c| c <= MAX_WORK_CELLS)
+            .ok_or_else(|| {
+                InvalidParam::new(
+                    "ofdm.subcarriers",
+                    format!(
+                        "K·M·N·padding = {k}·{m}·{n}·{} is too large",
+                        config.range_padding()
+                    ),
+                    format!("at most {MAX_WORK_CELLS} cells"),
+                )
+            })?;
+        let range_bin_m = params.range_bin_m() / config.range_padding() as f64;
+        let (rows, search_rows) = match config.max_range_m {
+            None => (n_pad, n_pad),
+            Some(r) => {
+                let last = (r / range_bin_m).floor().min(n_pad as f64) as usize;
+                ((last + 2).min(n_pad), (last + 1).min(n_pad))
+            }
+        };
+        if config.detector == crate::Detector::Cfar {
+            let span = 2 * (config.cfar_guard_angle + config.cfar_train_angle) + 1;
+            if span > a {
+                return Err(InvalidParam::new(
+                    "cfar_train_angle",
+                    format!("the CFAR window spans {span} angle bins but there are {a}"),
+                    format!("2·(cfar_guard_angle + cfar_train_angle) + 1 <= {a}"),
+                )
+                .into());
+            }
+        }
+        let mut planner = FftPlanner::<f64>::new();
+        let ifft_range = planner.plan_fft_inverse(n_pad);
+        let fft_angle = planner.plan_fft_forward(a);
+        let fft_doppler = planner.plan_fft_forward(m);
+        let scratch_len = ifft_range
+            .get_inplace_scratch_len()
+            .max(fft_angle.get_inplace_scratch_len())
+            .max(fft_doppler.get_inplace_scratch_len());
+        let tile_bins = (TILE_CELLS / (a * m)).max(1).min(rows);
+        let spacing_wl = params.antenna_spacing_wavelengths;
+        Ok(Self {
+            n,
+            k,
+            m,
+            n_pad,
+            stride,
+            a,
+            rows,
+            search_rows,
+            circular_range: rows == n_pad,
+            range_bin_m,
+            unambiguous_m: params.unambiguous_range_m(),
+            spacing_wl,
+            ifft_range,
+            fft_angle,
+            fft_doppler,
+            scratch: alloc(scratch_len, ZERO)?,
+            inv_x: alloc(m * n, ZERO)?,
+            work: alloc(work_cells, ZERO)?,
+            tile: alloc(tile_bins * m * a, ZERO)?,
+            tile2: alloc(if m > 1 { tile_bins * m * a } else { 0 }, ZERO)?,
+            tile_bins,
+            power: alloc(rows * a, 0.0)?,
+            row_max: alloc(rows, 0.0)?,
+            doppler_bin: alloc(if m > 1 { rows * a } else { 0 }, 0u16)?,
+            visible_fft: visibility(a, spacing_wl, |c| signed_fft(c, a)),
+            visible_shifted: visibility(a, spacing_wl, |c| c as isize - (a / 2) as isize),
+            tw_angle: twiddles(a),
+            tw_doppler: twiddles(m),
+            det: DetectScratch::default(),
+            detections: Vec::new(),
+            floor: 0.0,
+            config,
+        })
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &EstimatorConfig {
+        &self.config
+    }
+
+    /// Range bins of the grid path's map (the range window plus one neighbour bin).
+    pub fn range_bins(&self) -> usize {
+        self.rows
+    }
+
+    /// Angle bins A = K · zero_padding_angle.
+    pub fn angle_bins(&self) -> usize {
+        self.a
+    }
+
+    /// Size of one (padded) range bin (m).
+    pub fn range_bin_m(&self) -> f64 {
+        self.range_bin_m
+    }
+
+    /// Noise floor (mean noise power per cell, map units) used for the last frame.
+    pub fn noise_floor(&self) -> f64 {
+        self.floor
+    }
+
+    /// One `waveform` frame to detections, strongest first.
+    ///
+    /// Y/X element-wise (cells with X = 0 or subnormal are skipped: S = 0 there, the range
+    /// kernel loses those terms), IDFT over subcarriers (1/N), DFT over the array, and for M > 1
+    /// a DFT over symbols of which each (range, angle) cell keeps its strongest Doppler bin;
+    /// then detection and refinement.
+    ///
+    /// # Errors
+    /// Grid shape not the estimator's; a NaN or infinite sample (named with its index); every
+    /// X zero; overflow.
+    pub fn process_grid(
+        &mut self,
+        grid: &ResourceGrid,
+    ) -> Result<Vec<RangeAngleDetection>, EstimatorError> {
+        self.transform(grid, None)?;
+        self.detect_grid();
+        Ok(self.detections.clone())
+    }
+
+    /// The processed complex range × angle map of one `waveform` frame (what `spectral`
+    /// synthesises directly): the range window's bins, angles fftshifted (broadside at A/2),
+    /// for M > 1 each cell's strongest Doppler bin; `noise_power` is the estimated floor.
+    pub fn range_angle_map(
+        &mut self,
+        grid: &ResourceGrid,
+    ) -> Result<RangeAngleSpectrum, EstimatorError> {
+        let mut values = alloc(self.rows * self.a, ZERO)?;
+        self.transform(grid, Some(&mut values))?;
+        let view = MapView {
+            power: &self.power,
+            row_max: &self.row_max,
+            rows: self.rows,
+            cols: self.a,
+            search_rows: self.search_rows,
+            circular_range: self.circular_range,
+            visible: &self.visible_fft,
+        };
+        self.floor = self.det.noise_floor(&view);
+        Ok(RangeAngleSpectrum {
+            range_bins: self.rows,
+            angle_bins: self.a,
+            range_bin_m: self.range_bin_m,
+            values,
+            noise_power: self.floor,
+        })
+    }
+
+    /// Detection (and refinement) only, on a map synthesised by the `spectral` front end.
+    ///
+    /// `range_bin_m` is read as the spacing of this spectrum's bins; the range dimension is
+    /// circular when the spectrum spans the whole unambiguous range; the noise floor is the
+    /// spectrum's `noise_power` when positive, else estimated from the map. Zero padding in each
+    /// dimension is inferred from the bin sizes (range: Δr / range_bin_m; angle: angle_bins / K).
+    ///
+    /// # Errors
+    /// Inconsistent shape, a non-positive bin size, a NaN or infinite value, a CFAR window wider
+    /// than the angle bins.
+    pub fn process_spectrum(
+        &mut self,
+        spectrum: &RangeAngleSpectrum,
+    ) -> Result<Vec<RangeAngleDetection>, EstimatorError> {
+        let (rows, a) = (spectrum.range_bins, spectrum.angle_bins);
+        let bad = |s: String| Err(EstimatorError::SpectrumShape(s));
+        if rows == 0 || a == 0 || rows.checked_mul(a) != Some(spectrum.values.len()) {
+            return bad(format!(
+                "{} values for {rows} range × {a} angle bins (both must be ≥ 1)",
+                spectrum.values.len()
+            ));
+        }
+        if !(spectrum.range_bin_m.is_finite() && spectrum.range_bin_m > 0.0) {
+            return bad(format!(
+                "range_bin_m = {} (must be > 0)",
+                spectrum.range_bin_m
+            ));
+        }
+        if !(spectrum.noise_power.is_finite() && spectrum.noise_power >= 0.0) {
+            return bad(format!(
+                "noise_power = {} (must be ≥ 0)",
+                spectrum.noise_power
+            ));
+        }
+        if self.config.detector == crate::Detector::Cfar {
+            let span = 2 * (self.config.cfar_guard_angle + self.config.cfar_train_angle) + 1;
+            if span > a {
+                return bad(format!(
+                    "the CFAR window spans {span} angle bins, the map {a}"
+                ));
+            }
+        }
+        self.power.clear();
+        self.row_max.clear();
+        for (row, line) in spectrum.values.chunks_exact(a).enumerate() {
+            let mut mx = 0.0f64;
+            let mut ok = true;
+            for v in line {
+                let p = v.norm_sqr();
+                ok &= v.re.is_finite() & v.im.is_finite();
+                mx = mx.max(p);
+                self.power.push(p);
+            }
+            if !ok {
+                let col = line
+                    .iter()
+                    .position(|v| !(v.re.is_finite() && v.im.is_finite()))
+                    .unwrap_or(0);
+                return Err(EstimatorError::NonFinite {
+                    input: "spectrum",
+                    index: row * a + col,
+                    value: line[col].to_string(),
+                });
+            }
+            if !mx.is_finite() {
+                return Err(EstimatorError::Overflow("|spectrum value|²"));
+            }
+            self.row_max.push(mx);
+        }
+        let search_rows = match self.config.max_range_m {
+            None => rows,
+            Some(r) => ((r / spectrum.range_bin_m).floor().min(rows as f64) as usize + 1).min(rows),
+        };
+        let span_m = rows as f64 * spectrum.range_bin_m;
+        let circular = (span_m - self.unambiguous_m).abs() <= 1e-6 * self.unambiguous_m;
+        let range_pad =
+            (self.range_bin_m * self.config.range_padding() as f64 / spectrum.range_bin_m).round();
+        let visible = if a == self.a {
+            std::mem::take(&mut self.visible_shifted)
+        } else {
+            visibility(a, self.spacing_wl, |c| c as isize - (a / 2) as isize)
+        };
+        let view = MapView {
+            power: &self.power,
+            row_max: &self.row_max,
+            rows,
+            cols: a,
+            search_rows,
+            circular_range: circular,
+            visible: &visible,
+        };
+        self.floor = if spectrum.noise_power > 0.0 {
+            spectrum.noise_power
+        } else {
+            self.det.noise_floor(&view)
+        };
+        let lobes = Lobes {
+            range_period: (self.unambiguous_m / spectrum.range_bin_m).round() as usize,
+            range_len: self.n,
+            range_pad: range_pad.max(1.0),
+            angle_len: self.k,
+            angle_pad: (a as f64 / self.k as f64).max(1.0),
+        };
+        let peaks = self.det.detect(&view, &self.config, self.floor, lobes);
+        let half = a / 2;
+        let ctx = RefineCtx {
+            values: Values::Stored {
+                values: &spectrum.values,
+                cols: a,
+            },
+            rows,
+            cols: a,
+            circular_range: circular,
+            interpolate: self.config.refinement == Refinement::Interpolation,
+            range_len: (range_pad == 1.0).then_some(self.n),
+            angle_len: (a == self.k).then_some(a),
+            range_bin_m: spectrum.range_bin_m,
+            spacing_wl: self.spacing_wl,
+            signed: &|c| c as isize - half as isize,
+            shifted: &|c| c,
+        };
+        self.detections.clear();
+        self.detections
+            .extend(peaks.iter().map(|pk| ctx.detection(pk)));
+        if a == self.a {
+            self.visible_shifted = visible;
+        }
+        Ok(self.detections.clone())
+    }
+
+    fn detect_grid(&mut self) {
+        let view = MapView {
+            power: &self.power,
+            row_max: &self.row_max,
+            rows: self.rows,
+            cols: self.a,
+            search_rows: self.search_rows,
+            circular_range: self.circular_range,
+            visible: &self.visible_fft,
+        };
+        self.floor = self.det.noise_floor(&view);
+        let lobes = Lobes {
+            range_period: self.n_pad,
+            range_len: self.n,
+            range_pad: self.config.range_padding() as f64,
+            angle_len: self.k,
+            angle_pad: self.config.zero_padding_angle as f64,
+        };
+        let peaks = self.det.detect(&view, &self.config, self.floor, lobes);
+        let a = self.a;
+        let ctx = RefineCtx {
+            values: Values::Grid {
+                work: &self.work,
+                k: self.k,
+                m: self.m,
+                stride: self.stride,
+                tw_angle: &self.tw_angle,
+                tw_doppler: &self.tw_doppler,
+                doppler_bin: &self.doppler_bin,
+                cols: a,
+            },
+            rows: self.rows,
+            cols: a,
+            circular_range: self.circular_range,
+            interpolate: self.config.refinement == Refinement::Interpolation,
+            range_len: (self.n_pad == self.n).then_some(self.n),
+            angle_len: (a == self.k).then_some(a),
+            range_bin_m: self.range_bin_m,
+            spacing_wl: self.spacing_wl,
+            signed: &|c| signed_fft(c, a),
+            shifted: &|c| (c + a / 2) % a,
+        };
+        self.detections.clear();
+        self.detections
+            .extend(peaks.iter().map(|pk| ctx.detection(pk)));
+    }
+
+    fn check_grid(&self, grid: &ResourceGrid) -> Result<(), EstimatorError> {
+        let checks = [
+            ("antennas", self.k, grid.antennas),
+            ("symbols", self.m, grid.symbols),
+            ("subcarriers", self.n, grid.subcarriers),
+            (
+                "received.len()",
+                self.k * self.m * self.n,
+                grid.received.len(),
+            ),
+            ("transmitted.len()", self.m * self.n, grid.transmitted.len()),
+        ];
+        for (what, expected, found) in checks {
+            if expected != found {
+                return Err(EstimatorError::GridShape {
+                    what,
+                    expected,
+                    found,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Y/X, range IDFT, angle (and Doppler) DFT into `power`/`row_max` (and `map` when given,
+    /// fftshifted).
+    fn transform(
+        &mut self,
+        grid: &ResourceGrid,
+        mut map: Option<&mut Vec<Complex64>>,
+    ) -> Result<(), EstimatorError> {
+        self.check_grid(grid)?;
+        let Self {
+            n,
+            k,
+            m,
+            n_pad,
+            stride,
+            a,
+            rows,
+            ifft_range,
+            fft_angle,
+            fft_doppler,
+            scratch,
+            inv_x,
+            work,
+            tile,
+            tile2,
+            tile_bins,
+            power,
+            row_max,
+            doppler_bin,
+            ..
+        } = self;
+        let (n, k, m, n_pad, stride, a, rows) = (*n, *k, *m, *n_pad, *stride, *a, *rows);
+
+        // 1/X scaled by the paper's 1/N (and 1/M, so that a static echo's zero-Doppler bin equals
+        // the mean over symbols of `nrslam_ofdm::reference`); zero (skip) where X is zero or
+        // subnormal.
+        let scale = 1.0 / (n as f64 * m as f64);
+        let mut usable = 0usize;
+        for (i, (dst, x)) in inv_x.iter_mut().zip(&grid.transmitted).enumerate() {
+            if !(x.re.is_finite() && x.im.is_finite()) {
+                return Err(EstimatorError::NonFinite {
+                    input: "transmitted",
+                    index: i,
+                    value: x.to_string(),
+                });
+            }
+            let s = x.re.abs().max(x.im.abs());
+            let inv_s = 1.0 / s;
+            *dst = if s > 0.0 && inv_s.is_finite() {
+                let xs = x * inv_s;
+                usable += 1;
+                xs.conj() * (scale * inv_s / xs.norm_sqr())
+            } else {
+                ZERO
+            };
+        }
+        if usable == 0 {
+            return Err(EstimatorError::NoReference);
+        }
+
+        // S = Y/X into the work rows, then the range IDFT of each row while it is in cache.
+        for (r, (row, y)) in work
+            .chunks_exact_mut(stride)
+            .zip(grid.received.chunks_exact(n))
+            .enumerate()
+        {
+            // No per-sample finiteness test here: a NaN or infinity reaches every output of
+            // the row's IDFT and from there every cell's power, where it is caught below.
+            let inv = &inv_x[(r % m) * n..(r % m + 1) * n];
+            for ((dst, y), ix) in row[..n].iter_mut().zip(y).zip(inv) {
+                *dst = y * ix;
+            }
+            let row = &mut row[..n_pad];
+            row[n..].fill(ZERO);
+            ifft_range.process_with_scratch(row, scratch);
+        }
+
+        // Angle (and Doppler) transforms, a tile of range bins at a time, gathered from the
+        // antenna-major rows into bin-major order.
+        let half = a / 2;
+        let mut i0 = 0;
+        while i0 < rows {
+            let bb = (*tile_bins).min(rows - i0);
+            let t = &mut tile[..bb * m * a];
+            if a > k {
+                t.fill(ZERO);
+            }
+            gather(work, t, i0, bb, k, m, a, stride);
+            fft_angle.process_with_scratch(t, scratch);
+            if m == 1 {
+                for (b, line) in t.chunks_exact(a).enumerate() {
+                    let out = &mut power[(i0 + b) * a..(i0 + b + 1) * a];
+                    row_max[i0 + b] = norm_sqr_max(line, out);
+                    if let Some(map) = map.as_deref_mut() {
+                        let dst = &mut map[(i0 + b) * a..(i0 + b + 1) * a];
+                        for (c, v) in line.iter().enumerate() {
+                            dst[(c + half) % a] = *v;
+                        }
+                    }
+                }
+            } else {
+                let t2 = &mut tile2[..bb * m * a];
+                for b in 0..bb {
+                    for mm in 0..m {
+                        for c in 0..a {
+                            t2[(b * a + c) * m + mm] = t[(b * m + mm) * a + c];
+                        }
+                    }
+                }
+                fft_doppler.process_with_scratch(t2, scratch);
+                for b in 0..bb {
+                    let mut mx = 0.0f64;
+                    let mut sum = 0.0f64;
+                    for c in 0..a {
+                        let chunk = &t2[(b * a + c) * m..(b * a + c + 1) * m];
+                        let (mut best, mut best_p) = (0usize, -1.0f64);
+                        for (d, v) in chunk.iter().enumerate() {
+                            let p = v.norm_sqr();
+                            sum += p;
+                            if p > best_p {
+                                best = d;
+                                best_p = p;
+                            }
+                        }
+                        let cell = (i0 + b) * a + c;
+                        power[cell] = best_p;
+                        doppler_bin[cell] = best as u16;
+                        mx = mx.max(best_p);
+                        if let Some(map) = map.as_deref_mut() {
+                            map[(i0 + b) * a + (c + half) % a] = chunk[best];
+                        }
+                    }
+                    row_max[i0 + b] = if sum.is_finite() { mx } else { f64::NAN };
+                }
+            }
+            i0 += bb;
+        }
+        if row_max.iter().any(|p| !p.is_finite()) {
+            let bad = grid
+                .received
+                .iter()
+                .position(|v| !(v.re.is_finite() && v.im.is_finite()));
+            return Err(match bad {
+                Some(i) => EstimatorError::NonFinite {
+                    input: "received",
+                    index: i,
+                    value: grid.received[i].to_string(),
+                },
+                None => EstimatorError::Overflow("Y/X or the range-angle transforms"),
+            });
+        }
+        Ok(())
+    }
+}

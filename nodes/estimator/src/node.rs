@@ -1,0 +1,221 @@
+//! The estimator as a node: `/radar/spectrum` (`spectral` front end) or `/radar/echo`
+//! (`waveform` front end) in, `/radar/detections` out (paper Sec. III-B).
+//!
+//! A `waveform` echo describes its own radar (carrier, Δf, N, M, K, spacing), so the estimator is
+//! planned from the first echo and re-planned only if a later echo differs. A spectrum carries
+//! only its bin sizes, so the node's `ofdm` parameters must be the front end's (the launch files
+//! pass the same arguments to both).
+//!
+//! Each detection's `range_std_m` and `angle_std_rad` are the grid limits of the bin it fell in
+//! (bin / √12): the honest spread of a DFT-grid estimate without refinement, an upper bound with it.
+
+use crate::{Estimator, EstimatorConfig, EstimatorError, RangeAngleDetection};
+use nrslam_msgs::topics::{DETECTIONS, ECHO, SPECTRUM};
+use nrslam_msgs::{Detection, Detections, Header, Message, RadarEcho, RadarSpectrum};
+use nrslam_ofdm::{OfdmParams, RangeAngleSpectrum, ResourceGrid};
+use nrslam_runtime::{InvalidParam, Node, NodeContext, NodeError, Outbox};
+use num_complex::Complex64;
+use serde::{Deserialize, Serialize};
+
+/// Which front-end output the node reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Input {
+    /// `/radar/spectrum`: detection only.
+    #[default]
+    Spectral,
+    /// `/radar/echo`: Y/X, IDFT, DFT, then detection.
+    Waveform,
+}
+
+/// Parameters of the estimator node.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Params {
+    /// Front-end output to read: `spectral` or `waveform`.
+    pub input: Input,
+    /// The radar (Table I, M = 1, as the front end's default); used to read spectra.
+    pub ofdm: OfdmParams,
+    /// Detection and refinement.
+    pub estimator: EstimatorConfig,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Self {
+            input: Input::Spectral,
+            ofdm: OfdmParams {
+                symbols: 1,
+                ..OfdmParams::default()
+            },
+            // The hall's farthest echo is at 20 m: searching the whole 1249 m unambiguous range
+            // would only add noise peaks and work.
+            estimator: EstimatorConfig {
+                max_range_m: Some(25.0),
+                ..EstimatorConfig::default()
+            },
+        }
+    }
+}
+
+impl Params {
+    /// Checks every field; the error names it and its allowed range.
+    pub fn validate(&self) -> Result<(), InvalidParam> {
+        crate::validate_params(&self.ofdm)?;
+        self.estimator
+            .validate()
+            .map_err(|e| InvalidParam::new(format!("estimator.{}", e.field), e.problem, e.allowed))
+    }
+}
+
+/// The node.
+pub struct EstimatorNode {
+    params: Params,
+    planned: Option<(OfdmParams, Estimator)>,
+}
+
+/// Builds the node.
+pub fn build(params: Params, _ctx: &NodeContext) -> Result<Box<dyn Node>, NodeError> {
+    params.validate()?;
+    let estimator =
+        Estimator::new(&params.ofdm, params.estimator.clone()).map_err(NodeError::algorithm)?;
+    Ok(Box::new(EstimatorNode {
+        planned: Some((params.ofdm, estimator)),
+        params,
+    }))
+}
+
+fn complex(values: &[f64], topic: &str) -> Result<Vec<Complex64>, NodeError> {
+    if !values.len().is_multiple_of(2) {
+        return Err(NodeError::invalid_input(
+            topic,
+            format!("{} interleaved values is odd", values.len()),
+        ));
+    }
+    Ok(values
+        .chunks_exact(2)
+        .map(|c| Complex64::new(c[0], c[1]))
+        .collect())
+}
+
+impl EstimatorNode {
+    fn estimator_for(&mut self, ofdm: OfdmParams) -> Result<&mut Estimator, NodeError> {
+        if self
+            .planned
+            .as_ref()
+            .is_none_or(|(planned, _)| *planned != ofdm)
+        {
+            let estimator = Estimator::new(&ofdm, self.params.estimator.clone())
+                .map_err(NodeError::algorithm)?;
+            self.planned = Some((ofdm, estimator));
+        }
+        Ok(&mut self.planned.as_mut().expect("planned above").1)
+    }
+
+    fn on_echo(&mut self, echo: &RadarEcho) -> Result<Vec<RangeAngleDetection>, NodeError> {
+        let ofdm = OfdmParams {
+            carrier_frequency_hz: echo.carrier_frequency_hz,
+            subcarrier_spacing_hz: echo.subcarrier_spacing_hz,
+            subcarriers: echo.subcarriers as usize,
+            symbols: echo.symbols as usize,
+            symbol_duration_s: echo.symbol_duration_s,
+            antennas: echo.antennas as usize,
+            antenna_spacing_wavelengths: echo.antenna_spacing_wavelengths,
+            snr_db: echo.snr_db,
+        };
+        let grid = ResourceGrid {
+            antennas: ofdm.antennas,
+            symbols: ofdm.symbols,
+            subcarriers: ofdm.subcarriers,
+            received: complex(&echo.received, ECHO)?,
+            transmitted: complex(&echo.transmitted, ECHO)?,
+        };
+        let estimator = self.estimator_for(ofdm)?;
+        estimator.process_grid(&grid).map_err(|e| invalid(ECHO, e))
+    }
+
+    fn on_spectrum(
+        &mut self,
+        spectrum: &RadarSpectrum,
+    ) -> Result<Vec<RangeAngleDetection>, NodeError> {
+        let map = RangeAngleSpectrum {
+            range_bins: spectrum.range_bins as usize,
+            angle_bins: spectrum.angle_bins as usize,
+            range_bin_m: spectrum.range_bin_m,
+            values: complex(&spectrum.values, SPECTRUM)?,
+            noise_power: spectrum.noise_power,
+        };
+        let ofdm = self.params.ofdm;
+        let estimator = self.estimator_for(ofdm)?;
+        estimator
+            .process_spectrum(&map)
+            .map_err(|e| invalid(SPECTRUM, e))
+    }
+
+    fn detections(
+        &self,
+        header: &Header,
+        boresight_rad: f64,
+        found: Vec<RangeAngleDetection>,
+    ) -> Detections {
+        let ofdm = self.planned.as_ref().map_or(self.params.ofdm, |(p, _)| *p);
+        let range_std_m = ofdm.range_bin_m() / 12f64.sqrt();
+        let sine_std = ofdm.sine_bin() / 12f64.sqrt();
+        Detections {
+            header: Header::new(header.stamp, "radar"),
+            boresight_rad,
+            detections: found
+                .into_iter()
+                .map(|d| Detection {
+                    range_m: d.range_m,
+                    angle_rad: d.angle_rad,
+                    range_std_m,
+                    // dθ = d(sin θ) / cos θ, capped at endfire.
+                    angle_std_rad: (sine_std / d.angle_rad.cos().max(0.05))
+                        .min(std::f64::consts::FRAC_PI_2),
+                    power_db: d.power_db,
+                })
+                .collect(),
+        }
+    }
+}
+
+fn invalid(topic: &str, error: EstimatorError) -> NodeError {
+    NodeError::invalid_input(topic, error.to_string())
+}
+
+impl Node for EstimatorNode {
+    fn inputs(&self) -> Vec<&'static str> {
+        match self.params.input {
+            Input::Spectral => vec![SPECTRUM],
+            Input::Waveform => vec![ECHO],
+        }
+    }
+
+    fn outputs(&self) -> Vec<&'static str> {
+        vec![DETECTIONS]
+    }
+
+    fn on_message(
+        &mut self,
+        topic: &str,
+        message: &Message,
+        outbox: &mut Outbox,
+    ) -> Result<(), NodeError> {
+        let (header, boresight_rad, found) = match (topic, message) {
+            (SPECTRUM, Message::RadarSpectrum(s)) => {
+                (&s.header, s.boresight_rad, self.on_spectrum(s)?)
+            }
+            (ECHO, Message::RadarEcho(e)) => (&e.header, e.boresight_rad, self.on_echo(e)?),
+            _ => {
+                return Err(NodeError::invalid_input(
+                    topic,
+                    format!("unexpected {}", message.type_name()),
+                ))
+            }
+        };
+        let detections = self.detections(header, boresight_rad, found);
+        outbox.publish(DETECTIONS, detections);
+        Ok(())
+    }
+}
