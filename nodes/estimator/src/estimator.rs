@@ -782,6 +782,10 @@ impl Estimator {
         mut map: Option<&mut Vec<Complex64>>,
     ) -> Result<(), EstimatorError> {
         self.check_grid(grid)?;
+        // `process_spectrum` reuses these buffers at the spectrum's own size; restore the grid
+        // path's (no reallocation once both sizes have been seen).
+        self.power.resize(self.rows * self.a, 0.0);
+        self.row_max.resize(self.rows, 0.0);
         let Self {
             n,
             k,
