@@ -31,7 +31,7 @@ fn errors(waveform_level: bool, refinement: Refinement, snr_db: f64) -> (Vec<f64
             range_m: scene.random_range(3.0..20.0),
             angle_rad: scene.random_range(-1.0..1.0),
             radial_velocity_mps: 0.0,
-            amplitude: Complex64::from_polar(1.0, scene.random_range(0.0..6.283)),
+            amplitude: Complex64::from_polar(1.0, scene.random_range(0.0..std::f64::consts::TAU)),
         };
         let found = if waveform_level {
             let grid = waveform::synthesize(
