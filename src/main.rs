@@ -5,6 +5,7 @@
 
 mod accuracy;
 mod launcher;
+mod montecarlo;
 mod plot;
 mod registry;
 mod report;
@@ -51,6 +52,10 @@ enum Command {
     Segment(tools::SegmentArgs),
     /// Single-scatterer range and angle RMSE against SNR, beside the Cramér–Rao bounds and grid limits.
     Accuracy(accuracy::AccuracyArgs),
+    /// Monte Carlo trials of a launch in parallel: per-step mean and spread of every metric.
+    Montecarlo(montecarlo::MonteCarloArgs),
+    /// Merge `montecarlo --shard` folders into the result of one unsharded run.
+    Merge(montecarlo::MergeArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -70,6 +75,8 @@ fn main() -> std::process::ExitCode {
         Command::Metric(args) => tools::metric(args),
         Command::Segment(args) => tools::segment(args),
         Command::Accuracy(args) => accuracy::accuracy(args),
+        Command::Montecarlo(args) => montecarlo::montecarlo(args),
+        Command::Merge(args) => montecarlo::merge(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
