@@ -9,6 +9,7 @@ mod montecarlo;
 mod plot;
 mod registry;
 mod report;
+mod reproduce;
 mod tools;
 
 use clap::{Args, Parser, Subcommand};
@@ -56,6 +57,8 @@ enum Command {
     Montecarlo(montecarlo::MonteCarloArgs),
     /// Merge `montecarlo --shard` folders into the result of one unsharded run.
     Merge(montecarlo::MergeArgs),
+    /// The paper's figures (3, 4, 5, 6, 7) as PNG with CSV beside each.
+    Reproduce(reproduce::ReproduceArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -77,6 +80,7 @@ fn main() -> std::process::ExitCode {
         Command::Accuracy(args) => accuracy::accuracy(args),
         Command::Montecarlo(args) => montecarlo::montecarlo(args),
         Command::Merge(args) => montecarlo::merge(args),
+        Command::Reproduce(args) => reproduce::reproduce(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
