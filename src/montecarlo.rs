@@ -43,7 +43,7 @@ pub struct MonteCarloArgs {
     /// Worker threads (default: all cores). Results do not depend on it.
     #[arg(long)]
     pub threads: Option<usize>,
-    /// Output folder: trials.csv (raw), montecarlo.csv (per-step mean and spread), summary.json.
+    /// Output folder: trials.csv (raw), montecarlo.csv (per-step mean and spread), study.json.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
 }
