@@ -101,14 +101,17 @@ fn check_rate(rate: f64) -> Result<()> {
     Ok(())
 }
 
-struct Built {
-    nodes: Vec<(String, Box<dyn Node>)>,
-    expected_frames: Option<u64>,
+/// The nodes of a launch, built and wired.
+pub(crate) struct Built {
+    /// (instance name, node) in launch order.
+    pub nodes: Vec<(String, Box<dyn Node>)>,
+    /// Frames the radar will produce, when known.
+    pub expected_frames: Option<u64>,
 }
 
 /// Builds every node of the launch (validating all parameters) and checks the wiring against the
 /// topic catalogue.
-fn build_all(launch: &Launch, seed: u64) -> Result<Built> {
+pub(crate) fn build_all(launch: &Launch, seed: u64) -> Result<Built> {
     let mut nodes = Vec::new();
     let mut expected_frames = None;
     for decl in &launch.nodes {

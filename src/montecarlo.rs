@@ -7,14 +7,13 @@
 //! computed from the rows sorted by trial, so merging shards reproduces the unsharded files byte
 //! for byte.
 
-use crate::registry;
+use crate::launcher::build_all;
 use crate::report::Reporter;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use nrslam_runtime::compose::Graph;
 use nrslam_runtime::launch::Launch;
-use nrslam_runtime::NodeContext;
 use rayon::prelude::*;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -81,17 +80,7 @@ fn parse_shard(text: &str) -> Result<(u64, u64)> {
 }
 
 fn run_trial(launch: &Launch, seed: u64) -> Result<TrialRows> {
-    let mut nodes = Vec::new();
-    for decl in &launch.nodes {
-        let ctx = NodeContext {
-            name: decl.name.clone(),
-            seed,
-            base_dir: launch.base_dir.clone(),
-        };
-        let node = registry::build(&decl.kind, decl.params.clone(), &ctx)
-            .map_err(|e| anyhow!("{}: node {}: {e}", launch.path.display(), decl.name))?;
-        nodes.push((decl.name.clone(), node));
-    }
+    let nodes = build_all(launch, seed)?.nodes;
     let mut reporter = Reporter::default();
     Graph::new(nodes).run(&mut |topic: &'static str, message: &nrslam_msgs::Message| {
         reporter.take(topic, message)
@@ -127,7 +116,7 @@ pub fn montecarlo(args: MonteCarloArgs) -> Result<()> {
     };
     let launch = Launch::load(&args.file, &args.assignments)?;
     // Fail on bad parameters before spending any time.
-    run_trial_check(&launch)?;
+    build_all(&launch, args.seed)?;
     let indices: Vec<u64> = (0..args.trials).filter(|i| i % shards == shard).collect();
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads.unwrap_or(0))
@@ -159,19 +148,6 @@ pub fn montecarlo(args: MonteCarloArgs) -> Result<()> {
     });
     write_study(&args.out, &header, &trials)?;
     println!("{} trials; wrote {}", trials.len(), args.out.display());
-    Ok(())
-}
-
-fn run_trial_check(launch: &Launch) -> Result<()> {
-    for decl in &launch.nodes {
-        let ctx = NodeContext {
-            name: decl.name.clone(),
-            seed: 0,
-            base_dir: launch.base_dir.clone(),
-        };
-        registry::build(&decl.kind, decl.params.clone(), &ctx)
-            .map_err(|e| anyhow!("{}: node {}: {e}", launch.path.display(), decl.name))?;
-    }
     Ok(())
 }
 
