@@ -100,14 +100,7 @@ pub fn accuracy(args: AccuracyArgs) -> Result<()> {
         "waveform" => true,
         other => bail!("--fidelity: {other:?} is not a level (allowed: spectral, waveform)"),
     };
-    let (refinement, padding) = match args.refine.as_str() {
-        "none" => (Refinement::None, 1),
-        "interpolation" => (Refinement::Interpolation, 1),
-        text => match text.strip_prefix("zero-padding:").map(str::parse::<usize>) {
-            Some(Ok(factor)) if (1..=64).contains(&factor) => (Refinement::ZeroPadding { factor }, factor),
-            _ => bail!("--refine: {text:?} is not a refinement (allowed: none, interpolation, zero-padding:F with 1 ≤ F ≤ 64)"),
-        },
-    };
+    let (refinement, padding) = parse_refinement(&args.refine)?;
     if args.trials == 0 || args.trials > 1_000_000 {
         bail!(
             "--trials: {} is out of range (allowed: 1 to 1000000)",
@@ -122,19 +115,6 @@ pub fn accuracy(args: AccuracyArgs) -> Result<()> {
     };
     base.validate()
         .map_err(|e| anyhow!("--subcarriers/--antennas: {e}"))?;
-    let config = EstimatorConfig {
-        refinement,
-        zero_padding_angle: padding,
-        max_range_m: Some(25.0),
-        max_detections: 1,
-        ..EstimatorConfig::default()
-    };
-    let spectral_config = spectral::SpectralConfig {
-        max_range_m: 25.0,
-        range_zero_padding: padding,
-        angle_zero_padding: padding,
-        ..spectral::SpectralConfig::default()
-    };
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     let bar = ProgressBar::new(snrs.len() as u64 * args.trials as u64);
@@ -145,66 +125,27 @@ pub fn accuracy(args: AccuracyArgs) -> Result<()> {
     let mut rows = Vec::new();
     for (snr_index, &snr_db) in snrs.iter().enumerate() {
         let params = OfdmParams { snr_db, ..base };
-        let mut estimator =
-            Estimator::new(&params, config.clone()).map_err(|e| anyhow!("estimator: {e}"))?;
-        let (mut range_sq, mut angle_sq, mut crb_angle_sq, mut grid_angle_sq, mut hits, mut misses) =
-            (0.0, 0.0, 0.0, 0.0, 0u32, 0u32);
-        for trial in 0..args.trials {
-            let mut rng = ChaCha8Rng::seed_from_u64(nrslam_runtime::seed::derive(
-                args.seed,
-                &format!("accuracy/{snr_index}/{trial}"),
-            ));
-            let range_m = rng.random_range(2.0..20.0);
-            let angle_rad = rng.random_range(-60f64.to_radians()..60f64.to_radians());
-            let scatterer = Scatterer {
-                range_m,
-                angle_rad,
-                radial_velocity_mps: 0.0,
-                amplitude: Complex64::from_polar(1.0, rng.random_range(0.0..std::f64::consts::TAU)),
-            };
-            let found = if waveform_level {
-                let grid = waveform::synthesize(
-                    &params,
-                    &[scatterer],
-                    &waveform::WaveformConfig::default(),
-                    &mut rng,
-                )?;
-                estimator.process_grid(&grid)
-            } else {
-                let map = spectral::synthesize(&params, &[scatterer], &spectral_config, &mut rng)?;
-                estimator.process_spectrum(&map)
-            }
-            .map_err(|e| anyhow!("estimator: {e}"))?;
-            crb_angle_sq += bounds::angle_variance_bound_rad2(&params, angle_rad);
-            grid_angle_sq += bounds::angle_grid_rms_rad(&params, angle_rad, padding).powi(2);
-            match found.first() {
-                Some(d) => {
-                    range_sq += (d.range_m - range_m).powi(2);
-                    angle_sq += (d.angle_rad - angle_rad).powi(2);
-                    hits += 1;
-                }
-                None => misses += 1,
-            }
-            bar.inc(1);
-        }
+        let tally = single_scatterer_trials(
+            &params,
+            waveform_level,
+            refinement,
+            padding,
+            args.trials,
+            args.seed,
+            &format!("accuracy/{snr_index}"),
+            &|| bar.inc(1),
+        )?;
         let n = args.trials as f64;
-        let rmse = |sum: f64| {
-            if hits > 0 {
-                (sum / hits as f64).sqrt()
-            } else {
-                f64::NAN
-            }
-        };
         rows.push(Row {
             snr_db,
-            range_rmse_m: rmse(range_sq),
+            range_rmse_m: tally.range_rmse_m(),
             // The estimator integrates all K antennas: the single-antenna bound of DESIGN.md / K.
             range_crb_m: bounds::range_variance_bound_array_m2(&params).sqrt(),
             range_grid_m: bounds::range_grid_rms_m(&params, padding),
-            angle_rmse_deg: rmse(angle_sq).to_degrees(),
-            angle_crb_deg: (crb_angle_sq / n).sqrt().to_degrees(),
-            angle_grid_deg: (grid_angle_sq / n).sqrt().to_degrees(),
-            misses,
+            angle_rmse_deg: tally.angle_rmse_rad().to_degrees(),
+            angle_crb_deg: (tally.crb_angle_sq / n).sqrt().to_degrees(),
+            angle_grid_deg: (tally.grid_angle_sq / n).sqrt().to_degrees(),
+            misses: tally.misses,
         });
     }
     bar.finish_and_clear();
@@ -248,6 +189,122 @@ pub fn accuracy(args: AccuracyArgs) -> Result<()> {
     }
     println!("wrote {} and accuracy.png", csv_path.display());
     Ok(())
+}
+
+/// Sums over the single-scatterer trials of one setting.
+#[derive(Debug, Default, Clone, Copy)]
+pub(crate) struct Tally {
+    range_sq_m2: f64,
+    angle_sq_rad2: f64,
+    crb_angle_sq: f64,
+    grid_angle_sq: f64,
+    hits: u32,
+    /// Trials in which the estimator reported nothing.
+    pub misses: u32,
+}
+
+impl Tally {
+    /// Range RMSE over the trials with a detection (m); NaN when there were none.
+    pub fn range_rmse_m(&self) -> f64 {
+        self.rmse(self.range_sq_m2)
+    }
+
+    /// Angle RMSE over the trials with a detection (rad); NaN when there were none.
+    pub fn angle_rmse_rad(&self) -> f64 {
+        self.rmse(self.angle_sq_rad2)
+    }
+
+    fn rmse(&self, sum: f64) -> f64 {
+        if self.hits > 0 {
+            (sum / self.hits as f64).sqrt()
+        } else {
+            f64::NAN
+        }
+    }
+}
+
+/// The estimator's sub-bin refinement and its zero-padding factor from `--refine` text: none,
+/// interpolation or zero-padding:F.
+pub(crate) fn parse_refinement(text: &str) -> Result<(Refinement, usize)> {
+    Ok(match text {
+        "none" => (Refinement::None, 1),
+        "interpolation" => (Refinement::Interpolation, 1),
+        text => match text.strip_prefix("zero-padding:").map(str::parse::<usize>) {
+            Some(Ok(factor)) if (1..=64).contains(&factor) => (Refinement::ZeroPadding { factor }, factor),
+            _ => bail!("--refine: {text:?} is not a refinement (allowed: none, interpolation, zero-padding:F with 1 ≤ F ≤ 64)"),
+        },
+    })
+}
+
+/// Runs `trials` single-scatterer frames at `params` (spectral, or waveform when
+/// `waveform_level`) through the estimator and sums the errors of its strongest detection.
+/// Trial t is seeded from (seed, `label`/t). `tick` is called after each trial.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn single_scatterer_trials(
+    params: &OfdmParams,
+    waveform_level: bool,
+    refinement: Refinement,
+    padding: usize,
+    trials: u32,
+    seed: u64,
+    label: &str,
+    tick: &(dyn Fn() + Sync),
+) -> Result<Tally> {
+    let config = EstimatorConfig {
+        refinement,
+        zero_padding_angle: padding,
+        max_range_m: Some(25.0),
+        max_detections: 1,
+        ..EstimatorConfig::default()
+    };
+    let spectral_config = spectral::SpectralConfig {
+        max_range_m: 25.0,
+        range_zero_padding: padding,
+        angle_zero_padding: padding,
+        ..spectral::SpectralConfig::default()
+    };
+    let mut estimator =
+        Estimator::new(params, config).map_err(|e| anyhow!("estimator: {e}"))?;
+    let mut tally = Tally::default();
+    for trial in 0..trials {
+        let mut rng = ChaCha8Rng::seed_from_u64(nrslam_runtime::seed::derive(
+            seed,
+            &format!("{label}/{trial}"),
+        ));
+        let range_m = rng.random_range(2.0..20.0);
+        let angle_rad = rng.random_range(-60f64.to_radians()..60f64.to_radians());
+        let scatterer = Scatterer {
+            range_m,
+            angle_rad,
+            radial_velocity_mps: 0.0,
+            amplitude: Complex64::from_polar(1.0, rng.random_range(0.0..std::f64::consts::TAU)),
+        };
+        let found = if waveform_level {
+            let grid = waveform::synthesize(
+                params,
+                &[scatterer],
+                &waveform::WaveformConfig::default(),
+                &mut rng,
+            )?;
+            estimator.process_grid(&grid)
+        } else {
+            let map = spectral::synthesize(params, &[scatterer], &spectral_config, &mut rng)?;
+            estimator.process_spectrum(&map)
+        }
+        .map_err(|e| anyhow!("estimator: {e}"))?;
+        tally.crb_angle_sq += bounds::angle_variance_bound_rad2(params, angle_rad);
+        tally.grid_angle_sq += bounds::angle_grid_rms_rad(params, angle_rad, padding).powi(2);
+        match found.first() {
+            Some(d) => {
+                tally.range_sq_m2 += (d.range_m - range_m).powi(2);
+                tally.angle_sq_rad2 += (d.angle_rad - angle_rad).powi(2);
+                tally.hits += 1;
+            }
+            None => tally.misses += 1,
+        }
+        tick();
+    }
+    Ok(tally)
 }
 
 /// Reads one quantity of a row.

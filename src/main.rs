@@ -11,6 +11,7 @@ mod registry;
 mod report;
 mod reproduce;
 mod tools;
+mod tradeoff;
 
 use clap::{Args, Parser, Subcommand};
 
@@ -59,6 +60,8 @@ enum Command {
     Merge(montecarlo::MergeArgs),
     /// The paper's figures (3, 4, 5, 6, 7) as PNG with CSV beside each.
     Reproduce(reproduce::ReproduceArgs),
+    /// Sweep the knobs that trade speed for accuracy: tradeoff.csv and a Pareto plot.
+    Tradeoff(tradeoff::TradeoffArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -81,6 +84,7 @@ fn main() -> std::process::ExitCode {
         Command::Montecarlo(args) => montecarlo::montecarlo(args),
         Command::Merge(args) => montecarlo::merge(args),
         Command::Reproduce(args) => reproduce::reproduce(args),
+        Command::Tradeoff(args) => tradeoff::tradeoff(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -59,7 +59,7 @@ pub struct MergeArgs {
 }
 
 /// One trial's per-step values: `(time_s, [metric values])`.
-type TrialRows = Vec<(f64, [f64; 4])>;
+pub(crate) type TrialRows = Vec<(f64, [f64; 4])>;
 
 fn parse_shard(text: &str) -> Result<(u64, u64)> {
     let (k, n) = text
@@ -79,7 +79,7 @@ fn parse_shard(text: &str) -> Result<(u64, u64)> {
     Ok((k - 1, n))
 }
 
-fn run_trial(launch: &Launch, seed: u64) -> Result<TrialRows> {
+pub(crate) fn run_trial(launch: &Launch, seed: u64) -> Result<TrialRows> {
     let nodes = build_all(launch, seed)?.nodes;
     let mut reporter = Reporter::default();
     Graph::new(nodes).run(&mut |topic: &'static str, message: &nrslam_msgs::Message| {

@@ -403,19 +403,39 @@ pub struct Scene {
 impl Scene {
     /// Reads and validates a scene file. A missing file is an error naming the path.
     pub fn load(path: &Path) -> Result<Self, SceneError> {
+        Self::load_with_spacing(path, None)
+    }
+
+    /// As [`Scene::load`], with the scatterer spacing (m) replaced when `scatterer_spacing_m`
+    /// is given (the radar's override of the scene's density).
+    pub fn load_with_spacing(
+        path: &Path,
+        scatterer_spacing_m: Option<f64>,
+    ) -> Result<Self, SceneError> {
         let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
             path: path.to_path_buf(),
             source,
         })?;
-        Self::from_toml_str(&text, &path.display().to_string())
+        Self::parse(&text, &path.display().to_string(), scatterer_spacing_m)
     }
 
     /// Parses and validates scene TOML; `origin` names the text in errors (a path or a label).
     pub fn from_toml_str(text: &str, origin: &str) -> Result<Self, SceneError> {
-        let spec: SceneSpec = toml::from_str(text).map_err(|e| SceneError::Parse {
+        Self::parse(text, origin, None)
+    }
+
+    fn parse(
+        text: &str,
+        origin: &str,
+        scatterer_spacing_m: Option<f64>,
+    ) -> Result<Self, SceneError> {
+        let mut spec: SceneSpec = toml::from_str(text).map_err(|e| SceneError::Parse {
             origin: origin.to_owned(),
             message: e.to_string(),
         })?;
+        if let Some(spacing_m) = scatterer_spacing_m {
+            spec.scatterer_spacing_m = spacing_m;
+        }
         Self::from_spec(&spec).map_err(|error| SceneError::Invalid {
             origin: origin.to_owned(),
             error,

@@ -108,7 +108,8 @@ impl Simulator {
     /// `seed` (the node's seed, e.g. `ctx.seed_for("radar")`).
     pub fn from_params(params: &Params, base_dir: &Path, seed: u64) -> Result<Self, RadarError> {
         params.validate()?;
-        let scene = Scene::load(&params.scene_path(base_dir))?;
+        let scene =
+            Scene::load_with_spacing(&params.scene_path(base_dir), params.scatterer_spacing())?;
         Self::new(scene, params, seed)
     }
 
