@@ -263,8 +263,7 @@ pub(crate) fn single_scatterer_trials(
         angle_zero_padding: padding,
         ..spectral::SpectralConfig::default()
     };
-    let mut estimator =
-        Estimator::new(params, config).map_err(|e| anyhow!("estimator: {e}"))?;
+    let mut estimator = Estimator::new(params, config).map_err(|e| anyhow!("estimator: {e}"))?;
     let mut tally = Tally::default();
     for trial in 0..trials {
         let mut rng = ChaCha8Rng::seed_from_u64(nrslam_runtime::seed::derive(

@@ -18,7 +18,13 @@ fn records(text: &str) -> Vec<Record> {
         .collect();
     reader
         .records()
-        .map(|r| header.iter().cloned().zip(r.unwrap().iter().map(str::to_owned)).collect())
+        .map(|r| {
+            header
+                .iter()
+                .cloned()
+                .zip(r.unwrap().iter().map(str::to_owned))
+                .collect()
+        })
         .collect()
 }
 
@@ -49,7 +55,12 @@ fn a_small_sweep_writes_every_column_and_a_consistent_pareto_front() {
         "{}",
         String::from_utf8_lossy(&output.stderr)
     );
-    assert!(std::fs::metadata(dir.path().join("pareto.png")).unwrap().len() > 10_000);
+    assert!(
+        std::fs::metadata(dir.path().join("pareto.png"))
+            .unwrap()
+            .len()
+            > 10_000
+    );
     let rows = records(&read(&dir.path().join("tradeoff.csv")));
     for column in [
         "knob",
@@ -144,6 +155,9 @@ fn an_unknown_knob_is_refused_with_the_allowed_list() {
     ]);
     assert!(!output.status.success());
     let stderr = String::from_utf8_lossy(&output.stderr);
-    assert!(stderr.contains("warp-drive") && stderr.contains("stride"), "{stderr}");
+    assert!(
+        stderr.contains("warp-drive") && stderr.contains("stride"),
+        "{stderr}"
+    );
     assert!(!stderr.contains("panicked"), "{stderr}");
 }

@@ -118,7 +118,13 @@ impl Params {
         }
         if self.scatterer_spacing_m != 0.0 {
             InvalidParam::check_range("scatterer_spacing_m", self.scatterer_spacing_m, 0.01, 100.0)
-                .map_err(|e| InvalidParam::new("scatterer_spacing_m", e.problem, "0 (the scene's) or 0.01 to 100 m"))?;
+                .map_err(|e| {
+                    InvalidParam::new(
+                        "scatterer_spacing_m",
+                        e.problem,
+                        "0 (the scene's) or 0.01 to 100 m",
+                    )
+                })?;
         }
         InvalidParam::check_range("range_std_m", self.range_std_m, 0.0, 100.0)?;
         InvalidParam::check_range("angle_std_deg", self.angle_std_deg, 0.0, 90.0)?;
