@@ -36,6 +36,17 @@ fn quick_reproduce_writes_every_figure() {
     ] {
         assert!(out.join(file).exists(), "{file} missing");
     }
+    let timing: serde_json::Value =
+        serde_json::from_str(&read(&out.join("reproduce.json"))).expect("reproduce.json is JSON");
+    assert_eq!(timing["trials"], 2);
+    assert!(timing["wall_time_s"].as_f64().unwrap() > 0.0);
+    assert_eq!(
+        timing["wall_time_per_condition_s"]
+            .as_object()
+            .unwrap()
+            .len(),
+        5
+    );
     let fig6 = read(&out.join("fig6.csv"));
     assert_eq!(
         fig6.lines().next().unwrap(),
