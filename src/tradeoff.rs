@@ -315,19 +315,20 @@ fn row(setting: Setting, trials: &[Trial], sensing: (f64, f64)) -> Row {
 /// Marks the rows no other row beats on both time per frame and final ET-GOPSA (the `trials`
 /// knob's rows share the baseline's per-frame time and are left out).
 fn mark_pareto(rows: &mut [Row]) {
+    let on_axes = |r: &Row| {
+        r.setting.knob != "trials" && r.time_per_frame_ms.is_finite() && r.final_etgospa.is_finite()
+    };
     let candidates: Vec<(f64, f64)> = rows
         .iter()
+        .filter(|r| on_axes(r))
         .map(|r| (r.time_per_frame_ms, r.final_etgospa))
         .collect();
-    for (i, r) in rows.iter_mut().enumerate() {
-        let (t, e) = candidates[i];
-        r.pareto = r.setting.knob != "trials"
-            && t.is_finite()
-            && e.is_finite()
+    for r in rows.iter_mut() {
+        let (t, e) = (r.time_per_frame_ms, r.final_etgospa);
+        r.pareto = on_axes(r)
             && !candidates
                 .iter()
-                .enumerate()
-                .any(|(j, &(t2, e2))| j != i && t2 <= t && e2 <= e && (t2 < t || e2 < e));
+                .any(|&(t2, e2)| t2 <= t && e2 <= e && (t2 < t || e2 < e));
     }
 }
 
