@@ -49,6 +49,10 @@ pub struct Params {
     /// a shallow angle erode its outline when the angle error exceeds a cell at that range; the
     /// paper's raw maps (Fig. 3) keep every hit. Without it, only hit cells are ever observed.
     pub free_space: bool,
+    /// Keep every keyframe and rebuild the grid when `/slam/keyframe_poses` reports a new
+    /// pose-graph revision (loop closure). Default true. False subscribes to `/slam/keyframe`
+    /// only and keeps no keyframes.
+    pub rebuild_on_correction: bool,
 }
 
 impl Default for Params {
@@ -64,6 +68,7 @@ impl Default for Params {
             clamp_min_probability: 0.12,
             clamp_max_probability: 0.97,
             free_space: true,
+            rebuild_on_correction: true,
         }
     }
 }
