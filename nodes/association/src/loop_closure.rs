@@ -15,8 +15,9 @@
 //!    of a submap point are "hit"), and every rigid motion on a grid of translations
 //!    (± radius, `search_step_m`) and rotations (± `max_search_rotation_deg`, `search_step_deg`)
 //!    around the predicted relative pose is scored by the fraction of query points landing on hit
-//!    cells. This needs no initial guess closer than the radius, unlike ICP. The best score and
-//!    the best score at least `ambiguity_distance_m` away from it are kept.
+//!    cells, times a Gaussian prior on the offset from the prediction (σ = radius / 2). This needs
+//!    no initial guess closer than the radius, unlike ICP. The best score and the best score at
+//!    least `ambiguity_distance_m` away from it are kept.
 //! 2. **Refinement.** Point-to-line ICP from the best motion ([`crate::icp::align`]).
 //! 3. **Verification.** The loop is accepted only when enough query points have a submap point
 //!    within `inlier_distance_m` (`min_inlier_ratio`), and the search peak is unambiguous (the
@@ -33,6 +34,9 @@ use crate::pose::Pose2;
 /// A verified loop: the measured pose of the query keyframe in the candidate's frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LoopMatch {
+    /// Index (id) of the old keyframe the query matched; set by the caller, 0 from
+    /// [`match_loop`].
+    pub candidate: usize,
     /// Measured relative pose (query keyframe in candidate keyframe's frame).
     pub relative: Pose2,
     /// Fraction of query points within `inlier_distance_m` of the submap after refinement.
@@ -148,8 +152,13 @@ pub fn match_loop(
     let steps_t = (radius_m / step_m).ceil() as i64;
     let step_rad = loop_params.search_step_deg.to_radians();
     let steps_r = (loop_params.max_search_rotation_deg / loop_params.search_step_deg).ceil() as i64;
-    // (score count, motion) of every rotation's best, and the overall ranking.
-    let mut candidates: Vec<(usize, Pose2)> = Vec::new();
+    // Every motion searched with its score: the fraction of query points on hit cells, times a
+    // Gaussian prior on the offset from the prediction (σ = half the radius). The prior matters
+    // in halls like ours whose targets repeat on a grid: a query shifted by one station pitch
+    // can cover as many hit cells as the right one, but is farther from where odometry says the
+    // AGV is.
+    let sigma_m = 0.5 * radius_m.max(step_m);
+    let mut candidates: Vec<(f64, usize, Pose2)> = Vec::new();
     let mut rotated = vec![[0.0; 2]; sample.len()];
     for ir in -steps_r..=steps_r {
         let yaw = predicted.yaw_rad + ir as f64 * step_rad;
@@ -164,22 +173,30 @@ pub fn match_loop(
                 if (ix * ix + iy * iy) as f64 * step_m * step_m > radius_m * radius_m {
                     continue;
                 }
-                let score = rotated.iter().filter(|p| grid.hit(p[0] + tx, p[1] + ty)).count();
-                candidates.push((score, Pose2::new(tx, ty, yaw)));
+                let count = rotated.iter().filter(|p| grid.hit(p[0] + tx, p[1] + ty)).count();
+                let offset2_m2 = (ix * ix + iy * iy) as f64 * step_m * step_m;
+                let weighted = count as f64 * (-0.5 * offset2_m2 / (sigma_m * sigma_m)).exp();
+                candidates.push((weighted, count, Pose2::new(tx, ty, yaw)));
             }
         }
     }
-    // Highest score first; ties keep search order (stable sort).
-    candidates.sort_by(|a, b| b.0.cmp(&a.0));
-    let Some(&(best_count, best)) = candidates.first() else {
+    // Highest weighted score first; ties keep search order (stable sort).
+    candidates.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let Some(&(best_weighted, best_count, best)) = candidates.first() else {
         return Err(LoopRejection::TooFewPoints);
     };
-    let runner_count = candidates
+    let runner_weighted = candidates
         .iter()
-        .find(|(_, m)| m.distance_m(&best) >= loop_params.ambiguity_distance_m)
-        .map_or(0, |c| c.0);
+        .find(|(_, _, m)| m.distance_m(&best) >= loop_params.ambiguity_distance_m)
+        .map_or(0.0, |c| c.0);
     let total = sample.len() as f64;
-    let (score, runner_up) = (best_count as f64 / total, runner_count as f64 / total);
+    let score = best_count as f64 / total;
+    // The runner-up in the same (prior-weighted) units as the best, as a fraction of points.
+    let runner_up = if best_weighted > 0.0 {
+        score * runner_weighted / best_weighted
+    } else {
+        0.0
+    };
 
     // Refinement: ICP of the query against the submap, from the search's best motion.
     let refine = Params {
@@ -210,6 +227,7 @@ pub fn match_loop(
         return Err(LoopRejection::LowInlierRatio(inlier_ratio));
     }
     Ok(LoopMatch {
+        candidate: 0,
         relative,
         inlier_ratio,
         score,

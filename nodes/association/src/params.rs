@@ -107,6 +107,10 @@ pub struct LoopClosureParams {
     /// A keyframe is a loop candidate only if at least this much travel lies between it and the
     /// current keyframe, metres (closer ones are the ordinary chain).
     pub min_separation_m: f64,
+    /// …and if its estimated position is within this distance of the current one plus the
+    /// search radius, metres: the radar sees targets up to its maximum range away, so two
+    /// keyframes some metres apart share much of their view.
+    pub candidate_distance_m: f64,
     /// Search radius around the predicted relative pose, metres…
     pub search_radius_m: f64,
     /// …plus this fraction of the distance travelled since the candidate (drift grows with it)…
@@ -152,6 +156,12 @@ pub struct LoopClosureParams {
     pub loop_std_deg: f64,
     /// Levenberg–Marquardt iterations per optimisation.
     pub max_iterations: u32,
+    /// Until the first loop closure, scan matching uses only the keyframes within this much
+    /// travel of the current one, metres, so that the chain of keyframes carries the drift
+    /// instead of being pulled piecemeal onto old, inconsistent parts of the map; the loop
+    /// closure then corrects the whole chain at once. After it the whole (corrected) map is
+    /// used. 0 uses the whole map throughout.
+    pub local_map_m: f64,
 }
 
 impl Default for LoopClosureParams {
@@ -159,14 +169,15 @@ impl Default for LoopClosureParams {
         LoopClosureParams {
             enabled: true,
             min_separation_m: 30.0,
+            candidate_distance_m: 12.0,
             search_radius_m: 2.0,
-            search_radius_per_m: 0.05,
-            max_search_radius_m: 10.0,
+            search_radius_per_m: 0.03,
+            max_search_radius_m: 6.0,
             max_search_rotation_deg: 12.0,
             search_step_m: 0.25,
             search_step_deg: 1.0,
-            submap_keyframes: 4,
-            query_keyframes: 4,
+            submap_keyframes: 10,
+            query_keyframes: 10,
             max_candidates: 2,
             min_points: 30,
             inlier_distance_m: 0.5,
@@ -178,9 +189,10 @@ impl Default for LoopClosureParams {
             odometry_std_deg_per_m: 0.5,
             odometry_min_std_m: 0.02,
             odometry_min_std_deg: 0.2,
-            loop_std_m: 0.1,
-            loop_std_deg: 0.5,
+            loop_std_m: 0.3,
+            loop_std_deg: 2.0,
             max_iterations: 20,
+            local_map_m: 0.0,
         }
     }
 }
@@ -188,7 +200,9 @@ impl Default for LoopClosureParams {
 impl LoopClosureParams {
     /// Checks every field; the error names the first offending field (as `loop_closure.NAME`).
     pub fn validate(&self) -> Result<(), InvalidParam> {
-        let ranges: [(&'static str, f64, f64, f64); 17] = [
+        let ranges: [(&'static str, f64, f64, f64); 19] = [
+            ("loop_closure.candidate_distance_m", self.candidate_distance_m, 0.0, 1e4),
+            ("loop_closure.local_map_m", self.local_map_m, 0.0, 1e6),
             ("loop_closure.min_separation_m", self.min_separation_m, 0.0, 1e6),
             ("loop_closure.search_radius_m", self.search_radius_m, 0.0, 1e3),
             ("loop_closure.search_radius_per_m", self.search_radius_per_m, 0.0, 1.0),

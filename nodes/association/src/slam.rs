@@ -132,6 +132,10 @@ pub struct Association {
     revision: u32,
     loop_closures: u32,
     cooldown: u32,
+    /// Distance travelled at the last accepted loop closure, metres.
+    travelled_at_closure_m: Option<f64>,
+    /// First keyframe of the local map while tracking locally.
+    local_from: usize,
 }
 
 impl Association {
@@ -156,6 +160,8 @@ impl Association {
             revision: 0,
             loop_closures: 0,
             cooldown: 0,
+            travelled_at_closure_m: None,
+            local_from: 0,
         })
     }
 
@@ -361,8 +367,32 @@ impl Association {
         stats
     }
 
+    /// True while scan matching uses the local map (see `loop_closure.local_map_m`).
+    fn local_tracking(&self) -> bool {
+        let lc = &self.params.loop_closure;
+        lc.enabled && lc.local_map_m > 0.0 && self.travelled_at_closure_m.is_none()
+    }
+
     fn add_keyframe(&mut self, id: u32, pose: Pose2, scan: Vec<[f64; 2]>) {
         let points_m: Vec<[f64; 2]> = scan.iter().map(|&p| pose.transform_point(p)).collect();
+        if self.local_tracking() {
+            // Drop keyframes that fell out of the local window, then add the new one.
+            let window_m = self.params.loop_closure.local_map_m;
+            let first_kept = self
+                .records
+                .iter()
+                .position(|r| self.travelled_m - r.travelled_m <= window_m)
+                .unwrap_or(self.records.len());
+            if first_kept > 0 && self.local_from != first_kept {
+                self.local_from = first_kept;
+                let mut local = Vec::new();
+                for record in &self.records[first_kept..] {
+                    local.extend(record.scan_agv_m.iter().map(|p| record.pose.transform_point(*p)));
+                }
+                self.map = PointMap::for_params(&self.params);
+                self.map.extend(&local);
+            }
+        }
         self.map.extend(&points_m);
         self.last_keyframe_map = PointMap::new();
         self.last_keyframe_map.extend(&points_m);
@@ -415,10 +445,14 @@ impl Association {
             .enumerate()
             .filter_map(|(j, r)| {
                 let travelled = travelled_now - r.travelled_m;
+                // Drift since the last closure, or since the candidate if that is less.
+                let drifting = self
+                    .travelled_at_closure_m
+                    .map_or(travelled, |at| travelled.min(travelled_now - at));
+                let radius = lc.search_radius_for_m(drifting);
                 let distance = r.pose.distance_m(&here);
-                (travelled >= lc.min_separation_m
-                    && distance <= lc.search_radius_for_m(travelled))
-                .then_some((distance, j, lc.search_radius_for_m(travelled)))
+                (travelled >= lc.min_separation_m && distance <= radius + lc.candidate_distance_m)
+                    .then_some((distance, j, radius))
             })
             .collect();
         candidates.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
@@ -447,6 +481,10 @@ impl Association {
             let predicted = self.records[j].pose.between(&here);
             match match_loop(&query, &submap, predicted, radius_m, &lc, &self.params) {
                 Ok(found) => {
+                    let found = LoopMatch {
+                        candidate: j,
+                        ..found
+                    };
                     tracing::debug!(candidate = j, current, ?found, "loop accepted");
                     self.apply_loop(j, current, found);
                     return Some(found);
@@ -480,6 +518,7 @@ impl Association {
         for (record, pose) in self.records.iter_mut().zip(self.graph.nodes()) {
             record.pose = *pose;
         }
+        self.travelled_at_closure_m = Some(self.travelled_m);
         self.rebuild_map();
         self.revision += 1;
         self.loop_closures += 1;
