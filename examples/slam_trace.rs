@@ -28,6 +28,8 @@ fn main() -> anyhow::Result<()> {
     params.loop_closure.enabled = get(4, "true").parse()?;
     params.loop_closure.local_map_m = get(5, "0").parse()?;
     params.covariance_weighting = get(6, "false").parse()?;
+    params.loop_closure.overlap_distance_m = get(7, "0").parse()?;
+    params.loop_closure.min_inlier_ratio = get(8, "0.5").parse()?;
     let ctx = nrslam_runtime::NodeContext::for_tests(seed);
     let mut sim = nrslam_radar::Simulator::from_params(
         &radar,

@@ -212,14 +212,25 @@ pub fn match_loop(
     }
     let relative = icp.pose;
     let inlier_m2 = loop_params.inlier_distance_m * loop_params.inlier_distance_m;
-    let inliers = query_m
-        .iter()
-        .filter(|p| {
-            map.nearest(&relative.transform_point(**p))
-                .is_some_and(|(_, d2)| d2 <= inlier_m2)
-        })
-        .count();
-    let inlier_ratio = inliers as f64 / query_m.len() as f64;
+    let overlap_m2 = loop_params.overlap_distance_m * loop_params.overlap_distance_m;
+    let (mut inliers, mut overlapping) = (0usize, 0usize);
+    for p in query_m {
+        let d2 = map
+            .nearest(&relative.transform_point(*p))
+            .map_or(f64::INFINITY, |(_, d2)| d2);
+        if loop_params.overlap_distance_m <= 0.0 || d2 <= overlap_m2 {
+            overlapping += 1;
+        }
+        if d2 <= inlier_m2 {
+            inliers += 1;
+        }
+    }
+    if (overlapping as f64) < loop_params.min_overlap_ratio * query_m.len() as f64
+        || overlapping < min_points
+    {
+        return Err(LoopRejection::TooFewPoints);
+    }
+    let inlier_ratio = inliers as f64 / overlapping as f64;
     if runner_up > loop_params.max_ambiguity * score {
         return Err(LoopRejection::Ambiguous { score, runner_up });
     }

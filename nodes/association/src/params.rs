@@ -133,8 +133,15 @@ pub struct LoopClosureParams {
     pub min_points: u32,
     /// A query point is an inlier when a submap point lies within this, metres.
     pub inlier_distance_m: f64,
-    /// Fewest inliers, as a fraction of the query's points, to accept a loop.
+    /// Fewest inliers, as a fraction of the query points in the overlap (those within
+    /// `overlap_distance_m` of a submap point after alignment), to accept a loop.
     pub min_inlier_ratio: f64,
+    /// A query point farther than this from every submap point after alignment saw something the
+    /// submap did not (the views only partly overlap) and does not count in the inlier ratio,
+    /// metres. 0 counts every query point.
+    pub overlap_distance_m: f64,
+    /// Fewest query points in the overlap, as a fraction of the query, to accept a loop.
+    pub min_overlap_ratio: f64,
     /// The best score elsewhere (at least `ambiguity_distance_m` from the best motion) must be
     /// at most this fraction of the best.
     pub max_ambiguity: f64,
@@ -182,6 +189,8 @@ impl Default for LoopClosureParams {
             min_points: 30,
             inlier_distance_m: 0.5,
             min_inlier_ratio: 0.5,
+            overlap_distance_m: 0.0,
+            min_overlap_ratio: 0.3,
             max_ambiguity: 0.85,
             ambiguity_distance_m: 2.0,
             cooldown_keyframes: 2,
@@ -200,7 +209,9 @@ impl Default for LoopClosureParams {
 impl LoopClosureParams {
     /// Checks every field; the error names the first offending field (as `loop_closure.NAME`).
     pub fn validate(&self) -> Result<(), InvalidParam> {
-        let ranges: [(&'static str, f64, f64, f64); 19] = [
+        let ranges: [(&'static str, f64, f64, f64); 21] = [
+            ("loop_closure.overlap_distance_m", self.overlap_distance_m, 0.0, 1e3),
+            ("loop_closure.min_overlap_ratio", self.min_overlap_ratio, 0.0, 1.0),
             ("loop_closure.candidate_distance_m", self.candidate_distance_m, 0.0, 1e4),
             ("loop_closure.local_map_m", self.local_map_m, 0.0, 1e6),
             ("loop_closure.min_separation_m", self.min_separation_m, 0.0, 1e6),
