@@ -284,7 +284,7 @@ impl Default for Params {
             min_angle_std_deg: 0.2,
             map_std_m: 0.1,
             gate_sigma: 5.0,
-            max_speed_mps: 0.0,
+            max_speed_mps: 5.0,
             max_turn_rate_deg_s: 90.0,
             loop_closure: LoopClosureParams::default(),
         }

@@ -279,10 +279,8 @@ impl Association {
         let mut pose = if icp.pose.is_finite() { icp.pose } else { predicted };
         let mut stats = self.frame_stats(&scan, &point_std, &pose);
         stats.odometry_rejected = odometry_rejected;
-        if let Some(motion) = motion {
-            if icp.status.is_accepted() || !scan.is_empty() {
-                self.last_motion = Some(motion);
-            }
+        if motion.is_some() {
+            self.last_motion = motion;
         }
         if let Some(previous) = self.slam_pose {
             let step = previous.distance_m(&pose);
@@ -573,5 +571,72 @@ impl Association {
     /// The parameters.
     pub fn params(&self) -> &Params {
         &self.params
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 4 m box of points around the origin, every 0.2 m, seen from `agv`.
+    fn scan_from(agv: &Pose2) -> Vec<[f64; 2]> {
+        let inverse = agv.inverse();
+        (0..80)
+            .map(|i| {
+                let s = f64::from(i % 20) * 0.2 - 2.0;
+                [[s, 2.0], [2.0, s], [-s, -2.0], [-2.0, -s]][i as usize / 20]
+            })
+            .map(|p| inverse.transform_point(p))
+            .collect()
+    }
+
+    #[test]
+    fn a_stationary_agv_keeps_its_pose_and_adds_no_keyframes() {
+        let mut slam = Association::new(Params::default()).unwrap();
+        let here = Pose2::new(0.3, -0.2, 0.1);
+        for k in 0..50 {
+            slam.on_odometry_at(1.0 + 0.5 * f64::from(k), here).unwrap();
+            let out = slam.on_scan(&scan_from(&here)).unwrap();
+            assert!(out.pose.distance_m(&here) < 1e-9, "frame {k}: {out:?}");
+            assert_eq!(out.keyframe_id, (k == 0).then_some(0));
+            assert_eq!(out.stats.inliers, if k == 0 { 0 } else { 80 });
+        }
+        assert_eq!(slam.keyframe_records().len(), 1);
+    }
+
+    #[test]
+    fn an_odometry_spike_is_replaced_by_the_last_motion() {
+        let mut slam = Association::new(Params::default()).unwrap();
+        // 0.1 m per 0.5 s frame along x, then one frame where odometry jumps 5 m.
+        let mut outcomes = Vec::new();
+        for k in 0..8 {
+            let truth = Pose2::new(0.1 * f64::from(k), 0.0, 0.0);
+            let reported = if k == 5 {
+                truth.compose(&Pose2::new(5.0, 0.0, 0.0))
+            } else {
+                truth
+            };
+            slam.on_odometry_at(1.0 + 0.5 * f64::from(k), reported).unwrap();
+            let out = slam.on_scan(&[]).unwrap();
+            assert!(out.pose.is_finite());
+            outcomes.push((truth, out));
+        }
+        for (k, (truth, out)) in outcomes.iter().enumerate() {
+            // The spike frame and the frame after (odometry jumps back) are both rejected.
+            assert_eq!(out.stats.odometry_rejected, k == 5 || k == 6, "frame {k}");
+            assert!(out.pose.distance_m(truth) < 1e-9, "frame {k}: {out:?}");
+        }
+    }
+
+    #[test]
+    fn without_stamps_there_is_no_gate_and_no_nan() {
+        let mut slam = Association::new(Params::default()).unwrap();
+        slam.on_odometry(Pose2::IDENTITY).unwrap();
+        slam.on_scan(&[]).unwrap();
+        slam.on_odometry(Pose2::new(50.0, 0.0, 0.0)).unwrap();
+        let out = slam.on_scan(&[[f64::NAN, 1.0]]).unwrap();
+        assert!(!out.stats.odometry_rejected);
+        assert_eq!(out.pose, Pose2::new(50.0, 0.0, 0.0));
+        assert_eq!(out.stats.detections, 0);
     }
 }
