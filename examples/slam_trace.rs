@@ -3,7 +3,8 @@
 //! development aid, not a test:
 //!
 //! ```text
-//! cargo run --release --example slam_trace -- RANGE_STD_M ANGLE_STD_DEG SEED [LOOP_CLOSURE]
+//! cargo run --release --example slam_trace -- RANGE_STD_M ANGLE_STD_DEG SEED [LOOP_CLOSURE \
+//!     LOCAL_MAP_M COVARIANCE_WEIGHTING OVERLAP_DISTANCE_M MIN_INLIER_RATIO RADIUS_PER_M MAX_RADIUS_M]
 //! ```
 
 use nrslam_association::{detection_to_agv_m, Association, Params, Pose2};
@@ -30,6 +31,8 @@ fn main() -> anyhow::Result<()> {
     params.covariance_weighting = get(6, "false").parse()?;
     params.loop_closure.overlap_distance_m = get(7, "0").parse()?;
     params.loop_closure.min_inlier_ratio = get(8, "0.5").parse()?;
+    params.loop_closure.search_radius_per_m = get(9, "0.03").parse()?;
+    params.loop_closure.max_search_radius_m = get(10, "6").parse()?;
     let ctx = nrslam_runtime::NodeContext::for_tests(seed);
     let mut sim = nrslam_radar::Simulator::from_params(
         &radar,

@@ -45,7 +45,13 @@ fn faults_keep_the_pose_finite_and_the_error_recovers() {
     // frames 50-54 without detections, a 5 m odometry spike at frame 70.
     let dir = temp();
     let (clean, faulty) = (dir.path().join("clean"), dir.path().join("faulty"));
-    let common = ["--seed", "5", "frames:=110", "range_std_m:=0.1", "angle_std_deg:=1"];
+    let common = [
+        "--seed",
+        "5",
+        "frames:=110",
+        "range_std_m:=0.1",
+        "angle_std_deg:=1",
+    ];
     launch("launch/paper-ideal.toml", &clean, &common);
     launch("tests/launch/slam-faults.toml", &faulty, &common);
     let (clean, faulty) = (position_errors(&clean), position_errors(&faulty));
@@ -60,14 +66,18 @@ fn faults_keep_the_pose_finite_and_the_error_recovers() {
     let worst_excess = faulty
         .iter()
         .map(|&(t, e)| (frame_of(t), e - clean_at(frame_of(t))))
-        .filter(|&(frame, _)| frame >= 70 + RECOVERY_FRAMES)
+        .filter(|&(frame, _)| (70 + RECOVERY_FRAMES..=70 + 2 * RECOVERY_FRAMES).contains(&frame))
         .fold(f64::NEG_INFINITY, |w, (_, x)| w.max(x));
+    // Later the two runs' errors wander apart as any two different inputs would (0.4 m by frame
+    // 109 on this seed), so the recovery is checked over the next RECOVERY_FRAMES frames.
     assert!(
-        worst_excess < 0.5,
-        "from {RECOVERY_FRAMES} frames after the spike on, the error stays within 0.5 m of the \
-         fault-free run's (worst excess {worst_excess} m)"
+        worst_excess < 0.3,
+        "{RECOVERY_FRAMES} to {} frames after the spike, the error is within 0.3 m of the \
+         fault-free run's (worst excess {worst_excess} m)",
+        2 * RECOVERY_FRAMES
     );
-    // The spike itself never throws the estimate off by its 5 m.
+    // Neither the faults nor the spike throw the estimate off (without the odometry gate the
+    // 5 m spike would: scan matching refuses corrections above 0.5 m).
     let worst = faulty.iter().map(|(_, e)| *e).fold(0.0, f64::max);
     assert!(worst < 2.5, "worst error {worst} m");
 }
@@ -85,7 +95,11 @@ fn loop_closure_closes_the_lap_and_modes_agree() {
     let with = |extra: &[&'static str]| -> Vec<&str> {
         args.iter().copied().chain(extra.iter().copied()).collect()
     };
-    launch("launch/paper-ideal.toml", &open, &with(&["loop_closure:=false"]));
+    launch(
+        "launch/paper-ideal.toml",
+        &open,
+        &with(&["loop_closure:=false"]),
+    );
     launch("launch/paper-ideal.toml", &closed, &with(&[]));
     let (o, c) = (summary(&open), summary(&closed));
     assert_eq!(o["loop_closures"], 0);
@@ -99,7 +113,12 @@ fn loop_closure_closes_the_lap_and_modes_agree() {
     );
     // The rebuilt map scores no worse.
     let etgospa = |s: &serde_json::Value| s["etgospa"].as_f64().unwrap();
-    assert!(etgospa(&c) <= etgospa(&o), "{} vs {}", etgospa(&c), etgospa(&o));
+    assert!(
+        etgospa(&c) <= etgospa(&o),
+        "{} vs {}",
+        etgospa(&c),
+        etgospa(&o)
+    );
     // Loop closure and map rebuild are as deterministic across processes as the rest.
     launch(
         "launch/paper-ideal.toml",

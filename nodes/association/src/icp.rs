@@ -595,7 +595,10 @@ pub fn align_weighted(
         .zip(std.iter().chain(std::iter::repeat(&[0.0, 0.0])))
         .filter(|(p, _)| p[0].is_finite() && p[1].is_finite())
         .map(|(p, s)| {
-            let floor = [params.min_range_std_m, params.min_angle_std_deg.to_radians()];
+            let floor = [
+                params.min_range_std_m,
+                params.min_angle_std_deg.to_radians(),
+            ];
             let pick = |v: f64, f: f64| if v.is_finite() { v.max(f) } else { f };
             (*p, [pick(s[0], floor[0]), pick(s[1], floor[1])])
         })
@@ -1258,7 +1261,10 @@ mod tests {
             let result = align_weighted(&map, &scan, &std, initial, &Params::default());
             assert!(result.status.is_accepted(), "{result:?}");
             assert!(result.pose.distance_m(&truth) < 0.01, "{result:?}");
-            assert!(result.pose.rotation_to_rad(&truth).to_degrees() < 0.1, "{result:?}");
+            assert!(
+                result.pose.rotation_to_rad(&truth).to_degrees() < 0.1,
+                "{result:?}"
+            );
         }
     }
 
@@ -1283,13 +1289,22 @@ mod tests {
         }
         for p in &side {
             // Far points with a 3° angle error applied: metres of cross-range error.
-            let (r, a) = (p[0].hypot(p[1]), p[1].atan2(p[0]) + rng.random_range(-3.0..3.0f64).to_radians());
+            let (r, a) = (
+                p[0].hypot(p[1]),
+                p[1].atan2(p[0]) + rng.random_range(-3.0..3.0f64).to_radians(),
+            );
             scan.push([r * a.cos(), r * a.sin()]);
             std.push([0.02, 3f64.to_radians()]);
         }
         let initial = Pose2::new(0.2, 0.2, 0.0);
         let weighted = align_weighted(&map, &scan, &std, initial, &params);
-        let equal = align_weighted(&map, &scan, &vec![[0.05, 0.05]; scan.len()], initial, &params);
+        let equal = align_weighted(
+            &map,
+            &scan,
+            &vec![[0.05, 0.05]; scan.len()],
+            initial,
+            &params,
+        );
         assert!(weighted.pose.is_finite() && equal.pose.is_finite());
         assert!(
             (weighted.pose.x_m - truth.x_m).abs() <= (equal.pose.x_m - truth.x_m).abs() + 1e-3,
@@ -1304,11 +1319,23 @@ mod tests {
         let map = map_of(&wall);
         let scan = scan_from(&Pose2::IDENTITY, &wall[50..150]);
         let std = vec![[0.0, f64::NAN]; scan.len()];
-        let result = align_weighted(&map, &scan, &std, Pose2::new(0.25, 0.2, 0.02), &Params::default());
+        let result = align_weighted(
+            &map,
+            &scan,
+            &std,
+            Pose2::new(0.25, 0.2, 0.02),
+            &Params::default(),
+        );
         assert_finite(&result);
         assert!(result.degenerate, "{result:?}");
         assert!((result.pose.y_m).abs() < 0.01, "{result:?}");
-        let result = align_weighted(&map, &[[1.0, 1.0]; 20], &[], Pose2::IDENTITY, &Params::default());
+        let result = align_weighted(
+            &map,
+            &[[1.0, 1.0]; 20],
+            &[],
+            Pose2::IDENTITY,
+            &Params::default(),
+        );
         assert_finite(&result);
     }
 }

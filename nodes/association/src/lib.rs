@@ -52,11 +52,11 @@ pub mod slam;
 
 pub use icp::{align, IcpResult, IcpStatus, LineFit, PointMap};
 pub use keyframe::KeyframeSelector;
-pub use node::{build, AssociationNode};
 pub use loop_closure::{match_loop, LoopMatch, LoopRejection};
+pub use node::{build, AssociationNode};
 pub use params::{IcpMetric, LoopClosureParams, Params};
-pub use pose_graph::{Edge, EdgeKind, OptimiserSettings, PoseGraph};
 pub use pose::{wrap_angle_rad, Pose2};
+pub use pose_graph::{Edge, EdgeKind, OptimiserSettings, PoseGraph};
 pub use slam::{
     detection_to_agv_m, Association, AssociationError, FrameOutcome, FrameStats, KeyframeRecord,
 };

@@ -119,7 +119,7 @@ impl HitGrid {
         let u = (p[0] - self.origin[0]) / self.cell_m;
         let v = (p[1] - self.origin[1]) / self.cell_m;
         (u >= 0.0 && v >= 0.0 && u < self.width as f64 && v < self.height as f64)
-            .then(|| (u as usize, v as usize))
+            .then_some((u as usize, v as usize))
     }
 
     fn hit(&self, x: f64, y: f64) -> bool {
@@ -147,7 +147,8 @@ pub fn match_loop(
     let stride = query_m.len().div_ceil(400).max(1);
     let sample: Vec<[f64; 2]> = query_m.iter().step_by(stride).copied().collect();
     let step_m = loop_params.search_step_m;
-    let grid = HitGrid::new(submap_m, step_m, radius_m + 25.0).ok_or(LoopRejection::TooFewPoints)?;
+    let grid =
+        HitGrid::new(submap_m, step_m, radius_m + 25.0).ok_or(LoopRejection::TooFewPoints)?;
 
     let steps_t = (radius_m / step_m).ceil() as i64;
     let step_rad = loop_params.search_step_deg.to_radians();
@@ -173,7 +174,10 @@ pub fn match_loop(
                 if (ix * ix + iy * iy) as f64 * step_m * step_m > radius_m * radius_m {
                     continue;
                 }
-                let count = rotated.iter().filter(|p| grid.hit(p[0] + tx, p[1] + ty)).count();
+                let count = rotated
+                    .iter()
+                    .filter(|p| grid.hit(p[0] + tx, p[1] + ty))
+                    .count();
                 let offset2_m2 = (ix * ix + iy * iy) as f64 * step_m * step_m;
                 let weighted = count as f64 * (-0.5 * offset2_m2 / (sigma_m * sigma_m)).exp();
                 candidates.push((weighted, count, Pose2::new(tx, ty, yaw)));
@@ -329,7 +333,11 @@ mod tests {
                 points.extend([[x0 + s, 0.0], [x0 + s, 2.0], [x0, s], [x0 + 2.0, s]]);
             }
         }
-        let query: Vec<[f64; 2]> = points.iter().filter(|p| p[0] > 8.0 && p[0] < 20.0).copied().collect();
+        let query: Vec<[f64; 2]> = points
+            .iter()
+            .filter(|p| p[0] > 8.0 && p[0] < 20.0)
+            .copied()
+            .collect();
         let result = match_loop(
             &query,
             &points,
@@ -338,7 +346,10 @@ mod tests {
             &LoopClosureParams::default(),
             &Params::default(),
         );
-        assert!(matches!(result, Err(LoopRejection::Ambiguous { .. })), "{result:?}");
+        assert!(
+            matches!(result, Err(LoopRejection::Ambiguous { .. })),
+            "{result:?}"
+        );
     }
 
     #[test]

@@ -27,8 +27,8 @@ use nrslam_msgs::{
 };
 use nrslam_runtime::{Node, NodeContext, NodeError, Outbox};
 
-use crate::params::Params;
 use crate::icp::IcpStatus;
+use crate::params::Params;
 use crate::pose::Pose2;
 use crate::slam::{detection_to_agv_m, Association};
 
@@ -355,8 +355,14 @@ mod tests {
             panic!("{published:?}")
         };
         // Every detection of the noise-free box matches the map.
-        assert_eq!((stats.associated, stats.inliers, stats.keyframe_id), (80, 80, -1));
-        assert!(stats.inlier_ratio > 0.99 && stats.correction_m > 0.15, "{stats:?}");
+        assert_eq!(
+            (stats.associated, stats.inliers, stats.keyframe_id),
+            (80, 80, -1)
+        );
+        assert!(
+            stats.inlier_ratio > 0.99 && stats.correction_m > 0.15,
+            "{stats:?}"
+        );
         let (x, y, _) = pose.pose.planar();
         assert!((x - truth.x_m).hypot(y - truth.y_m) < 0.01, "{pose:?}");
     }

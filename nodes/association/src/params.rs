@@ -210,25 +210,105 @@ impl LoopClosureParams {
     /// Checks every field; the error names the first offending field (as `loop_closure.NAME`).
     pub fn validate(&self) -> Result<(), InvalidParam> {
         let ranges: [(&'static str, f64, f64, f64); 21] = [
-            ("loop_closure.overlap_distance_m", self.overlap_distance_m, 0.0, 1e3),
-            ("loop_closure.min_overlap_ratio", self.min_overlap_ratio, 0.0, 1.0),
-            ("loop_closure.candidate_distance_m", self.candidate_distance_m, 0.0, 1e4),
+            (
+                "loop_closure.overlap_distance_m",
+                self.overlap_distance_m,
+                0.0,
+                1e3,
+            ),
+            (
+                "loop_closure.min_overlap_ratio",
+                self.min_overlap_ratio,
+                0.0,
+                1.0,
+            ),
+            (
+                "loop_closure.candidate_distance_m",
+                self.candidate_distance_m,
+                0.0,
+                1e4,
+            ),
             ("loop_closure.local_map_m", self.local_map_m, 0.0, 1e6),
-            ("loop_closure.min_separation_m", self.min_separation_m, 0.0, 1e6),
-            ("loop_closure.search_radius_m", self.search_radius_m, 0.0, 1e3),
-            ("loop_closure.search_radius_per_m", self.search_radius_per_m, 0.0, 1.0),
-            ("loop_closure.max_search_radius_m", self.max_search_radius_m, 0.0, 100.0),
-            ("loop_closure.max_search_rotation_deg", self.max_search_rotation_deg, 0.0, 180.0),
+            (
+                "loop_closure.min_separation_m",
+                self.min_separation_m,
+                0.0,
+                1e6,
+            ),
+            (
+                "loop_closure.search_radius_m",
+                self.search_radius_m,
+                0.0,
+                1e3,
+            ),
+            (
+                "loop_closure.search_radius_per_m",
+                self.search_radius_per_m,
+                0.0,
+                1.0,
+            ),
+            (
+                "loop_closure.max_search_radius_m",
+                self.max_search_radius_m,
+                0.0,
+                100.0,
+            ),
+            (
+                "loop_closure.max_search_rotation_deg",
+                self.max_search_rotation_deg,
+                0.0,
+                180.0,
+            ),
             ("loop_closure.search_step_m", self.search_step_m, 0.01, 10.0),
-            ("loop_closure.search_step_deg", self.search_step_deg, 0.05, 45.0),
-            ("loop_closure.inlier_distance_m", self.inlier_distance_m, 0.001, 100.0),
-            ("loop_closure.min_inlier_ratio", self.min_inlier_ratio, 0.0, 1.0),
+            (
+                "loop_closure.search_step_deg",
+                self.search_step_deg,
+                0.05,
+                45.0,
+            ),
+            (
+                "loop_closure.inlier_distance_m",
+                self.inlier_distance_m,
+                0.001,
+                100.0,
+            ),
+            (
+                "loop_closure.min_inlier_ratio",
+                self.min_inlier_ratio,
+                0.0,
+                1.0,
+            ),
             ("loop_closure.max_ambiguity", self.max_ambiguity, 0.0, 1.0),
-            ("loop_closure.ambiguity_distance_m", self.ambiguity_distance_m, 0.0, 1e3),
-            ("loop_closure.odometry_std_per_m", self.odometry_std_per_m, 0.0, 1.0),
-            ("loop_closure.odometry_std_deg_per_m", self.odometry_std_deg_per_m, 0.0, 90.0),
-            ("loop_closure.odometry_min_std_m", self.odometry_min_std_m, 1e-6, 100.0),
-            ("loop_closure.odometry_min_std_deg", self.odometry_min_std_deg, 1e-6, 90.0),
+            (
+                "loop_closure.ambiguity_distance_m",
+                self.ambiguity_distance_m,
+                0.0,
+                1e3,
+            ),
+            (
+                "loop_closure.odometry_std_per_m",
+                self.odometry_std_per_m,
+                0.0,
+                1.0,
+            ),
+            (
+                "loop_closure.odometry_std_deg_per_m",
+                self.odometry_std_deg_per_m,
+                0.0,
+                90.0,
+            ),
+            (
+                "loop_closure.odometry_min_std_m",
+                self.odometry_min_std_m,
+                1e-6,
+                100.0,
+            ),
+            (
+                "loop_closure.odometry_min_std_deg",
+                self.odometry_min_std_deg,
+                1e-6,
+                90.0,
+            ),
             ("loop_closure.loop_std_m", self.loop_std_m, 1e-6, 100.0),
             ("loop_closure.loop_std_deg", self.loop_std_deg, 1e-6, 90.0),
         ];
@@ -236,11 +316,21 @@ impl LoopClosureParams {
             InvalidParam::check_range(field, value, min, max)?;
         }
         let counts = [
-            ("loop_closure.submap_keyframes", self.submap_keyframes, 0, 100),
+            (
+                "loop_closure.submap_keyframes",
+                self.submap_keyframes,
+                0,
+                100,
+            ),
             ("loop_closure.query_keyframes", self.query_keyframes, 1, 100),
             ("loop_closure.max_candidates", self.max_candidates, 1, 100),
             ("loop_closure.min_points", self.min_points, 3, 1_000_000),
-            ("loop_closure.cooldown_keyframes", self.cooldown_keyframes, 0, 1_000_000),
+            (
+                "loop_closure.cooldown_keyframes",
+                self.cooldown_keyframes,
+                0,
+                1_000_000,
+            ),
             ("loop_closure.max_iterations", self.max_iterations, 1, 1000),
         ];
         for (field, value, min, max) in counts {
@@ -257,7 +347,8 @@ impl LoopClosureParams {
 
     /// Search radius for a candidate `travelled_m` of travel ago, metres.
     pub fn search_radius_for_m(&self, travelled_m: f64) -> f64 {
-        (self.search_radius_m + self.search_radius_per_m * travelled_m).min(self.max_search_radius_m)
+        (self.search_radius_m + self.search_radius_per_m * travelled_m)
+            .min(self.max_search_radius_m)
     }
 }
 
@@ -473,7 +564,9 @@ mod tests {
             ("min_angle_std_deg", |p| p.min_angle_std_deg = 0.0),
             ("gate_sigma", |p| p.gate_sigma = f64::NAN),
             ("max_speed_mps", |p| p.max_speed_mps = -1.0),
-            ("loop_closure.search_step_m", |p| p.loop_closure.search_step_m = 0.0),
+            ("loop_closure.search_step_m", |p| {
+                p.loop_closure.search_step_m = 0.0
+            }),
             ("loop_closure.min_inlier_ratio", |p| {
                 p.loop_closure.min_inlier_ratio = 2.0
             }),
@@ -505,7 +598,9 @@ mod tests {
         let p = parse("[loop_closure]\nenabled = false\nloop_std_m = 0.2").unwrap();
         assert!(!p.loop_closure.enabled);
         assert_eq!(p.loop_closure.loop_std_m, 0.2);
-        let err = parse("[loop_closure]\nenable = false").unwrap_err().to_string();
+        let err = parse("[loop_closure]\nenable = false")
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("enable"), "{err}");
     }
 

@@ -358,7 +358,14 @@ mod tests {
             );
             estimate = estimate.compose(&noisy);
             graph.add_node(estimate);
-            graph.add_edge(Edge::with_std(k - 1, k, noisy, 0.05, 0.02, EdgeKind::Odometry));
+            graph.add_edge(Edge::with_std(
+                k - 1,
+                k,
+                noisy,
+                0.05,
+                0.02,
+                EdgeKind::Odometry,
+            ));
         }
         if with_loop {
             let last = truth.len() - 1;
@@ -386,7 +393,10 @@ mod tests {
         let report = closed.optimise(&OptimiserSettings::default());
         let after = max_error_m(&closed, &truth);
         assert!(before > 2.0, "the test needs real drift: {before}");
-        assert!(after < 0.25 * before, "{before} m -> {after} m ({report:?})");
+        assert!(
+            after < 0.25 * before,
+            "{before} m -> {after} m ({report:?})"
+        );
         assert!(report.final_cost < report.initial_cost);
         assert_eq!(closed.nodes()[0], truth[0], "node 0 is fixed");
     }
@@ -434,7 +444,14 @@ mod tests {
         let mut robust = graph.clone();
         robust.add_edge(Edge::with_std(last, 0, wrong, 0.05, 0.01, EdgeKind::Loop));
         let mut plain = graph.clone();
-        plain.add_edge(Edge::with_std(last, 0, wrong, 0.05, 0.01, EdgeKind::Odometry));
+        plain.add_edge(Edge::with_std(
+            last,
+            0,
+            wrong,
+            0.05,
+            0.01,
+            EdgeKind::Odometry,
+        ));
         robust.optimise(&OptimiserSettings::default());
         plain.optimise(&OptimiserSettings::default());
         let (r, p) = (max_error_m(&robust, &truth), max_error_m(&plain, &truth));
@@ -446,8 +463,22 @@ mod tests {
         let mut graph = PoseGraph::new();
         graph.add_node(Pose2::IDENTITY);
         graph.add_node(Pose2::new(1.0, 0.0, 0.0));
-        assert!(!graph.add_edge(Edge::with_std(0, 5, Pose2::IDENTITY, 0.1, 0.1, EdgeKind::Loop)));
-        assert!(!graph.add_edge(Edge::with_std(1, 1, Pose2::IDENTITY, 0.1, 0.1, EdgeKind::Loop)));
+        assert!(!graph.add_edge(Edge::with_std(
+            0,
+            5,
+            Pose2::IDENTITY,
+            0.1,
+            0.1,
+            EdgeKind::Loop
+        )));
+        assert!(!graph.add_edge(Edge::with_std(
+            1,
+            1,
+            Pose2::IDENTITY,
+            0.1,
+            0.1,
+            EdgeKind::Loop
+        )));
         let nan = Pose2 {
             x_m: f64::NAN,
             ..Pose2::IDENTITY

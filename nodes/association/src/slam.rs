@@ -60,6 +60,10 @@ pub enum AssociationError {
     NonFiniteOdometry(Pose2),
 }
 
+/// An odometry prediction: the pose, whether the increment was rejected as a spike, and the
+/// accepted increment with the seconds it spans (if known).
+type Prediction = (Pose2, bool, Option<(Pose2, f64)>);
+
 /// Data-association statistics of one frame.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct FrameStats {
@@ -173,7 +177,11 @@ impl Association {
 
     /// Records an odometry pose taken at `stamp_s` (seconds). With stamps, increments faster than
     /// `max_speed_mps` or `max_turn_rate_deg_s` are treated as spikes.
-    pub fn on_odometry_at(&mut self, stamp_s: f64, odom_pose: Pose2) -> Result<(), AssociationError> {
+    pub fn on_odometry_at(
+        &mut self,
+        stamp_s: f64,
+        odom_pose: Pose2,
+    ) -> Result<(), AssociationError> {
         self.record_odometry(odom_pose, stamp_s.is_finite().then_some(stamp_s))
     }
 
@@ -201,7 +209,7 @@ impl Association {
 
     /// The prediction, whether the increment was rejected as a spike, and the increment used
     /// with the seconds it spans (if known).
-    fn predict_gated(&self) -> Option<(Pose2, bool, Option<(Pose2, f64)>)> {
+    fn predict_gated(&self) -> Option<Prediction> {
         let slam = self.slam_pose?;
         let ((from, from_s), (to, to_s)) = (self.odom_at_slam_pose?, self.latest_odom?);
         if from == to {
@@ -265,7 +273,8 @@ impl Association {
                 .zip(std)
                 .filter(|(p, _)| p[0].is_finite() && p[1].is_finite())
                 .map(|(_, s)| {
-                    let pick = |v: f64, floor: f64| if v.is_finite() { v.max(floor) } else { floor };
+                    let pick =
+                        |v: f64, floor: f64| if v.is_finite() { v.max(floor) } else { floor };
                     [pick(s[0], std_floor[0]), pick(s[1], std_floor[1])]
                 })
                 .collect(),
@@ -276,7 +285,11 @@ impl Association {
         } else {
             align(&self.map, &scan, predicted, &self.params)
         };
-        let mut pose = if icp.pose.is_finite() { icp.pose } else { predicted };
+        let mut pose = if icp.pose.is_finite() {
+            icp.pose
+        } else {
+            predicted
+        };
         let mut stats = self.frame_stats(&scan, &point_std, &pose);
         stats.odometry_rejected = odometry_rejected;
         if motion.is_some() {
@@ -341,8 +354,8 @@ impl Association {
                     sum_m2 += d2;
                     // The larger axis of the point's error ellipse, plus the map's own error.
                     let range_m = p[0].hypot(p[1]);
-                    let sigma2 = s[0].powi(2).max((range_m * s[1]).powi(2))
-                        + self.params.map_std_m.powi(2);
+                    let sigma2 =
+                        s[0].powi(2).max((range_m * s[1]).powi(2)) + self.params.map_std_m.powi(2);
                     if d2 <= self.params.gate_sigma.powi(2) * sigma2 {
                         stats.inliers += 1;
                     }
@@ -385,7 +398,12 @@ impl Association {
                 self.local_from = first_kept;
                 let mut local = Vec::new();
                 for record in &self.records[first_kept..] {
-                    local.extend(record.scan_agv_m.iter().map(|p| record.pose.transform_point(*p)));
+                    local.extend(
+                        record
+                            .scan_agv_m
+                            .iter()
+                            .map(|p| record.pose.transform_point(*p)),
+                    );
                 }
                 self.map = PointMap::for_params(&self.params);
                 self.map.extend(&local);
@@ -426,7 +444,12 @@ impl Association {
         let mut points = Vec::new();
         for record in &self.records[range] {
             let relative = to_frame.compose(&record.pose);
-            points.extend(record.scan_agv_m.iter().map(|p| relative.transform_point(*p)));
+            points.extend(
+                record
+                    .scan_agv_m
+                    .iter()
+                    .map(|p| relative.transform_point(*p)),
+            );
         }
         points
     }
@@ -462,7 +485,10 @@ impl Association {
                 break;
             }
             // Neighbours of a tried candidate would test the same place again.
-            if tried.iter().any(|&t| t.abs_diff(j) <= lc.submap_keyframes as usize) {
+            if tried
+                .iter()
+                .any(|&t| t.abs_diff(j) <= lc.submap_keyframes as usize)
+            {
                 continue;
             }
             tried.push(j);
@@ -526,13 +552,21 @@ impl Association {
     fn rebuild_map(&mut self) {
         let mut points_m = Vec::new();
         for record in &self.records {
-            points_m.extend(record.scan_agv_m.iter().map(|p| record.pose.transform_point(*p)));
+            points_m.extend(
+                record
+                    .scan_agv_m
+                    .iter()
+                    .map(|p| record.pose.transform_point(*p)),
+            );
         }
         self.map = PointMap::for_params(&self.params);
         self.map.extend(&points_m);
         if let Some(last) = self.records.last() {
-            let points: Vec<[f64; 2]> =
-                last.scan_agv_m.iter().map(|p| last.pose.transform_point(*p)).collect();
+            let points: Vec<[f64; 2]> = last
+                .scan_agv_m
+                .iter()
+                .map(|p| last.pose.transform_point(*p))
+                .collect();
             self.last_keyframe_map = PointMap::new();
             self.last_keyframe_map.extend(&points);
         }
@@ -616,7 +650,8 @@ mod tests {
             } else {
                 truth
             };
-            slam.on_odometry_at(1.0 + 0.5 * f64::from(k), reported).unwrap();
+            slam.on_odometry_at(1.0 + 0.5 * f64::from(k), reported)
+                .unwrap();
             let out = slam.on_scan(&[]).unwrap();
             assert!(out.pose.is_finite());
             outcomes.push((truth, out));
