@@ -15,6 +15,7 @@ pub const REPORTED: &[&str] = &[
     topics::GROUND_TRUTH_POSE,
     topics::SLAM_POSE,
     topics::KEYFRAME,
+    topics::ASSOCIATION_STATS,
     topics::MAP,
     topics::SEGMENTS,
     topics::METRICS,
@@ -27,6 +28,12 @@ pub struct Reporter {
     pub frames: u64,
     /// Keyframes seen.
     pub keyframes: u64,
+    /// Loop closures the back end reported (latest `/slam/association_stats`).
+    pub loop_closures: u64,
+    /// Frames whose association statistics were seen, and the sum of their inlier ratios.
+    pub association_frames: u64,
+    /// Sum of the per-frame inlier ratios.
+    pub inlier_ratio_sum: f64,
     /// Per-step metrics.
     pub metrics: Vec<Metrics>,
     /// Latest map.
@@ -49,6 +56,11 @@ impl Reporter {
         match (topic, message) {
             (topics::CLOCK, Message::Clock(_)) => self.frames += 1,
             (topics::KEYFRAME, Message::Keyframe(_)) => self.keyframes += 1,
+            (topics::ASSOCIATION_STATS, Message::AssociationStats(s)) => {
+                self.loop_closures = u64::from(s.loop_closures);
+                self.association_frames += 1;
+                self.inlier_ratio_sum += s.inlier_ratio;
+            }
             (topics::METRICS, Message::Metrics(m)) => self.metrics.push(m.clone()),
             (topics::MAP, Message::OccupancyGrid(m)) => self.map = Some(m.clone()),
             (topics::SEGMENTS, Message::Segments(s)) => self.segments = Some(s.clone()),
@@ -85,6 +97,9 @@ impl Reporter {
             frames: self.frames,
             metric_steps: self.metrics.len() as u64,
             keyframes: self.keyframes,
+            loop_closures: self.loop_closures,
+            mean_inlier_ratio: (self.association_frames > 0)
+                .then(|| self.inlier_ratio_sum / self.association_frames as f64),
             estimated_targets: last.map(|m| m.estimated_targets),
             occupied_cells: self.segments.as_ref().map(|s| s.points.len() as u64),
             seed,
@@ -170,6 +185,10 @@ pub struct Summary {
     pub metric_steps: u64,
     /// Keyframes.
     pub keyframes: u64,
+    /// Loop closures accepted by the back end (0 if it reports none).
+    pub loop_closures: u64,
+    /// Mean over frames of the association inlier ratio (`/slam/association_stats`).
+    pub mean_inlier_ratio: Option<f64>,
     /// Clusters in the final map.
     pub estimated_targets: Option<u32>,
     /// Occupied cells in the final map.

@@ -205,6 +205,8 @@ fn message_json(message: &nrslam_msgs::Message) -> Result<String> {
         M::Metrics(m) => serde_json::to_string(m)?,
         M::RadarEcho(m) => serde_json::to_string(m)?,
         M::RadarSpectrum(m) => serde_json::to_string(m)?,
+        M::KeyframePoses(m) => serde_json::to_string(m)?,
+        M::AssociationStats(m) => serde_json::to_string(m)?,
     })
 }
 

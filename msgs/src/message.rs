@@ -84,6 +84,8 @@ messages! {
     Metrics => "nrslam_msgs/msg/Metrics", |m: &Metrics| m.header.stamp;
     RadarEcho => "nrslam_msgs/msg/RadarEcho", |m: &RadarEcho| m.header.stamp;
     RadarSpectrum => "nrslam_msgs/msg/RadarSpectrum", |m: &RadarSpectrum| m.header.stamp;
+    KeyframePoses => "nrslam_msgs/msg/KeyframePoses", |m: &KeyframePoses| m.header.stamp;
+    AssociationStats => "nrslam_msgs/msg/AssociationStats", |m: &AssociationStats| m.header.stamp;
 }
 
 #[cfg(test)]

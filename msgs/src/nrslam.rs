@@ -46,6 +46,58 @@ pub struct Keyframe {
     pub detections: Vec<Detection>,
 }
 
+/// The current pose-graph estimate of every keyframe (`/slam/keyframe_poses`), published with
+/// each keyframe. When `revision` changes (a loop closure re-optimised the graph), a mapper
+/// rebuilds its grid from the keyframes it holds, placed at these poses.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct KeyframePoses {
+    /// Stamp of the keyframe it accompanies, frame "map".
+    pub header: Header,
+    /// Number of pose-graph optimisations so far (0: the poses are as first published).
+    pub revision: u32,
+    /// Keyframe ids, ascending.
+    pub ids: Vec<u32>,
+    /// SLAM pose of each keyframe in `ids`, map frame.
+    pub poses: Vec<Pose>,
+}
+
+/// What data association did with one radar frame (`/slam/association_stats`).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct AssociationStats {
+    /// Stamp of the radar frame, frame "map".
+    pub header: Header,
+    /// Detections in the frame.
+    pub detections: u32,
+    /// Detections paired with the map inside the correspondence gate in the last ICP iteration.
+    pub associated: u32,
+    /// Associated detections whose residual is within `gate_sigma` standard deviations.
+    pub inliers: u32,
+    /// `inliers / detections` (0 for an empty frame).
+    pub inlier_ratio: f64,
+    /// Root-mean-square residual of the associated detections (m).
+    pub rms_residual_m: f64,
+    /// How scan matching ended: converged, max_iterations, disabled, empty_scan, empty_map,
+    /// too_few_correspondences, correction_rejected.
+    pub icp_status: String,
+    /// ICP iterations run.
+    pub icp_iterations: u32,
+    /// Position change from the odometry prediction (m).
+    pub correction_m: f64,
+    /// Heading change from the odometry prediction (rad).
+    pub correction_rad: f64,
+    /// The odometry increment failed the speed gate and a constant-velocity prediction was used.
+    pub odometry_rejected: bool,
+    /// Keyframe id of this frame, −1 if it is not a keyframe.
+    pub keyframe_id: i32,
+    /// Overlap of the frame with the last keyframe (fraction of detections within the
+    /// correspondence distance of its points).
+    pub keyframe_overlap: f64,
+    /// A loop closure was accepted on this frame.
+    pub loop_closed: bool,
+    /// Loop closures accepted so far.
+    pub loop_closures: u32,
+}
+
 /// Occupied map cells labelled by DBSCAN (`/map/segments`).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct Segments {

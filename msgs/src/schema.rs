@@ -55,6 +55,14 @@ const DEFINITIONS: &[(&str, &str)] = &[
         "nrslam_msgs/RadarSpectrum",
         "std_msgs/Header header\nfloat64 boresight_rad\nfloat64 range_bin_m\nfloat64 antenna_spacing_wavelengths\nfloat64 noise_power\nuint32 range_bins\nuint32 angle_bins\nfloat64[] values\n",
     ),
+    (
+        "nrslam_msgs/KeyframePoses",
+        "std_msgs/Header header\nuint32 revision\nuint32[] ids\ngeometry_msgs/Pose[] poses\n",
+    ),
+    (
+        "nrslam_msgs/AssociationStats",
+        "std_msgs/Header header\nuint32 detections\nuint32 associated\nuint32 inliers\nfloat64 inlier_ratio\nfloat64 rms_residual_m\nstring icp_status\nuint32 icp_iterations\nfloat64 correction_m\nfloat64 correction_rad\nbool odometry_rejected\nint32 keyframe_id\nfloat64 keyframe_overlap\nbool loop_closed\nuint32 loop_closures\n",
+    ),
     ("nrslam_msgs/TargetSet", "std_msgs/Header header\nnrslam_msgs/Target[] targets\n"),
     (
         "nrslam_msgs/Metrics",

@@ -19,6 +19,10 @@ pub const GROUND_TRUTH_TARGETS: &str = "/ground_truth/targets";
 pub const SLAM_POSE: &str = "/slam/pose";
 /// Keyframes chosen by data association.
 pub const KEYFRAME: &str = "/slam/keyframe";
+/// Current pose-graph estimate of every keyframe, one per keyframe.
+pub const KEYFRAME_POSES: &str = "/slam/keyframe_poses";
+/// Per-frame data-association statistics.
+pub const ASSOCIATION_STATS: &str = "/slam/association_stats";
 /// Occupancy grid.
 pub const MAP: &str = "/map";
 /// DBSCAN-labelled occupied cells.
@@ -128,6 +132,18 @@ pub const CATALOGUE: &[TopicSpec] = &[
         type_name: "nrslam_msgs/msg/Keyframe",
         qos: STREAM,
         description: "keyframes: pose and detections",
+    },
+    TopicSpec {
+        name: KEYFRAME_POSES,
+        type_name: "nrslam_msgs/msg/KeyframePoses",
+        qos: STREAM,
+        description: "pose-graph estimate of every keyframe, one per keyframe (revision changes on loop closure)",
+    },
+    TopicSpec {
+        name: ASSOCIATION_STATS,
+        type_name: "nrslam_msgs/msg/AssociationStats",
+        qos: STREAM,
+        description: "data-association statistics, one per radar frame",
     },
     TopicSpec {
         name: MAP,

@@ -108,3 +108,19 @@ proptest! {
         round_trip(Message::Clock(Clock { clock }))?;
     }
 }
+
+proptest! {
+    #[test]
+    fn keyframe_poses_and_association_stats(header in header(), revision in any::<u32>(), poses in proptest::collection::vec(pose(), 0..20), values in proptest::collection::vec(finite(), 5), counts in proptest::array::uniform4(any::<u32>()), flags in proptest::array::uniform2(any::<bool>()), status in "[a-z_]{0,24}", keyframe_id in any::<i32>()) {
+        let ids = (0..poses.len() as u32).collect();
+        round_trip(Message::KeyframePoses(KeyframePoses { header: header.clone(), revision, ids, poses }))?;
+        round_trip(Message::AssociationStats(AssociationStats {
+            header,
+            detections: counts[0], associated: counts[1], inliers: counts[2],
+            inlier_ratio: values[0], rms_residual_m: values[1], icp_status: status,
+            icp_iterations: counts[3], correction_m: values[2], correction_rad: values[3],
+            odometry_rejected: flags[0], keyframe_id, keyframe_overlap: values[4],
+            loop_closed: flags[1], loop_closures: counts[0] / 2,
+        }))?;
+    }
+}

@@ -59,6 +59,23 @@ impl KeyframeSelector {
         Some(id)
     }
 
+    /// Makes the frame at `pose` a keyframe whatever the thresholds say (e.g. its view overlaps
+    /// too little with the last keyframe's); returns its id.
+    pub fn force(&mut self, pose: &Pose2) -> Option<u32> {
+        let id = self.next_id;
+        self.next_id = self.next_id.wrapping_add(1);
+        self.last = Some(*pose);
+        Some(id)
+    }
+
+    /// Moves the reference of the next decision to `pose` (the last keyframe's corrected pose
+    /// after a loop closure) without counting a keyframe.
+    pub fn rebase(&mut self, pose: &Pose2) {
+        if self.last.is_some() {
+            self.last = Some(*pose);
+        }
+    }
+
     /// The pose of the last keyframe, if any.
     pub fn last_keyframe(&self) -> Option<Pose2> {
         self.last

@@ -11,10 +11,13 @@
 //! - [`icp`]: ICP against the keyframe map, point-to-line (default) or point-to-point
 //!   ([`PointMap`], [`align`]).
 //! - [`keyframe`]: keyframe selection ([`KeyframeSelector`]).
+//! - [`loop_closure`]: revisit detection and verification ([`match_loop`]).
+//! - [`pose_graph`]: SE(2) pose-graph optimisation ([`PoseGraph`]).
 //! - [`slam`]: the per-frame loop ([`Association`]).
 //! - [`params`]: the node's [`Params`].
 //! - [`node`]: the graph node ([`build`], [`AssociationNode`]): inputs `/odom` and
-//!   `/radar/detections`, outputs `/slam/pose` and `/slam/keyframe`.
+//!   `/radar/detections`, outputs `/slam/pose`, `/slam/keyframe`, `/slam/keyframe_poses` and
+//!   `/slam/association_stats`.
 //!
 //! Everything but [`node`] is a plain library that never sees a transport or a message type.
 //!
@@ -40,14 +43,20 @@
 
 pub mod icp;
 pub mod keyframe;
+pub mod loop_closure;
 pub mod node;
 pub mod params;
 pub mod pose;
+pub mod pose_graph;
 pub mod slam;
 
 pub use icp::{align, IcpResult, IcpStatus, LineFit, PointMap};
 pub use keyframe::KeyframeSelector;
+pub use loop_closure::{match_loop, LoopMatch, LoopRejection};
 pub use node::{build, AssociationNode};
-pub use params::{IcpMetric, Params};
+pub use params::{IcpMetric, LoopClosureParams, Params};
 pub use pose::{wrap_angle_rad, Pose2};
-pub use slam::{detection_to_agv_m, Association, AssociationError, FrameOutcome};
+pub use pose_graph::{Edge, EdgeKind, OptimiserSettings, PoseGraph};
+pub use slam::{
+    detection_to_agv_m, Association, AssociationError, FrameOutcome, FrameStats, KeyframeRecord,
+};

@@ -1,5 +1,5 @@
-//! The association as a graph node: `/odom` and `/radar/detections` in, `/slam/pose` and
-//! `/slam/keyframe` out.
+//! The association as a graph node: `/odom` and `/radar/detections` in; `/slam/pose`,
+//! `/slam/keyframe`, `/slam/keyframe_poses` and `/slam/association_stats` out.
 //!
 //! Inputs are declared in the order [`ODOM`], [`DETECTIONS`], so the runtime, which merges them
 //! by (stamp, input order), hands over a frame's odometry before the same frame's detections.
@@ -9,12 +9,25 @@
 //! - `/slam/pose` (`PoseStamped`, frame "map", the detections' stamp): the SLAM pose, every frame;
 //! - `/slam/keyframe` (`Keyframe`, frame "map", same stamp): on keyframes only, with the keyframe
 //!   id, the SLAM pose, the boresight and the frame's detections, which the mapper places with
-//!   that pose (the paper's "key frames […] to build the mapping data", Sec. III-A).
+//!   that pose (the paper's "key frames […] to build the mapping data", Sec. III-A);
+//! - `/slam/keyframe_poses` (`KeyframePoses`, same stamp): with every keyframe, the current pose of
+//!   every keyframe and the pose-graph revision. The revision changes when a loop closure has
+//!   corrected the keyframes; a mapper then rebuilds its grid from the keyframes it holds. Sent
+//!   with every keyframe (not only on corrections) so that a subscriber's input merge never waits
+//!   on a silent stream;
+//! - `/slam/association_stats` (`AssociationStats`, same stamp): every frame, what association
+//!   did (detections, associated, inliers, ICP status, keyframe, loop closure).
 
-use nrslam_msgs::topics::{DETECTIONS, KEYFRAME, ODOM, SLAM_POSE};
-use nrslam_msgs::{Detections, Header, Keyframe, Message, Odometry, Pose, PoseStamped};
+use nrslam_msgs::topics::{
+    ASSOCIATION_STATS, DETECTIONS, KEYFRAME, KEYFRAME_POSES, ODOM, SLAM_POSE,
+};
+use nrslam_msgs::{
+    AssociationStats, Detections, Header, Keyframe, KeyframePoses, Message, Odometry, Pose,
+    PoseStamped,
+};
 use nrslam_runtime::{Node, NodeContext, NodeError, Outbox};
 
+use crate::icp::IcpStatus;
 use crate::params::Params;
 use crate::pose::Pose2;
 use crate::slam::{detection_to_agv_m, Association};
@@ -51,7 +64,7 @@ impl AssociationNode {
         let (x_m, y_m, yaw_rad) = odometry.pose.pose.planar();
         let pose = Pose2::new(x_m, y_m, yaw_rad);
         self.slam
-            .on_odometry(pose)
+            .on_odometry_at(odometry.header.stamp.as_seconds(), pose)
             .map_err(|e| NodeError::invalid_input(ODOM, e.to_string()))
     }
 
@@ -61,9 +74,14 @@ impl AssociationNode {
         outbox: &mut Outbox,
     ) -> Result<(), NodeError> {
         let scan_agv_m = scan_points(detections)?;
+        let std: Vec<[f64; 2]> = detections
+            .detections
+            .iter()
+            .map(|d| [d.range_std_m, d.angle_std_rad])
+            .collect();
         let outcome = self
             .slam
-            .on_scan(&scan_agv_m)
+            .on_scan_with_std(&scan_agv_m, Some(&std))
             .map_err(|e| NodeError::invalid_input(DETECTIONS, e.to_string()))?;
         tracing::debug!(
             stamp_s = detections.header.stamp.as_seconds(),
@@ -88,15 +106,70 @@ impl AssociationNode {
             outbox.publish(
                 KEYFRAME,
                 Keyframe {
-                    header,
+                    header: header.clone(),
                     id,
                     pose: pose_msg,
                     boresight_rad: detections.boresight_rad,
                     detections: detections.detections.clone(),
                 },
             );
+            let records = self.slam.keyframe_records();
+            outbox.publish(
+                KEYFRAME_POSES,
+                KeyframePoses {
+                    header: header.clone(),
+                    revision: outcome.revision,
+                    ids: records.iter().map(|r| r.id).collect(),
+                    poses: records
+                        .iter()
+                        .map(|r| Pose::from_planar(r.pose.x_m, r.pose.y_m, r.pose.yaw_rad))
+                        .collect(),
+                },
+            );
         }
+        let stats = outcome.stats;
+        let count = |n: usize| u32::try_from(n).unwrap_or(u32::MAX);
+        outbox.publish(
+            ASSOCIATION_STATS,
+            AssociationStats {
+                header,
+                detections: count(stats.detections),
+                associated: count(stats.associated),
+                inliers: count(stats.inliers),
+                inlier_ratio: if stats.detections > 0 {
+                    stats.inliers as f64 / stats.detections as f64
+                } else {
+                    0.0
+                },
+                rms_residual_m: stats.rms_residual_m,
+                icp_status: status_name(outcome.icp.status).to_owned(),
+                icp_iterations: outcome.icp.iterations,
+                correction_m: outcome.icp.correction_m,
+                correction_rad: outcome.icp.correction_rad,
+                odometry_rejected: stats.odometry_rejected,
+                keyframe_id: outcome
+                    .keyframe_id
+                    .and_then(|id| i32::try_from(id).ok())
+                    .unwrap_or(-1),
+                keyframe_overlap: stats.keyframe_overlap,
+                loop_closed: outcome.loop_match.is_some(),
+                loop_closures: self.slam.loop_closures(),
+            },
+        );
         Ok(())
+    }
+}
+
+/// The name of an ICP status as published in `AssociationStats::icp_status`.
+pub fn status_name(status: IcpStatus) -> &'static str {
+    match status {
+        IcpStatus::Converged => "converged",
+        IcpStatus::MaxIterations => "max_iterations",
+        IcpStatus::Disabled => "disabled",
+        IcpStatus::EmptyScan => "empty_scan",
+        IcpStatus::EmptyMap => "empty_map",
+        IcpStatus::TooFewCorrespondences => "too_few_correspondences",
+        IcpStatus::CorrectionRejected => "correction_rejected",
     }
 }
 
@@ -141,7 +214,7 @@ impl Node for AssociationNode {
     }
 
     fn outputs(&self) -> Vec<&'static str> {
-        vec![SLAM_POSE, KEYFRAME]
+        vec![SLAM_POSE, KEYFRAME, KEYFRAME_POSES, ASSOCIATION_STATS]
     }
 
     fn on_message(
@@ -224,7 +297,18 @@ mod tests {
         let scan = detections(1.0, start, boresight_rad);
         node.on_message(DETECTIONS, &scan, &mut outbox).unwrap();
         let published: Vec<_> = outbox.drain().collect();
-        assert_eq!(published.len(), 2);
+        assert_eq!(published.len(), 4);
+        let (topic, Message::KeyframePoses(poses)) = &published[2] else {
+            panic!("{published:?}")
+        };
+        assert_eq!(*topic, KEYFRAME_POSES);
+        assert_eq!((poses.revision, poses.ids.clone()), (0, vec![0]));
+        let (topic, Message::AssociationStats(stats)) = &published[3] else {
+            panic!("{published:?}")
+        };
+        assert_eq!(*topic, ASSOCIATION_STATS);
+        assert_eq!((stats.detections, stats.keyframe_id), (80, 0));
+        assert_eq!(stats.icp_status, "empty_map");
         let (topic, Message::PoseStamped(pose)) = &published[0] else {
             panic!("{published:?}")
         };
@@ -263,10 +347,22 @@ mod tests {
         )
         .unwrap();
         let published: Vec<_> = outbox.drain().collect();
-        assert_eq!(published.len(), 1);
+        assert_eq!(published.len(), 2);
         let Message::PoseStamped(pose) = &published[0].1 else {
             panic!("{published:?}")
         };
+        let Message::AssociationStats(stats) = &published[1].1 else {
+            panic!("{published:?}")
+        };
+        // Every detection of the noise-free box matches the map.
+        assert_eq!(
+            (stats.associated, stats.inliers, stats.keyframe_id),
+            (80, 80, -1)
+        );
+        assert!(
+            stats.inlier_ratio > 0.99 && stats.correction_m > 0.15,
+            "{stats:?}"
+        );
         let (x, y, _) = pose.pose.planar();
         assert!((x - truth.x_m).hypot(y - truth.y_m) < 0.01, "{pose:?}");
     }
@@ -315,7 +411,10 @@ mod tests {
         assert!(err.to_string().contains("max_correspondence_m"), "{err}");
         let node = build(Params::default(), &NodeContext::for_tests(1)).unwrap();
         assert_eq!(node.inputs(), vec![ODOM, DETECTIONS]);
-        assert_eq!(node.outputs(), vec![SLAM_POSE, KEYFRAME]);
+        assert_eq!(
+            node.outputs(),
+            vec![SLAM_POSE, KEYFRAME, KEYFRAME_POSES, ASSOCIATION_STATS]
+        );
     }
 
     /// A source that publishes each frame's detections *before* its odometry, to check that the

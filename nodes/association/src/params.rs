@@ -70,6 +70,286 @@ pub struct Params {
     /// A new keyframe when the SLAM heading differs from the last keyframe's by at least this,
     /// degrees.
     pub keyframe_rotation_deg: f64,
+    /// A new keyframe when fewer than this fraction of the frame's detections lie within
+    /// `max_correspondence_m` of the last keyframe's points (the view has changed), even before
+    /// the distance or rotation threshold. 0 disables the rule.
+    pub keyframe_min_overlap: f64,
+    /// Weight each scan point's residual by its measurement covariance (range std along the
+    /// beam, range × angle std across it) instead of equally: the radar is fine in range and
+    /// coarse in angle, so a far point's cross-range offset says little.
+    pub covariance_weighting: bool,
+    /// Floor of the range std used for weighting, metres (detections that report 0).
+    pub min_range_std_m: f64,
+    /// Floor of the angle std used for weighting, degrees (detections that report 0).
+    pub min_angle_std_deg: f64,
+    /// Std of the map's own error added to every residual's variance, metres: a map point is a
+    /// past detection placed with a past pose, so it is never exact.
+    pub map_std_m: f64,
+    /// A pair whose residual exceeds this many standard deviations is an outlier: it is dropped
+    /// from the solve and not counted as an inlier in the statistics.
+    pub gate_sigma: f64,
+    /// An odometry increment implying a speed above this is a spike: the previous accepted
+    /// motion is used instead, metres per second. 0 disables the gate.
+    pub max_speed_mps: f64,
+    /// An odometry increment implying a turn rate above this is a spike, degrees per second.
+    pub max_turn_rate_deg_s: f64,
+    /// Loop closure (revisit detection, pose graph, map rebuild).
+    pub loop_closure: LoopClosureParams,
+}
+
+/// Loop detection, verification and pose-graph parameters (see [`crate::loop_closure`] and
+/// [`crate::pose_graph`]). Deserialised from the `loop_closure` sub-table.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LoopClosureParams {
+    /// Detect loops and optimise the pose graph. `false` keeps the keyframe poses as tracked.
+    pub enabled: bool,
+    /// A keyframe is a loop candidate only if at least this much travel lies between it and the
+    /// current keyframe, metres (closer ones are the ordinary chain).
+    pub min_separation_m: f64,
+    /// …and if its estimated position is within this distance of the current one plus the
+    /// search radius, metres: the radar sees targets up to its maximum range away, so two
+    /// keyframes some metres apart share much of their view.
+    pub candidate_distance_m: f64,
+    /// Search radius around the predicted relative pose, metres…
+    pub search_radius_m: f64,
+    /// …plus this fraction of the distance travelled since the candidate (drift grows with it)…
+    pub search_radius_per_m: f64,
+    /// …up to this, metres.
+    pub max_search_radius_m: f64,
+    /// Rotations searched either side of the predicted relative heading, degrees.
+    pub max_search_rotation_deg: f64,
+    /// Translation step of the correlative search (and its raster cell), metres.
+    pub search_step_m: f64,
+    /// Rotation step of the correlative search, degrees.
+    pub search_step_deg: f64,
+    /// Keyframes either side of the candidate that form its submap.
+    pub submap_keyframes: u32,
+    /// Keyframes (the current one included) that form the query.
+    pub query_keyframes: u32,
+    /// Candidates tried per keyframe, nearest first.
+    pub max_candidates: u32,
+    /// Fewest points in the query and the submap.
+    pub min_points: u32,
+    /// A query point is an inlier when a submap point lies within this, metres.
+    pub inlier_distance_m: f64,
+    /// Fewest inliers, as a fraction of the query points in the overlap (those within
+    /// `overlap_distance_m` of a submap point after alignment), to accept a loop.
+    pub min_inlier_ratio: f64,
+    /// A query point farther than this from every submap point after alignment saw something the
+    /// submap did not (the views only partly overlap) and does not count in the inlier ratio,
+    /// metres. 0 counts every query point.
+    pub overlap_distance_m: f64,
+    /// Fewest query points in the overlap, as a fraction of the query, to accept a loop.
+    pub min_overlap_ratio: f64,
+    /// The best score elsewhere (at least `ambiguity_distance_m` from the best motion) must be
+    /// at most this fraction of the best.
+    pub max_ambiguity: f64,
+    /// See `max_ambiguity`, metres.
+    pub ambiguity_distance_m: f64,
+    /// Keyframes after an accepted loop during which no other is searched.
+    pub cooldown_keyframes: u32,
+    /// Std of an odometry edge's translation per metre travelled (fraction).
+    pub odometry_std_per_m: f64,
+    /// Std of an odometry edge's heading per metre travelled, degrees per metre.
+    pub odometry_std_deg_per_m: f64,
+    /// Floor of an odometry edge's translation std, metres.
+    pub odometry_min_std_m: f64,
+    /// Floor of an odometry edge's heading std, degrees.
+    pub odometry_min_std_deg: f64,
+    /// Std of a loop edge's translation, metres.
+    pub loop_std_m: f64,
+    /// Std of a loop edge's heading, degrees.
+    pub loop_std_deg: f64,
+    /// Levenberg–Marquardt iterations per optimisation.
+    pub max_iterations: u32,
+    /// Until the first loop closure, scan matching uses only the keyframes within this much
+    /// travel of the current one, metres, so that the chain of keyframes carries the drift
+    /// instead of being pulled piecemeal onto old, inconsistent parts of the map; the loop
+    /// closure then corrects the whole chain at once. After it the whole (corrected) map is
+    /// used. 0 uses the whole map throughout.
+    pub local_map_m: f64,
+}
+
+impl Default for LoopClosureParams {
+    fn default() -> Self {
+        LoopClosureParams {
+            enabled: true,
+            min_separation_m: 30.0,
+            candidate_distance_m: 12.0,
+            search_radius_m: 2.0,
+            search_radius_per_m: 0.03,
+            max_search_radius_m: 6.0,
+            max_search_rotation_deg: 12.0,
+            search_step_m: 0.25,
+            search_step_deg: 1.0,
+            submap_keyframes: 10,
+            query_keyframes: 10,
+            max_candidates: 2,
+            min_points: 30,
+            inlier_distance_m: 0.5,
+            min_inlier_ratio: 0.5,
+            overlap_distance_m: 0.0,
+            min_overlap_ratio: 0.3,
+            max_ambiguity: 0.85,
+            ambiguity_distance_m: 2.0,
+            cooldown_keyframes: 2,
+            odometry_std_per_m: 0.02,
+            odometry_std_deg_per_m: 0.5,
+            odometry_min_std_m: 0.02,
+            odometry_min_std_deg: 0.2,
+            loop_std_m: 0.3,
+            loop_std_deg: 2.0,
+            max_iterations: 20,
+            local_map_m: 0.0,
+        }
+    }
+}
+
+impl LoopClosureParams {
+    /// Checks every field; the error names the first offending field (as `loop_closure.NAME`).
+    pub fn validate(&self) -> Result<(), InvalidParam> {
+        let ranges: [(&'static str, f64, f64, f64); 21] = [
+            (
+                "loop_closure.overlap_distance_m",
+                self.overlap_distance_m,
+                0.0,
+                1e3,
+            ),
+            (
+                "loop_closure.min_overlap_ratio",
+                self.min_overlap_ratio,
+                0.0,
+                1.0,
+            ),
+            (
+                "loop_closure.candidate_distance_m",
+                self.candidate_distance_m,
+                0.0,
+                1e4,
+            ),
+            ("loop_closure.local_map_m", self.local_map_m, 0.0, 1e6),
+            (
+                "loop_closure.min_separation_m",
+                self.min_separation_m,
+                0.0,
+                1e6,
+            ),
+            (
+                "loop_closure.search_radius_m",
+                self.search_radius_m,
+                0.0,
+                1e3,
+            ),
+            (
+                "loop_closure.search_radius_per_m",
+                self.search_radius_per_m,
+                0.0,
+                1.0,
+            ),
+            (
+                "loop_closure.max_search_radius_m",
+                self.max_search_radius_m,
+                0.0,
+                100.0,
+            ),
+            (
+                "loop_closure.max_search_rotation_deg",
+                self.max_search_rotation_deg,
+                0.0,
+                180.0,
+            ),
+            ("loop_closure.search_step_m", self.search_step_m, 0.01, 10.0),
+            (
+                "loop_closure.search_step_deg",
+                self.search_step_deg,
+                0.05,
+                45.0,
+            ),
+            (
+                "loop_closure.inlier_distance_m",
+                self.inlier_distance_m,
+                0.001,
+                100.0,
+            ),
+            (
+                "loop_closure.min_inlier_ratio",
+                self.min_inlier_ratio,
+                0.0,
+                1.0,
+            ),
+            ("loop_closure.max_ambiguity", self.max_ambiguity, 0.0, 1.0),
+            (
+                "loop_closure.ambiguity_distance_m",
+                self.ambiguity_distance_m,
+                0.0,
+                1e3,
+            ),
+            (
+                "loop_closure.odometry_std_per_m",
+                self.odometry_std_per_m,
+                0.0,
+                1.0,
+            ),
+            (
+                "loop_closure.odometry_std_deg_per_m",
+                self.odometry_std_deg_per_m,
+                0.0,
+                90.0,
+            ),
+            (
+                "loop_closure.odometry_min_std_m",
+                self.odometry_min_std_m,
+                1e-6,
+                100.0,
+            ),
+            (
+                "loop_closure.odometry_min_std_deg",
+                self.odometry_min_std_deg,
+                1e-6,
+                90.0,
+            ),
+            ("loop_closure.loop_std_m", self.loop_std_m, 1e-6, 100.0),
+            ("loop_closure.loop_std_deg", self.loop_std_deg, 1e-6, 90.0),
+        ];
+        for (field, value, min, max) in ranges {
+            InvalidParam::check_range(field, value, min, max)?;
+        }
+        let counts = [
+            (
+                "loop_closure.submap_keyframes",
+                self.submap_keyframes,
+                0,
+                100,
+            ),
+            ("loop_closure.query_keyframes", self.query_keyframes, 1, 100),
+            ("loop_closure.max_candidates", self.max_candidates, 1, 100),
+            ("loop_closure.min_points", self.min_points, 3, 1_000_000),
+            (
+                "loop_closure.cooldown_keyframes",
+                self.cooldown_keyframes,
+                0,
+                1_000_000,
+            ),
+            ("loop_closure.max_iterations", self.max_iterations, 1, 1000),
+        ];
+        for (field, value, min, max) in counts {
+            if !(min..=max).contains(&value) {
+                return Err(InvalidParam::new(
+                    field,
+                    format!("is {value}"),
+                    format!("{min}..={max}"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Search radius for a candidate `travelled_m` of travel ago, metres.
+    pub fn search_radius_for_m(&self, travelled_m: f64) -> f64 {
+        (self.search_radius_m + self.search_radius_per_m * travelled_m)
+            .min(self.max_search_radius_m)
+    }
 }
 
 impl Default for Params {
@@ -89,6 +369,15 @@ impl Default for Params {
             degeneracy_ratio: 0.01,
             keyframe_distance_m: 1.0,
             keyframe_rotation_deg: 15.0,
+            keyframe_min_overlap: 0.0,
+            covariance_weighting: false,
+            min_range_std_m: 0.02,
+            min_angle_std_deg: 0.2,
+            map_std_m: 0.1,
+            gate_sigma: 5.0,
+            max_speed_mps: 5.0,
+            max_turn_rate_deg_s: 90.0,
+            loop_closure: LoopClosureParams::default(),
         }
     }
 }
@@ -212,6 +501,14 @@ impl Params {
             180.0,
             "0 <= value <= 180 (degrees)",
         )?;
+        InvalidParam::check_range("keyframe_min_overlap", self.keyframe_min_overlap, 0.0, 1.0)?;
+        InvalidParam::check_range("min_range_std_m", self.min_range_std_m, 1e-6, 100.0)?;
+        InvalidParam::check_range("min_angle_std_deg", self.min_angle_std_deg, 1e-6, 90.0)?;
+        InvalidParam::check_range("map_std_m", self.map_std_m, 0.0, 100.0)?;
+        InvalidParam::check_range("gate_sigma", self.gate_sigma, 0.5, 1e3)?;
+        InvalidParam::check_range("max_speed_mps", self.max_speed_mps, 0.0, 1e3)?;
+        InvalidParam::check_range("max_turn_rate_deg_s", self.max_turn_rate_deg_s, 1e-3, 1e5)?;
+        self.loop_closure.validate()?;
         Ok(())
     }
 
@@ -263,6 +560,19 @@ mod tests {
             ("degeneracy_ratio", |p| p.degeneracy_ratio = 0.9),
             ("keyframe_distance_m", |p| p.keyframe_distance_m = -0.1),
             ("keyframe_rotation_deg", |p| p.keyframe_rotation_deg = 200.0),
+            ("keyframe_min_overlap", |p| p.keyframe_min_overlap = 1.5),
+            ("min_angle_std_deg", |p| p.min_angle_std_deg = 0.0),
+            ("gate_sigma", |p| p.gate_sigma = f64::NAN),
+            ("max_speed_mps", |p| p.max_speed_mps = -1.0),
+            ("loop_closure.search_step_m", |p| {
+                p.loop_closure.search_step_m = 0.0
+            }),
+            ("loop_closure.min_inlier_ratio", |p| {
+                p.loop_closure.min_inlier_ratio = 2.0
+            }),
+            ("loop_closure.query_keyframes", |p| {
+                p.loop_closure.query_keyframes = 0
+            }),
         ];
         for (field, mutate) in cases {
             let mut p = Params::default();
@@ -285,6 +595,13 @@ mod tests {
         let err = parse("keyframe_distance = 2.0").unwrap_err().to_string();
         assert!(err.contains("keyframe_distance"), "{err}");
         assert!(parse("metric = \"point_to_plane\"").is_err());
+        let p = parse("[loop_closure]\nenabled = false\nloop_std_m = 0.2").unwrap();
+        assert!(!p.loop_closure.enabled);
+        assert_eq!(p.loop_closure.loop_std_m, 0.2);
+        let err = parse("[loop_closure]\nenable = false")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("enable"), "{err}");
     }
 
     #[test]

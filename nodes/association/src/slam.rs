@@ -15,15 +15,31 @@
 //!    ([`crate::keyframe::KeyframeSelector`]), the frame is a keyframe and its detections, placed
 //!    with the corrected pose, join the map.
 //!
-//! There is no loop closure, as in the paper, so errors that scan matching cannot see (the map's
-//! own error) accumulate: the paper's Fig. 7 shows the AGV position MSE growing with time.
+//! 4. **Close loops.** With `loop_closure.enabled`, every keyframe becomes a node of a pose graph
+//!    ([`crate::pose_graph`]) linked to the previous keyframe by its tracked motion; old keyframes
+//!    near the current estimate are tested as revisits ([`crate::loop_closure`]). A verified
+//!    revisit adds a loop edge, the graph is optimised, every keyframe moves to its corrected pose
+//!    and the keyframe map is rebuilt from the keyframes' scans; the current pose follows its
+//!    keyframe.
+//!
+//! Without loop closure (the paper's setting), errors that scan matching cannot see (the map's own
+//! error) accumulate: the paper's Fig. 7 shows the AGV position MSE growing with time.
+//!
+//! Robustness to what real data does: an odometry increment faster than `max_speed_mps` (or
+//! turning faster than `max_turn_rate_deg_s`) is a spike and is replaced by the last accepted
+//! motion scaled to the elapsed time; an empty frame keeps the prediction; a dropped frame is a
+//! longer odometry increment; a stationary AGV adds no keyframes. No input yields a NaN pose: the
+//! odometry and detections are checked for finiteness, and every estimator falls back to its
+//! input when its own result is not finite.
 
 use nrslam_runtime::InvalidParam;
 
-use crate::icp::{align, IcpResult, PointMap};
+use crate::icp::{align, align_weighted, IcpResult, PointMap};
 use crate::keyframe::KeyframeSelector;
+use crate::loop_closure::{match_loop, LoopMatch};
 use crate::params::Params;
 use crate::pose::Pose2;
+use crate::pose_graph::{Edge, EdgeKind, OptimiserSettings, PoseGraph};
 
 /// A detection at `range_m` and angle of arrival `angle_rad` (from the array boresight,
 /// counter-clockwise), for an array whose boresight is `boresight_rad` from the AGV heading, as a
@@ -44,6 +60,28 @@ pub enum AssociationError {
     NonFiniteOdometry(Pose2),
 }
 
+/// An odometry prediction: the pose, whether the increment was rejected as a spike, and the
+/// accepted increment with the seconds it spans (if known).
+type Prediction = (Pose2, bool, Option<(Pose2, f64)>);
+
+/// Data-association statistics of one frame.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct FrameStats {
+    /// Finite scan points.
+    pub detections: usize,
+    /// Scan points with a map point within `max_correspondence_m` at the final pose.
+    pub associated: usize,
+    /// Associated points within `gate_sigma` standard deviations of their map point.
+    pub inliers: usize,
+    /// RMS distance of the associated points to their nearest map point, metres.
+    pub rms_residual_m: f64,
+    /// Fraction of the scan within `max_correspondence_m` of the last keyframe's points before
+    /// this frame (1 when there is no keyframe yet or the scan is empty).
+    pub keyframe_overlap: f64,
+    /// The odometry increment failed the speed gate.
+    pub odometry_rejected: bool,
+}
+
 /// What one frame produced.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FrameOutcome {
@@ -55,20 +93,53 @@ pub struct FrameOutcome {
     pub icp: IcpResult,
     /// The keyframe id if this frame is a keyframe (its points have joined the map).
     pub keyframe_id: Option<u32>,
+    /// Association statistics.
+    pub stats: FrameStats,
+    /// The loop closed on this frame, if one did.
+    pub loop_match: Option<LoopMatch>,
+    /// Pose-graph optimisations so far; it changes when keyframe poses were corrected.
+    pub revision: u32,
 }
 
-/// The association state: SLAM pose, last odometry, keyframe map.
+/// One keyframe as the back end keeps it: its scan in its own frame, and its current pose.
+#[derive(Debug, Clone)]
+pub struct KeyframeRecord {
+    /// Keyframe id (also its pose-graph node index).
+    pub id: u32,
+    /// Current estimate of its pose, map frame (changes on loop closure).
+    pub pose: Pose2,
+    /// Its detections, AGV frame, metres.
+    pub scan_agv_m: Vec<[f64; 2]>,
+    /// Distance travelled from the start to this keyframe, metres.
+    pub travelled_m: f64,
+}
+
+/// The association state: SLAM pose, last odometry, keyframe map, pose graph.
 #[derive(Debug)]
 pub struct Association {
     params: Params,
     map: PointMap,
     keyframes: KeyframeSelector,
+    records: Vec<KeyframeRecord>,
+    graph: PoseGraph,
+    /// Points of the last keyframe (map frame), for the overlap rule.
+    last_keyframe_map: PointMap,
     /// The SLAM pose after the last scan (or the initial pose before any scan).
     slam_pose: Option<Pose2>,
-    /// The odometry pose that `slam_pose` corresponds to.
-    odom_at_slam_pose: Option<Pose2>,
-    /// The latest odometry pose received.
-    latest_odom: Option<Pose2>,
+    /// The odometry pose that `slam_pose` corresponds to, and its stamp.
+    odom_at_slam_pose: Option<(Pose2, Option<f64>)>,
+    /// The latest odometry pose received, and its stamp.
+    latest_odom: Option<(Pose2, Option<f64>)>,
+    /// The last accepted odometry increment and the seconds it spanned.
+    last_motion: Option<(Pose2, f64)>,
+    travelled_m: f64,
+    revision: u32,
+    loop_closures: u32,
+    cooldown: u32,
+    /// Distance travelled at the last accepted loop closure, metres.
+    travelled_at_closure_m: Option<f64>,
+    /// First keyframe of the local map while tracking locally.
+    local_from: usize,
 }
 
 impl Association {
@@ -82,60 +153,423 @@ impl Association {
             params,
             map,
             keyframes,
+            records: Vec::new(),
+            graph: PoseGraph::new(),
+            last_keyframe_map: PointMap::new(),
             slam_pose: None,
             odom_at_slam_pose: None,
             latest_odom: None,
+            last_motion: None,
+            travelled_m: 0.0,
+            revision: 0,
+            loop_closures: 0,
+            cooldown: 0,
+            travelled_at_closure_m: None,
+            local_from: 0,
         })
     }
 
     /// Records an odometry pose (odometry frame). The first one also initialises the SLAM pose.
+    /// Without a stamp the speed gate cannot apply; see [`Association::on_odometry_at`].
     pub fn on_odometry(&mut self, odom_pose: Pose2) -> Result<(), AssociationError> {
+        self.record_odometry(odom_pose, None)
+    }
+
+    /// Records an odometry pose taken at `stamp_s` (seconds). With stamps, increments faster than
+    /// `max_speed_mps` or `max_turn_rate_deg_s` are treated as spikes.
+    pub fn on_odometry_at(
+        &mut self,
+        stamp_s: f64,
+        odom_pose: Pose2,
+    ) -> Result<(), AssociationError> {
+        self.record_odometry(odom_pose, stamp_s.is_finite().then_some(stamp_s))
+    }
+
+    fn record_odometry(
+        &mut self,
+        odom_pose: Pose2,
+        stamp_s: Option<f64>,
+    ) -> Result<(), AssociationError> {
         if !odom_pose.is_finite() {
             return Err(AssociationError::NonFiniteOdometry(odom_pose));
         }
         if self.slam_pose.is_none() {
             self.slam_pose = Some(odom_pose);
-            self.odom_at_slam_pose = Some(odom_pose);
+            self.odom_at_slam_pose = Some((odom_pose, stamp_s));
         }
-        self.latest_odom = Some(odom_pose);
+        self.latest_odom = Some((odom_pose, stamp_s));
         Ok(())
     }
 
     /// The odometry prediction for a scan now: the SLAM pose moved by the odometry increment
     /// since the last scan. `None` before the first odometry.
     pub fn predict(&self) -> Option<Pose2> {
+        self.predict_gated().map(|(pose, _, _)| pose)
+    }
+
+    /// The prediction, whether the increment was rejected as a spike, and the increment used
+    /// with the seconds it spans (if known).
+    fn predict_gated(&self) -> Option<Prediction> {
         let slam = self.slam_pose?;
-        let (from, to) = (self.odom_at_slam_pose?, self.latest_odom?);
+        let ((from, from_s), (to, to_s)) = (self.odom_at_slam_pose?, self.latest_odom?);
         if from == to {
             // No motion: keep the pose bit for bit instead of composing a rounded identity.
-            return Some(slam);
+            return Some((slam, false, None));
         }
-        Some(slam.compose(&from.between(&to)))
+        let increment = from.between(&to);
+        let dt_s = match (from_s, to_s) {
+            (Some(a), Some(b)) if b > a => Some(b - a),
+            _ => None,
+        };
+        let Some(dt_s) = dt_s else {
+            return Some((slam.compose(&increment), false, None));
+        };
+        let speed_ok = self.params.max_speed_mps <= 0.0
+            || increment.x_m.hypot(increment.y_m) <= self.params.max_speed_mps * dt_s;
+        let turn_ok =
+            increment.yaw_rad.abs() <= self.params.max_turn_rate_deg_s.to_radians() * dt_s;
+        if speed_ok && turn_ok {
+            return Some((slam.compose(&increment), false, Some((increment, dt_s))));
+        }
+        // A spike: the last accepted motion, scaled to the time elapsed, stands in for it.
+        let replacement = match self.last_motion {
+            Some((motion, motion_s)) if motion_s > 0.0 => {
+                let k = (dt_s / motion_s).min(10.0);
+                Pose2::new(motion.x_m * k, motion.y_m * k, motion.yaw_rad * k)
+            }
+            _ => Pose2::IDENTITY,
+        };
+        Some((slam.compose(&replacement), true, None))
     }
 
     /// Processes one frame's detections, as points in the AGV frame (metres; see
     /// [`detection_to_agv_m`]). Non-finite points are ignored. An empty scan is valid: the
     /// prediction stands.
     pub fn on_scan(&mut self, scan_agv_m: &[[f64; 2]]) -> Result<FrameOutcome, AssociationError> {
-        let predicted = self.predict().ok_or(AssociationError::NoOdometry)?;
-        let icp = align(&self.map, scan_agv_m, predicted, &self.params);
-        let pose = icp.pose;
-        let keyframe_id = self.keyframes.offer(&pose);
-        if keyframe_id.is_some() {
-            let points_m: Vec<[f64; 2]> = scan_agv_m
+        self.on_scan_with_std(scan_agv_m, None)
+    }
+
+    /// As [`Association::on_scan`], with each point's measurement standard deviations
+    /// `[range m, angle rad]` for covariance weighting (used when `covariance_weighting` is on).
+    pub fn on_scan_with_std(
+        &mut self,
+        scan_agv_m: &[[f64; 2]],
+        std: Option<&[[f64; 2]]>,
+    ) -> Result<FrameOutcome, AssociationError> {
+        let (predicted, odometry_rejected, motion) =
+            self.predict_gated().ok_or(AssociationError::NoOdometry)?;
+        let scan: Vec<[f64; 2]> = scan_agv_m
+            .iter()
+            .copied()
+            .filter(|p| p[0].is_finite() && p[1].is_finite())
+            .collect();
+        let std_floor = [
+            self.params.min_range_std_m,
+            self.params.min_angle_std_deg.to_radians(),
+        ];
+        let point_std: Vec<[f64; 2]> = match std {
+            Some(std) if std.len() == scan_agv_m.len() => scan_agv_m
                 .iter()
-                .map(|&p| pose.transform_point(p))
-                .collect();
-            self.map.extend(&points_m);
+                .zip(std)
+                .filter(|(p, _)| p[0].is_finite() && p[1].is_finite())
+                .map(|(_, s)| {
+                    let pick =
+                        |v: f64, floor: f64| if v.is_finite() { v.max(floor) } else { floor };
+                    [pick(s[0], std_floor[0]), pick(s[1], std_floor[1])]
+                })
+                .collect(),
+            _ => vec![std_floor; scan.len()],
+        };
+        let icp = if self.params.covariance_weighting {
+            align_weighted(&self.map, &scan, &point_std, predicted, &self.params)
+        } else {
+            align(&self.map, &scan, predicted, &self.params)
+        };
+        let mut pose = if icp.pose.is_finite() {
+            icp.pose
+        } else {
+            predicted
+        };
+        let mut stats = self.frame_stats(&scan, &point_std, &pose);
+        stats.odometry_rejected = odometry_rejected;
+        if motion.is_some() {
+            self.last_motion = motion;
+        }
+        if let Some(previous) = self.slam_pose {
+            let step = previous.distance_m(&pose);
+            if step.is_finite() {
+                self.travelled_m += step;
+            }
+        }
+
+        let overlap_new_view = self.params.keyframe_min_overlap > 0.0
+            && !scan.is_empty()
+            && stats.keyframe_overlap < self.params.keyframe_min_overlap;
+        let keyframe_id = if self.keyframes.is_keyframe(&pose) || overlap_new_view {
+            self.keyframes.force(&pose)
+        } else {
+            None
+        };
+        let mut loop_match = None;
+        if let Some(id) = keyframe_id {
+            self.add_keyframe(id, pose, scan);
+            if self.params.loop_closure.enabled {
+                if self.cooldown > 0 {
+                    self.cooldown -= 1;
+                } else if let Some(found) = self.close_loop() {
+                    loop_match = Some(found);
+                    pose = self.records.last().map_or(pose, |r| r.pose);
+                    self.keyframes.rebase(&pose);
+                }
+            }
         }
         self.slam_pose = Some(pose);
         self.odom_at_slam_pose = self.latest_odom;
+        stats.keyframe_overlap = stats.keyframe_overlap.clamp(0.0, 1.0);
         Ok(FrameOutcome {
             pose,
             predicted,
             icp,
             keyframe_id,
+            stats,
+            loop_match,
+            revision: self.revision,
         })
+    }
+
+    fn frame_stats(&self, scan: &[[f64; 2]], std: &[[f64; 2]], pose: &Pose2) -> FrameStats {
+        let gate_m2 = self.params.max_correspondence_m * self.params.max_correspondence_m;
+        let mut stats = FrameStats {
+            detections: scan.len(),
+            keyframe_overlap: 1.0,
+            ..FrameStats::default()
+        };
+        let mut sum_m2 = 0.0;
+        let mut overlapping = 0;
+        for (p, s) in scan.iter().zip(std) {
+            let in_map = pose.transform_point(*p);
+            if let Some((_, d2)) = self.map.nearest(&in_map) {
+                if d2 <= gate_m2 {
+                    stats.associated += 1;
+                    sum_m2 += d2;
+                    // The larger axis of the point's error ellipse, plus the map's own error.
+                    let range_m = p[0].hypot(p[1]);
+                    let sigma2 =
+                        s[0].powi(2).max((range_m * s[1]).powi(2)) + self.params.map_std_m.powi(2);
+                    if d2 <= self.params.gate_sigma.powi(2) * sigma2 {
+                        stats.inliers += 1;
+                    }
+                }
+            }
+            if self
+                .last_keyframe_map
+                .nearest(&in_map)
+                .is_some_and(|(_, d2)| d2 <= gate_m2)
+            {
+                overlapping += 1;
+            }
+        }
+        if stats.associated > 0 {
+            stats.rms_residual_m = (sum_m2 / stats.associated as f64).sqrt();
+        }
+        if !scan.is_empty() && !self.last_keyframe_map.is_empty() {
+            stats.keyframe_overlap = overlapping as f64 / scan.len() as f64;
+        }
+        stats
+    }
+
+    /// True while scan matching uses the local map (see `loop_closure.local_map_m`).
+    fn local_tracking(&self) -> bool {
+        let lc = &self.params.loop_closure;
+        lc.enabled && lc.local_map_m > 0.0 && self.travelled_at_closure_m.is_none()
+    }
+
+    fn add_keyframe(&mut self, id: u32, pose: Pose2, scan: Vec<[f64; 2]>) {
+        let points_m: Vec<[f64; 2]> = scan.iter().map(|&p| pose.transform_point(p)).collect();
+        if self.local_tracking() {
+            // Drop keyframes that fell out of the local window, then add the new one.
+            let window_m = self.params.loop_closure.local_map_m;
+            let first_kept = self
+                .records
+                .iter()
+                .position(|r| self.travelled_m - r.travelled_m <= window_m)
+                .unwrap_or(self.records.len());
+            if first_kept > 0 && self.local_from != first_kept {
+                self.local_from = first_kept;
+                let mut local = Vec::new();
+                for record in &self.records[first_kept..] {
+                    local.extend(
+                        record
+                            .scan_agv_m
+                            .iter()
+                            .map(|p| record.pose.transform_point(*p)),
+                    );
+                }
+                self.map = PointMap::for_params(&self.params);
+                self.map.extend(&local);
+            }
+        }
+        self.map.extend(&points_m);
+        self.last_keyframe_map = PointMap::new();
+        self.last_keyframe_map.extend(&points_m);
+        let node = self.graph.add_node(pose);
+        if let Some(previous) = self.records.last() {
+            let lc = &self.params.loop_closure;
+            let relative = previous.pose.between(&pose);
+            let distance_m = relative.x_m.hypot(relative.y_m);
+            let std_m = (lc.odometry_std_per_m * distance_m).max(lc.odometry_min_std_m);
+            let std_rad = (lc.odometry_std_deg_per_m * distance_m)
+                .max(lc.odometry_min_std_deg)
+                .to_radians();
+            self.graph.add_edge(Edge::with_std(
+                node - 1,
+                node,
+                relative,
+                std_m,
+                std_rad,
+                EdgeKind::Odometry,
+            ));
+        }
+        self.records.push(KeyframeRecord {
+            id,
+            pose,
+            scan_agv_m: scan,
+            travelled_m: self.travelled_m,
+        });
+    }
+
+    /// Points of keyframes `range` in the frame of keyframe `frame`.
+    fn cloud(&self, range: std::ops::RangeInclusive<usize>, frame: usize) -> Vec<[f64; 2]> {
+        let to_frame = self.records[frame].pose.inverse();
+        let mut points = Vec::new();
+        for record in &self.records[range] {
+            let relative = to_frame.compose(&record.pose);
+            points.extend(
+                record
+                    .scan_agv_m
+                    .iter()
+                    .map(|p| relative.transform_point(*p)),
+            );
+        }
+        points
+    }
+
+    /// Tests old keyframes near the newest one as revisits; on a verified one, optimises the
+    /// graph and rebuilds the map. Returns the accepted match.
+    fn close_loop(&mut self) -> Option<LoopMatch> {
+        let lc = self.params.loop_closure.clone();
+        let current = self.records.len().checked_sub(1)?;
+        let here = self.records[current].pose;
+        let travelled_now = self.records[current].travelled_m;
+        let mut candidates: Vec<(f64, usize, f64)> = self.records[..current]
+            .iter()
+            .enumerate()
+            .filter_map(|(j, r)| {
+                let travelled = travelled_now - r.travelled_m;
+                // Drift since the last closure, or since the candidate if that is less.
+                let drifting = self
+                    .travelled_at_closure_m
+                    .map_or(travelled, |at| travelled.min(travelled_now - at));
+                let radius = lc.search_radius_for_m(drifting);
+                let distance = r.pose.distance_m(&here);
+                (travelled >= lc.min_separation_m && distance <= radius + lc.candidate_distance_m)
+                    .then_some((distance, j, radius))
+            })
+            .collect();
+        candidates.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let query_from = current.saturating_sub(lc.query_keyframes as usize - 1);
+        let query = self.cloud(query_from..=current, current);
+        let mut tried: Vec<usize> = Vec::new();
+        for &(_, j, radius_m) in &candidates {
+            if tried.len() >= lc.max_candidates as usize {
+                break;
+            }
+            // Neighbours of a tried candidate would test the same place again.
+            if tried
+                .iter()
+                .any(|&t| t.abs_diff(j) <= lc.submap_keyframes as usize)
+            {
+                continue;
+            }
+            tried.push(j);
+            let w = lc.submap_keyframes as usize;
+            let last_old = (j + w).min(current);
+            // The submap must stay in the old part of the trajectory.
+            let last_old = last_old.min(
+                self.records
+                    .iter()
+                    .rposition(|r| travelled_now - r.travelled_m >= lc.min_separation_m)
+                    .unwrap_or(j),
+            );
+            let submap = self.cloud(j.saturating_sub(w)..=last_old.max(j), j);
+            let predicted = self.records[j].pose.between(&here);
+            match match_loop(&query, &submap, predicted, radius_m, &lc, &self.params) {
+                Ok(found) => {
+                    let found = LoopMatch {
+                        candidate: j,
+                        ..found
+                    };
+                    tracing::debug!(candidate = j, current, ?found, "loop accepted");
+                    self.apply_loop(j, current, found);
+                    return Some(found);
+                }
+                Err(reason) => {
+                    tracing::debug!(candidate = j, current, ?reason, "loop rejected");
+                }
+            }
+        }
+        None
+    }
+
+    fn apply_loop(&mut self, from: usize, to: usize, found: LoopMatch) {
+        let lc = self.params.loop_closure.clone();
+        self.graph.add_edge(Edge::with_std(
+            from,
+            to,
+            found.relative,
+            lc.loop_std_m,
+            lc.loop_std_deg.to_radians(),
+            EdgeKind::Loop,
+        ));
+        let settings = OptimiserSettings {
+            max_iterations: lc.max_iterations,
+            ..OptimiserSettings::default()
+        };
+        self.graph.optimise(&settings);
+        if !self.graph.nodes().iter().all(Pose2::is_finite) {
+            return;
+        }
+        for (record, pose) in self.records.iter_mut().zip(self.graph.nodes()) {
+            record.pose = *pose;
+        }
+        self.travelled_at_closure_m = Some(self.travelled_m);
+        self.rebuild_map();
+        self.revision += 1;
+        self.loop_closures += 1;
+        self.cooldown = lc.cooldown_keyframes;
+    }
+
+    fn rebuild_map(&mut self) {
+        let mut points_m = Vec::new();
+        for record in &self.records {
+            points_m.extend(
+                record
+                    .scan_agv_m
+                    .iter()
+                    .map(|p| record.pose.transform_point(*p)),
+            );
+        }
+        self.map = PointMap::for_params(&self.params);
+        self.map.extend(&points_m);
+        if let Some(last) = self.records.last() {
+            let points: Vec<[f64; 2]> = last
+                .scan_agv_m
+                .iter()
+                .map(|p| last.pose.transform_point(*p))
+                .collect();
+            self.last_keyframe_map = PointMap::new();
+            self.last_keyframe_map.extend(&points);
+        }
     }
 
     /// The current SLAM pose (map frame); `None` before the first odometry.
@@ -153,8 +587,91 @@ impl Association {
         &self.keyframes
     }
 
+    /// The keyframes with their current poses.
+    pub fn keyframe_records(&self) -> &[KeyframeRecord] {
+        &self.records
+    }
+
+    /// Loop closures accepted so far.
+    pub fn loop_closures(&self) -> u32 {
+        self.loop_closures
+    }
+
+    /// Pose-graph optimisations so far.
+    pub fn revision(&self) -> u32 {
+        self.revision
+    }
+
     /// The parameters.
     pub fn params(&self) -> &Params {
         &self.params
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 4 m box of points around the origin, every 0.2 m, seen from `agv`.
+    fn scan_from(agv: &Pose2) -> Vec<[f64; 2]> {
+        let inverse = agv.inverse();
+        (0..80)
+            .map(|i| {
+                let s = f64::from(i % 20) * 0.2 - 2.0;
+                [[s, 2.0], [2.0, s], [-s, -2.0], [-2.0, -s]][i as usize / 20]
+            })
+            .map(|p| inverse.transform_point(p))
+            .collect()
+    }
+
+    #[test]
+    fn a_stationary_agv_keeps_its_pose_and_adds_no_keyframes() {
+        let mut slam = Association::new(Params::default()).unwrap();
+        let here = Pose2::new(0.3, -0.2, 0.1);
+        for k in 0..50 {
+            slam.on_odometry_at(1.0 + 0.5 * f64::from(k), here).unwrap();
+            let out = slam.on_scan(&scan_from(&here)).unwrap();
+            assert!(out.pose.distance_m(&here) < 1e-9, "frame {k}: {out:?}");
+            assert_eq!(out.keyframe_id, (k == 0).then_some(0));
+            assert_eq!(out.stats.inliers, if k == 0 { 0 } else { 80 });
+        }
+        assert_eq!(slam.keyframe_records().len(), 1);
+    }
+
+    #[test]
+    fn an_odometry_spike_is_replaced_by_the_last_motion() {
+        let mut slam = Association::new(Params::default()).unwrap();
+        // 0.1 m per 0.5 s frame along x, then one frame where odometry jumps 5 m.
+        let mut outcomes = Vec::new();
+        for k in 0..8 {
+            let truth = Pose2::new(0.1 * f64::from(k), 0.0, 0.0);
+            let reported = if k == 5 {
+                truth.compose(&Pose2::new(5.0, 0.0, 0.0))
+            } else {
+                truth
+            };
+            slam.on_odometry_at(1.0 + 0.5 * f64::from(k), reported)
+                .unwrap();
+            let out = slam.on_scan(&[]).unwrap();
+            assert!(out.pose.is_finite());
+            outcomes.push((truth, out));
+        }
+        for (k, (truth, out)) in outcomes.iter().enumerate() {
+            // The spike frame and the frame after (odometry jumps back) are both rejected.
+            assert_eq!(out.stats.odometry_rejected, k == 5 || k == 6, "frame {k}");
+            assert!(out.pose.distance_m(truth) < 1e-9, "frame {k}: {out:?}");
+        }
+    }
+
+    #[test]
+    fn without_stamps_there_is_no_gate_and_no_nan() {
+        let mut slam = Association::new(Params::default()).unwrap();
+        slam.on_odometry(Pose2::IDENTITY).unwrap();
+        slam.on_scan(&[]).unwrap();
+        slam.on_odometry(Pose2::new(50.0, 0.0, 0.0)).unwrap();
+        let out = slam.on_scan(&[[f64::NAN, 1.0]]).unwrap();
+        assert!(!out.stats.odometry_rejected);
+        assert_eq!(out.pose, Pose2::new(50.0, 0.0, 0.0));
+        assert_eq!(out.stats.detections, 0);
     }
 }

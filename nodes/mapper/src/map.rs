@@ -15,6 +15,13 @@
 //!    observation, not several): `l ← min(l + l_hit, l_max)` for hits,
 //!    `l ← max(l + l_miss, l_min)` for free cells.
 //!
+//! With `footprint`, step 1 places not one point per detection but samples (every half grid cell)
+//! of its radar resolution cell: `range_resolution_m` along the beam × the beam width across it,
+//! `beamwidth_deg / |cos θ|` (θ from boresight, capped at 4×), so the hit region grows with range
+//! as the radar's uncertainty does (fine in range, coarse in angle; paper Sec. III-B). The samples
+//! then go through steps 2–3 like points (each covered cell hit once; free space up to each).
+//! `out_of_grid` then counts samples.
+//!
 //! The clamps bound how confident a cell gets, so the map can change its mind in a few keyframes
 //! (with the defaults, a cell at 0.97 falls below 0.5 after 9 misses).
 //!
@@ -82,6 +89,8 @@ pub struct OccupancyMap {
     min_log_odds: f64,
     max_log_odds: f64,
     free_space: bool,
+    /// Resolution-cell footprint: (range extent m, boresight beam width rad), if enabled.
+    footprint: Option<(f64, f64)>,
     log_odds: Vec<f64>,
     observed: Vec<bool>,
     /// Per cell, the last update that touched it: `3·update + 1` in the hit set, `+ 2` in the free
@@ -114,6 +123,9 @@ impl OccupancyMap {
             min_log_odds: logit(params.clamp_min_probability),
             max_log_odds: logit(params.clamp_max_probability),
             free_space: params.free_space,
+            footprint: params
+                .footprint
+                .then(|| (params.range_resolution_m, params.beamwidth_deg.to_radians())),
             log_odds: vec![0.0; cells],
             observed: vec![false; cells],
             set_mark: vec![0; cells],
@@ -236,11 +248,32 @@ impl OccupancyMap {
                 angle_rad: d.angle_rad,
             });
         }
-        let points: Vec<[f64; 2]> = detections
-            .iter()
-            .map(|d| detection_point(pose, boresight_rad, d.range_m, d.angle_rad))
-            .collect();
-        self.integrate_points([pose.x_m, pose.y_m], &points)
+        let mut points: Vec<[f64; 2]> = Vec::with_capacity(detections.len());
+        for d in detections {
+            match self.footprint {
+                None => points.push(detection_point(pose, boresight_rad, d.range_m, d.angle_rad)),
+                Some((range_extent_m, beamwidth_rad)) => {
+                    // Sample the polar resolution cell at about half a grid cell, so that every
+                    // grid cell it covers receives a sample; the beam widens off boresight as
+                    // 1/cos(angle) (capped at 4×, near endfire the ULA has no usable beam).
+                    let width_rad = beamwidth_rad / d.angle_rad.cos().abs().max(0.25);
+                    let step_m = 0.5 * self.resolution_m;
+                    let range_steps = (range_extent_m / step_m).ceil().max(1.0) as usize;
+                    let arc_m = d.range_m * width_rad;
+                    let angle_steps = (arc_m / step_m).ceil().clamp(1.0, 1000.0) as usize;
+                    for i in 0..=range_steps {
+                        let r = d.range_m + range_extent_m * (i as f64 / range_steps as f64 - 0.5);
+                        for j in 0..=angle_steps {
+                            let a = d.angle_rad + width_rad * (j as f64 / angle_steps as f64 - 0.5);
+                            points.push(detection_point(pose, boresight_rad, r.max(0.0), a));
+                        }
+                    }
+                }
+            }
+        }
+        let mut report = self.integrate_points([pose.x_m, pose.y_m], &points)?;
+        report.detections = detections.len();
+        Ok(report)
     }
 
     /// Integrates hits at map points `points` seen from `sensor` (map frame, metres): the update

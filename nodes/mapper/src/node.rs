@@ -1,13 +1,21 @@
-//! The mapper as a graph node: `/slam/keyframe` in, `/map` out.
+//! The mapper as a graph node: `/slam/keyframe` and `/slam/keyframe_poses` in, `/map` out.
 //!
 //! Each keyframe from data association (paper Sec. III-A: "we select key frames in the sensing
 //! data to build the mapping data") is integrated into the [`OccupancyMap`] at the keyframe's SLAM
 //! pose, and the whole grid is published as a `nav_msgs/OccupancyGrid` with the keyframe's stamp in
 //! frame "map" (`map_load_time` = that stamp, origin from the parameters). Publishing the whole grid
 //! each time keeps the segmenter stateless and lets any ROS tool show the latest map.
+//!
+//! Map rebuild after loop closure (paper Sec. III-A, loop detection): the mapper keeps every
+//! keyframe's detections. `/slam/keyframe_poses` accompanies each keyframe with the current pose
+//! of every keyframe and a revision number; when the revision changes, the back end has moved the
+//! keyframes, and the grid is rebuilt from scratch with every stored keyframe at its corrected
+//! pose, then published. The grid so always reflects the latest pose graph, not the poses the
+//! keyframes had when they arrived. With `rebuild_on_correction = false` the node subscribes to
+//! `/slam/keyframe` only (for back ends that publish no poses).
 
-use nrslam_msgs::topics::{KEYFRAME, MAP};
-use nrslam_msgs::{Keyframe, Message};
+use nrslam_msgs::topics::{KEYFRAME, KEYFRAME_POSES, MAP};
+use nrslam_msgs::{Keyframe, KeyframePoses, Message};
 use nrslam_runtime::{Node, NodeContext, NodeError, Outbox};
 
 use crate::{OccupancyMap, Params};
@@ -16,6 +24,13 @@ use crate::{OccupancyMap, Params};
 #[derive(Debug, Clone)]
 pub struct MapperNode {
     map: OccupancyMap,
+    params: Params,
+    /// Every keyframe received, by arrival (ids ascend), kept for rebuilds.
+    keyframes: Vec<Keyframe>,
+    /// Revision of the poses the grid was last built with.
+    revision: u32,
+    /// Rebuilds so far.
+    rebuilds: u64,
 }
 
 /// Builds the mapper from `params` (validated here). The node draws no random numbers and reads no
@@ -29,7 +44,59 @@ impl MapperNode {
     pub fn new(params: &Params) -> Result<Self, NodeError> {
         Ok(Self {
             map: OccupancyMap::new(params)?,
+            params: params.clone(),
+            keyframes: Vec::new(),
+            revision: 0,
+            rebuilds: 0,
         })
+    }
+
+    /// Times the grid was rebuilt from corrected keyframe poses.
+    pub fn rebuilds(&self) -> u64 {
+        self.rebuilds
+    }
+
+    fn on_keyframe_poses(
+        &mut self,
+        poses: &KeyframePoses,
+        outbox: &mut Outbox,
+    ) -> Result<(), NodeError> {
+        if poses.revision == self.revision {
+            return Ok(());
+        }
+        if poses.ids.len() != poses.poses.len() {
+            return Err(NodeError::invalid_input(
+                KEYFRAME_POSES,
+                format!("{} ids but {} poses", poses.ids.len(), poses.poses.len()),
+            ));
+        }
+        // Corrected poses by id; keyframes the message does not name keep theirs.
+        let mut corrected = self.keyframes.clone();
+        for keyframe in &mut corrected {
+            if let Ok(i) = poses.ids.binary_search(&keyframe.id) {
+                keyframe.pose = poses.poses[i];
+            }
+        }
+        let mut map = OccupancyMap::new(&self.params)?;
+        for keyframe in &corrected {
+            map.integrate_keyframe(keyframe).map_err(|e| {
+                NodeError::invalid_input(
+                    KEYFRAME_POSES,
+                    format!("keyframe {} at its corrected pose: {e}", keyframe.id),
+                )
+            })?;
+        }
+        self.map = map;
+        self.keyframes = corrected;
+        self.revision = poses.revision;
+        self.rebuilds += 1;
+        tracing::debug!(
+            revision = poses.revision,
+            keyframes = self.keyframes.len(),
+            "map rebuilt from corrected keyframes"
+        );
+        outbox.publish(MAP, self.map.to_occupancy_grid(poses.header.stamp));
+        Ok(())
     }
 
     /// The map built so far.
@@ -56,6 +123,9 @@ impl MapperNode {
             free_cells = report.free_cells,
             "keyframe integrated"
         );
+        if self.params.rebuild_on_correction {
+            self.keyframes.push(keyframe.clone());
+        }
         outbox.publish(MAP, self.map.to_occupancy_grid(keyframe.header.stamp));
         Ok(())
     }
@@ -63,7 +133,12 @@ impl MapperNode {
 
 impl Node for MapperNode {
     fn inputs(&self) -> Vec<&'static str> {
-        vec![KEYFRAME]
+        if self.params.rebuild_on_correction {
+            // Keyframe first: a keyframe and the poses that include it share a stamp.
+            vec![KEYFRAME, KEYFRAME_POSES]
+        } else {
+            vec![KEYFRAME]
+        }
     }
 
     fn outputs(&self) -> Vec<&'static str> {
@@ -78,6 +153,9 @@ impl Node for MapperNode {
     ) -> Result<(), NodeError> {
         match message {
             Message::Keyframe(keyframe) if topic == KEYFRAME => self.on_keyframe(keyframe, outbox),
+            Message::KeyframePoses(poses) if topic == KEYFRAME_POSES => {
+                self.on_keyframe_poses(poses, outbox)
+            }
             other => Err(NodeError::invalid_input(
                 topic,
                 format!(
@@ -209,7 +287,61 @@ mod tests {
         .expect("zero resolution refused");
         assert!(err.to_string().contains("resolution_m"), "{err}");
         let node = build(Params::default(), &ctx).unwrap();
+        assert_eq!(node.inputs(), vec![KEYFRAME, KEYFRAME_POSES]);
+        let node = build(
+            Params {
+                rebuild_on_correction: false,
+                ..Params::default()
+            },
+            &ctx,
+        )
+        .unwrap();
         assert_eq!(node.inputs(), vec![KEYFRAME]);
         assert_eq!(node.outputs(), vec![MAP]);
+    }
+
+    fn poses(revision: u32, stamp_s: f64, xs: &[f64]) -> Message {
+        Message::KeyframePoses(KeyframePoses {
+            header: Header::new(Time::from_seconds(stamp_s), "map"),
+            revision,
+            ids: (0..xs.len() as u32).collect(),
+            poses: xs.iter().map(|&x| Pose::from_planar(x, 0.5, 0.0)).collect(),
+        })
+    }
+
+    #[test]
+    fn a_new_revision_rebuilds_the_grid_from_corrected_poses() {
+        let mut node = MapperNode::new(&params()).unwrap();
+        publish(&mut node, keyframe(0, 1.0, 3.0));
+        let mut outbox = Outbox::new();
+        // Same revision: nothing to do.
+        node.on_message(KEYFRAME_POSES, &poses(0, 1.0, &[-1.5]), &mut outbox)
+            .unwrap();
+        assert!(outbox.is_empty());
+        // The keyframe moved 1 m to the right: the rebuilt grid has the hit one cell further.
+        node.on_message(KEYFRAME_POSES, &poses(1, 2.0, &[-0.5]), &mut outbox)
+            .unwrap();
+        let published: Vec<_> = outbox.drain().collect();
+        assert_eq!(published.len(), 1);
+        let (MAP, Message::OccupancyGrid(grid)) = &published[0] else {
+            panic!("{published:?}")
+        };
+        assert_eq!(grid.header.stamp, Time::from_seconds(2.0));
+        #[rustfmt::skip]
+        assert_eq!(&grid.data[6..12], &[-1, 40, 40, 40, 70, -1]);
+        assert_eq!(node.rebuilds(), 1);
+        // The same as a fresh map given the keyframe at the corrected pose.
+        let mut fresh = MapperNode::new(&params()).unwrap();
+        let mut moved = keyframe(0, 1.0, 3.0);
+        moved.pose = Pose::from_planar(-0.5, 0.5, 0.0);
+        assert_eq!(publish(&mut fresh, moved).data, grid.data);
+        // Mismatched lengths are invalid input.
+        let Message::KeyframePoses(mut bad) = poses(2, 3.0, &[0.0]) else {
+            unreachable!()
+        };
+        bad.ids.push(7);
+        assert!(node
+            .on_message(KEYFRAME_POSES, &Message::KeyframePoses(bad), &mut outbox)
+            .is_err());
     }
 }

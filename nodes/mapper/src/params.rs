@@ -49,6 +49,19 @@ pub struct Params {
     /// a shallow angle erode its outline when the angle error exceeds a cell at that range; the
     /// paper's raw maps (Fig. 3) keep every hit. Without it, only hit cells are ever observed.
     pub free_space: bool,
+    /// Keep every keyframe and rebuild the grid when `/slam/keyframe_poses` reports a new
+    /// pose-graph revision (loop closure). Default true. False subscribes to `/slam/keyframe`
+    /// only and keeps no keyframes.
+    pub rebuild_on_correction: bool,
+    /// Mark the whole radar resolution cell of each detection as hit, not just the cell of its
+    /// point: `range_resolution_m` along the beam × the beam width across it, which grows with
+    /// range (and with 1/cos of the angle off boresight, as a ULA's beam does). Default false: on
+    /// the paper runs the footprint widens far outlines into arcs (measured in docs/slam.md).
+    pub footprint: bool,
+    /// Range extent of a resolution cell, metres. Default 0.122 (c / (2 N Δf), Table I).
+    pub range_resolution_m: f64,
+    /// Beam width at boresight, degrees. Default 3.58 (2/32 in sin θ: a 32-element λ/2 ULA).
+    pub beamwidth_deg: f64,
 }
 
 impl Default for Params {
@@ -64,6 +77,10 @@ impl Default for Params {
             clamp_min_probability: 0.12,
             clamp_max_probability: 0.97,
             free_space: true,
+            rebuild_on_correction: true,
+            footprint: false,
+            range_resolution_m: 0.122,
+            beamwidth_deg: 3.58,
         }
     }
 }
@@ -97,6 +114,17 @@ impl Params {
                     "finite (metres)",
                 ));
             }
+        }
+        positive("range_resolution_m", self.range_resolution_m)?;
+        if !(self.beamwidth_deg.is_finite()
+            && self.beamwidth_deg > 0.0
+            && self.beamwidth_deg <= 90.0)
+        {
+            return Err(InvalidParam::new(
+                "beamwidth_deg",
+                format!("{} deg", self.beamwidth_deg),
+                "0 < value <= 90 (degrees)",
+            ));
         }
         let (columns, rows) = (self.width_cells(), self.height_cells());
         if columns.saturating_mul(rows) > MAX_CELLS {

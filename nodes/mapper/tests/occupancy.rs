@@ -372,3 +372,51 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn the_footprint_covers_the_resolution_cell_and_widens_with_range() {
+    let params = Params {
+        footprint: true,
+        free_space: false,
+        ..Params::default()
+    };
+    let hit_cells = |range_m: f64| {
+        let mut map = OccupancyMap::new(&params).unwrap();
+        let echo = Detection {
+            range_m,
+            ..Detection::default()
+        };
+        let pose = Pose2 {
+            x_m: 0.0,
+            y_m: 20.0,
+            yaw_rad: 0.0,
+        };
+        map.integrate_detections(pose, 0.0, &[echo])
+            .unwrap()
+            .hit_cells
+    };
+    let (near, far) = (hit_cells(5.0), hit_cells(20.0));
+    // 3.58° at 20 m is 1.25 m across the beam: about 13 cells of 0.1 m, times 2-3 along it.
+    assert!((20..=60).contains(&far), "{far}");
+    assert!(far > 2 * near, "near {near}, far {far}");
+    let point = Params {
+        free_space: false,
+        ..Params::default()
+    };
+    let mut map = OccupancyMap::new(&point).unwrap();
+    let echo = Detection {
+        range_m: 20.0,
+        ..Detection::default()
+    };
+    let pose = Pose2 {
+        x_m: 0.0,
+        y_m: 20.0,
+        yaw_rad: 0.0,
+    };
+    assert_eq!(
+        map.integrate_detections(pose, 0.0, &[echo])
+            .unwrap()
+            .hit_cells,
+        1
+    );
+}

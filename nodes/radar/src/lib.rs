@@ -51,7 +51,7 @@ pub mod visibility;
 pub use error::{FieldError, RadarError, SceneError};
 pub use geometry::{Pose2, Vec2};
 pub use node::{build, RadarNode};
-pub use params::{Fidelity, Params};
+pub use params::{Faults, Fidelity, Params};
 pub use scene::{Scene, Shape, Target};
 pub use sim::{Frame, Simulator};
 pub use trajectory::Trajectory;

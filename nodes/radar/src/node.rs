@@ -7,6 +7,10 @@
 //! "map", stamped t0) before anything else. The tick that publishes the last frame returns
 //! [`Tick::Done`]. The node has no inputs.
 //!
+//! Faults ([`crate::params::Faults`]) are applied here, on the way out: a dropped frame's
+//! measurement is not published, an empty frame's detections are cleared, an odometry spike
+//! displaces that frame's odometry pose along the heading.
+//!
 //! Odometry covariance: the diagonal of the propagated (x, y, yaw) covariance of
 //! [`crate::odometry`]; z, roll and pitch are exactly 0 on the hall's floor, so their variances
 //! are 0. Twist: forward speed and yaw rate over the last frame, with their variances.
@@ -42,6 +46,7 @@ pub struct RadarNode {
     sim: Simulator,
     ofdm: nrslam_ofdm::OfdmParams,
     targets_sent: bool,
+    faults: crate::params::Faults,
 }
 
 fn interleave(values: &[num_complex::Complex64]) -> Vec<f64> {
@@ -101,7 +106,9 @@ pub fn build(params: Params, ctx: &NodeContext) -> Result<Box<dyn Node>, NodeErr
             RadarError::Scene(scene) => NodeError::algorithm(scene),
         },
     )?;
-    Ok(Box::new(RadarNode::with_ofdm(sim, ofdm)))
+    let mut node = RadarNode::with_ofdm(sim, ofdm);
+    node.faults = params.faults.clone();
+    Ok(Box::new(node))
 }
 
 impl RadarNode {
@@ -116,6 +123,7 @@ impl RadarNode {
             sim,
             ofdm,
             targets_sent: false,
+            faults: crate::params::Faults::default(),
         }
     }
 
@@ -172,9 +180,28 @@ impl Node for RadarNode {
         let stamp = Time::from_seconds(frame.stamp_s);
         outbox.publish(CLOCK, Clock { clock: stamp });
         outbox.publish(GROUND_TRUTH_POSE, true_pose(&frame, stamp));
-        outbox.publish(ODOM, odometry(&frame, stamp));
-        let header = Header::new(stamp, RADAR_FRAME);
         let index = frame.index;
+        let is = |frames: &[u32]| frames.iter().any(|&f| f as usize == index);
+        let mut odom = odometry(&frame, stamp);
+        if is(&self.faults.odometry_spike_frames) {
+            let (x, y, yaw) = odom.pose.pose.planar();
+            let spike = self.faults.odometry_spike_m;
+            odom.pose.pose = Pose::from_planar(x + spike * yaw.cos(), y + spike * yaw.sin(), yaw);
+        }
+        outbox.publish(ODOM, odom);
+        let header = Header::new(stamp, RADAR_FRAME);
+        if is(&self.faults.drop_frames) {
+            return Ok(if index + 1 >= self.sim.frame_count() {
+                Tick::Done
+            } else {
+                Tick::More
+            });
+        }
+        let detections = if is(&self.faults.empty_frames) {
+            Vec::new()
+        } else {
+            frame.detections
+        };
         match (frame.spectrum, frame.echo) {
             (Some(spectrum), _) => outbox.publish(
                 SPECTRUM,
@@ -188,7 +215,7 @@ impl Node for RadarNode {
                 Detections {
                     header,
                     boresight_rad,
-                    detections: frame.detections,
+                    detections,
                 },
             ),
         }

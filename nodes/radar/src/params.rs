@@ -71,6 +71,27 @@ pub struct Params {
     pub spectral: nrslam_ofdm::spectral::SpectralConfig,
     /// Knobs of the `waveform` synthesis (modulation, noise, memory cap).
     pub waveform: nrslam_ofdm::waveform::WaveformConfig,
+    /// Faults injected into the published data, to test what a back end does with real-world
+    /// defects. None by default.
+    pub faults: Faults,
+}
+
+/// Faults the radar node injects into what it publishes (frame indices count from 0). For tests
+/// of the SLAM back end's robustness; the simulation itself (noise draws, ground truth) is
+/// unchanged, so a run with faults differs from one without only where the faults are.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Faults {
+    /// Frames whose measurement (`/radar/detections`, `/radar/spectrum` or `/radar/echo`) is not
+    /// published, as if lost; their clock, ground truth and odometry still are.
+    pub drop_frames: Vec<u32>,
+    /// Frames published with no detections (`ideal` fidelity only).
+    pub empty_frames: Vec<u32>,
+    /// Frames whose odometry pose is displaced by `odometry_spike_m` along the AGV heading, for
+    /// that frame only (a glitch of the wheel encoders' integration).
+    pub odometry_spike_frames: Vec<u32>,
+    /// Size of the odometry spike, metres.
+    pub odometry_spike_m: f64,
 }
 
 impl Default for Params {
@@ -92,6 +113,7 @@ impl Default for Params {
             },
             spectral: nrslam_ofdm::spectral::SpectralConfig::default(),
             waveform: nrslam_ofdm::waveform::WaveformConfig::default(),
+            faults: Faults::default(),
         }
     }
 }
@@ -147,6 +169,19 @@ impl Params {
             -90.0,
             90.0,
         )?;
+        InvalidParam::check_range(
+            "faults.odometry_spike_m",
+            self.faults.odometry_spike_m,
+            -1e4,
+            1e4,
+        )?;
+        if self.fidelity != Fidelity::Ideal && !self.faults.empty_frames.is_empty() {
+            return Err(InvalidParam::new(
+                "faults.empty_frames",
+                format!("is set with fidelity {}", self.fidelity.name()),
+                "empty at fidelity ideal only",
+            ));
+        }
         Ok(())
     }
 

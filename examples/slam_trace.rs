@@ -1,0 +1,113 @@
+//! Traces the SLAM back end on the hall at ideal fidelity: per keyframe the estimate against the
+//! ground truth, and each loop closure with the error of its measured relative pose. A
+//! development aid, not a test:
+//!
+//! ```text
+//! cargo run --release --example slam_trace -- RANGE_STD_M ANGLE_STD_DEG SEED [LOOP_CLOSURE \
+//!     LOCAL_MAP_M COVARIANCE_WEIGHTING OVERLAP_DISTANCE_M MIN_INLIER_RATIO RADIUS_PER_M MAX_RADIUS_M
+//!     LOOP_STD_DEG]
+//! ```
+
+use nrslam_association::{detection_to_agv_m, Association, Params, Pose2};
+
+fn main() -> anyhow::Result<()> {
+    tracing_subscriber::fmt()
+        .with_env_filter(tracing_subscriber::EnvFilter::from_env("NRSLAM_LOG"))
+        .with_writer(std::io::stderr)
+        .init();
+    let args: Vec<String> = std::env::args().collect();
+    let get = |i: usize, d: &str| args.get(i).cloned().unwrap_or_else(|| d.to_owned());
+    let radar = nrslam_radar::Params {
+        range_std_m: get(1, "0").parse()?,
+        angle_std_deg: get(2, "1").parse()?,
+        ..nrslam_radar::Params::default()
+    };
+    let seed: u64 = get(3, "1").parse()?;
+    let mut params = Params {
+        robust_scale_m: 0.5,
+        ..Params::default()
+    };
+    params.loop_closure.enabled = get(4, "true").parse()?;
+    params.loop_closure.local_map_m = get(5, "0").parse()?;
+    params.covariance_weighting = get(6, "false").parse()?;
+    params.loop_closure.overlap_distance_m = get(7, "0").parse()?;
+    params.loop_closure.min_inlier_ratio = get(8, "0.5").parse()?;
+    params.loop_closure.search_radius_per_m = get(9, "0.03").parse()?;
+    params.loop_closure.max_search_radius_m = get(10, "6").parse()?;
+    params.loop_closure.loop_std_deg = get(11, "2").parse()?;
+    let ctx = nrslam_runtime::NodeContext::for_tests(seed);
+    let mut sim = nrslam_radar::Simulator::from_params(
+        &radar,
+        std::path::Path::new("."),
+        ctx.seed_for("radar"),
+    )?;
+    let boresight = sim.scene().sensor.boresight_rad;
+    let mut slam = Association::new(params)?;
+    let mut truths: Vec<Pose2> = Vec::new();
+    let mut sum2 = 0.0;
+    let mut n = 0.0;
+    while let Some(frame) = sim.try_next_frame()? {
+        let o = frame.odometry.pose;
+        slam.on_odometry_at(frame.stamp_s, Pose2::new(o.x_m, o.y_m, o.yaw_rad))?;
+        let scan: Vec<[f64; 2]> = frame
+            .detections
+            .iter()
+            .map(|d| detection_to_agv_m(d.range_m, d.angle_rad, boresight))
+            .collect();
+        let std: Vec<[f64; 2]> = frame
+            .detections
+            .iter()
+            .map(|d| [d.range_std_m, d.angle_std_rad])
+            .collect();
+        let out = slam.on_scan_with_std(&scan, Some(&std))?;
+        let t = frame.true_pose;
+        let truth = Pose2::new(t.x_m, t.y_m, t.yaw_rad);
+        let err = out.pose.distance_m(&truth);
+        sum2 += err * err;
+        n += 1.0;
+        if let Some(id) = out.keyframe_id {
+            truths.push(truth);
+            if let Some(m) = out.loop_match {
+                let j = m.candidate;
+                let true_rel = truths[j].between(&truth);
+                println!(
+                    "frame {:3} kf {:3} LOOP with kf {:3}: relative error {:.2} m {:.2}°, inliers {:.2}, score {:.2}/{:.2}",
+                    frame.index,
+                    id,
+                    j,
+                    m.relative.distance_m(&true_rel),
+                    m.relative.rotation_to_rad(&true_rel).to_degrees(),
+                    m.inlier_ratio,
+                    m.score,
+                    m.runner_up
+                );
+            }
+        }
+        if frame.index % 20 == 0 || out.loop_match.is_some() {
+            println!(
+                "frame {:3} err {:.2} m  icp {:?} assoc {}/{} inl {} overlap {:.2}",
+                frame.index,
+                err,
+                out.icp.status,
+                out.stats.associated,
+                out.stats.detections,
+                out.stats.inliers,
+                out.stats.keyframe_overlap
+            );
+        }
+    }
+    let kf_err: Vec<f64> = slam
+        .keyframe_records()
+        .iter()
+        .zip(&truths)
+        .map(|(r, t)| r.pose.distance_m(t))
+        .collect();
+    let kf_rmse = (kf_err.iter().map(|e| e * e).sum::<f64>() / kf_err.len() as f64).sqrt();
+    println!(
+        "pose RMSE {:.3} m, final keyframe RMSE {:.3} m, loops {}",
+        (sum2 / n).sqrt(),
+        kf_rmse,
+        slam.loop_closures()
+    );
+    Ok(())
+}
