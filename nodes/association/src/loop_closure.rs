@@ -122,9 +122,14 @@ impl HitGrid {
             .then_some((u as usize, v as usize))
     }
 
-    fn hit(&self, x: f64, y: f64) -> bool {
-        self.cell(&[x, y])
-            .is_some_and(|(c, r)| self.hits[r * self.width + c])
+    /// Whether integer cell (column, row) is a hit; cells outside the grid are not.
+    #[inline]
+    fn hit_cell(&self, column: i64, row: i64) -> bool {
+        column >= 0
+            && row >= 0
+            && (column as usize) < self.width
+            && (row as usize) < self.height
+            && self.hits[row as usize * self.width + column as usize]
     }
 }
 
@@ -160,12 +165,25 @@ pub fn match_loop(
     // AGV is.
     let sigma_m = 0.5 * radius_m.max(step_m);
     let mut candidates: Vec<(f64, usize, Pose2)> = Vec::new();
-    let mut rotated = vec![[0.0; 2]; sample.len()];
+    // The grid's cells are one search step wide, so a translation by (ix, iy) steps moves every
+    // query point by exactly (ix, iy) cells: each rotated point's cell at the prediction is
+    // computed once per rotation and the translations are integer offsets of it.
+    debug_assert_eq!(grid.cell_m, step_m);
+    let base = [
+        predicted.x_m - grid.origin[0],
+        predicted.y_m - grid.origin[1],
+    ];
+    let mut cells: Vec<(i64, i64)> = vec![(0, 0); sample.len()];
     for ir in -steps_r..=steps_r {
         let yaw = predicted.yaw_rad + ir as f64 * step_rad;
         let (s, c) = yaw.sin_cos();
-        for (r, p) in rotated.iter_mut().zip(&sample) {
-            *r = [c * p[0] - s * p[1], s * p[0] + c * p[1]];
+        for (cell, p) in cells.iter_mut().zip(&sample) {
+            let x = c * p[0] - s * p[1] + base[0];
+            let y = s * p[0] + c * p[1] + base[1];
+            *cell = (
+                (x / step_m).floor() as i64,
+                (y / step_m).floor() as i64,
+            );
         }
         for ix in -steps_t..=steps_t {
             let tx = predicted.x_m + ix as f64 * step_m;
@@ -174,9 +192,9 @@ pub fn match_loop(
                 if (ix * ix + iy * iy) as f64 * step_m * step_m > radius_m * radius_m {
                     continue;
                 }
-                let count = rotated
+                let count = cells
                     .iter()
-                    .filter(|p| grid.hit(p[0] + tx, p[1] + ty))
+                    .filter(|(column, row)| grid.hit_cell(column + ix, row + iy))
                     .count();
                 let offset2_m2 = (ix * ix + iy * iy) as f64 * step_m * step_m;
                 let weighted = count as f64 * (-0.5 * offset2_m2 / (sigma_m * sigma_m)).exp();
