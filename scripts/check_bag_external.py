@@ -31,13 +31,10 @@ def check_rosbags(bag: Path) -> Counter:
             if connection.msgtype not in typestore.types:
                 typestore.register(get_types_from_msg(connection.msgdef.data, connection.msgtype))
         for connection in reader.connections:
-            expected = connection.ext.type_description_hash if hasattr(connection.ext, "type_description_hash") else None
+            # connection.digest is metadata.yaml's type_description_hash.
             ours = typestore.hash_rihs01(connection.msgtype)
-            recorded = reader.metadata["topics_with_message_count"]
-            for entry in recorded:
-                meta = entry["topic_metadata"]
-                if meta["name"] == connection.topic and meta.get("type_description_hash") != ours:
-                    sys.exit(f"rosbags: {connection.topic}: hash {meta.get('type_description_hash')} != rosbags' {ours}")
+            if connection.digest != ours:
+                sys.exit(f"rosbags: {connection.topic}: hash {connection.digest} != rosbags' {ours}")
         for connection, _timestamp, raw in reader.messages():
             typestore.deserialize_cdr(raw, connection.msgtype)
             counts[connection.topic] += 1
