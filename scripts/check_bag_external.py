@@ -35,9 +35,14 @@ def check_rosbags(bag: Path) -> Counter:
             ours = typestore.hash_rihs01(connection.msgtype)
             if connection.digest != ours:
                 sys.exit(f"rosbags: {connection.topic}: hash {connection.digest} != rosbags' {ours}")
+        last_etgospa = None
         for connection, _timestamp, raw in reader.messages():
-            typestore.deserialize_cdr(raw, connection.msgtype)
+            message = typestore.deserialize_cdr(raw, connection.msgtype)
             counts[connection.topic] += 1
+            if connection.topic == "/metrics":
+                last_etgospa = message.etgospa
+        if last_etgospa is not None:
+            print(f"rosbags: last /metrics etgospa = {last_etgospa!r}")
         if sum(counts.values()) != reader.message_count:
             sys.exit(f"rosbags: read {sum(counts.values())} of {reader.message_count} messages")
     return counts

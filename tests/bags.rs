@@ -324,3 +324,88 @@ fn bad_bag_input_is_one_clear_line() {
         );
     }
 }
+
+#[test]
+fn play_with_a_ros_domain_id_speaks_rmw_zenoh_key_expressions_and_attachments() {
+    let dir = temp();
+    let source = dir.path().join("source");
+    ok(&[
+        "launch",
+        "launch/paper-ideal.toml",
+        "frames:=3",
+        "--out",
+        dir.path().join("run").to_str().unwrap(),
+        "--record",
+        source.to_str().unwrap(),
+        "--record-topics",
+        "/map",
+        "/slam/pose",
+    ]);
+    let recorded = bag::open(&source, ReadMode::Strict).unwrap();
+    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+    let mut config = zenoh::Config::default();
+    config.insert_json5("mode", "\"peer\"").unwrap();
+    config
+        .insert_json5("scouting/multicast/enabled", "false")
+        .unwrap();
+    config
+        .insert_json5("listen/endpoints", &format!("[\"{endpoint}\"]"))
+        .unwrap();
+    let session = zenoh::Wait::wait(zenoh::open(config)).unwrap();
+    let (sender, received) = std::sync::mpsc::channel();
+    let _subscriber = zenoh::Wait::wait(session.declare_subscriber("7/**").callback(move |sample| {
+        let _ = sender.send((
+            sample.key_expr().as_str().to_owned(),
+            sample.payload().to_bytes().into_owned(),
+            sample.attachment().map(|a| a.to_bytes().into_owned()),
+        ));
+    }))
+    .unwrap();
+    ok(&[
+        "bag",
+        "play",
+        source.to_str().unwrap(),
+        "--connect",
+        &endpoint,
+        "--ros-domain-id",
+        "7",
+        "--match-timeout-s",
+        "20",
+    ]);
+    let mut samples = Vec::new();
+    while samples.len() < recorded.messages.len() {
+        match received.recv_timeout(Duration::from_secs(30)) {
+            Ok(sample) => samples.push(sample),
+            Err(_) => break,
+        }
+    }
+    assert_eq!(samples.len(), recorded.messages.len(), "every message, no end marker");
+    let map_key = "7/map/nav_msgs::msg::dds_::OccupancyGrid_/RIHS01_8d348150c12913a31ee0ec170fbf25089e4745d17035792a1ba94d6f0bc0cfc7";
+    let pose_key = format!(
+        "7/slam/pose/geometry_msgs::msg::dds_::PoseStamped_/{}",
+        nrslam_runtime::type_hash::rihs01("geometry_msgs/msg/PoseStamped").unwrap()
+    );
+    for (topic, key) in [("/map", map_key.to_owned()), ("/slam/pose", pose_key)] {
+        let mine: Vec<&Vec<u8>> = recorded
+            .messages
+            .iter()
+            .filter(|m| m.topic == topic)
+            .map(|m| &m.data)
+            .collect();
+        let theirs: Vec<&(String, Vec<u8>, Option<Vec<u8>>)> =
+            samples.iter().filter(|(k, _, _)| *k == key).collect();
+        assert_eq!(theirs.len(), mine.len(), "{key}");
+        let mut gids = std::collections::BTreeSet::new();
+        for (index, ((_, payload, attachment), data)) in theirs.iter().zip(&mine).enumerate() {
+            assert_eq!(payload, *data, "{key}: CDR unchanged");
+            let (sequence, timestamp_ns, gid) = nrslam_runtime::rmw_zenoh::parse_attachment(
+                attachment.as_deref().expect("rmw_zenoh needs an attachment"),
+            )
+            .expect("a 33-byte rmw_zenoh attachment");
+            assert_eq!(sequence, index as i64 + 1, "{key}: sequence from 1");
+            assert!(timestamp_ns > 1_600_000_000_000_000_000, "wall-clock source timestamp");
+            gids.insert(gid);
+        }
+        assert_eq!(gids.len(), 1, "{key}: one publisher GID");
+    }
+}
