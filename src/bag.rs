@@ -6,7 +6,9 @@ use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, Subcommand};
 use nrslam_msgs::topics;
 use nrslam_runtime::bag::{self, BagContents, BagWriter, ReadMode, WriterOptions};
-use nrslam_runtime::transport::{self, KeyStyle, Pacer, SessionMode, TopicPublisher, TransportConfig};
+use nrslam_runtime::transport::{
+    self, KeyStyle, Pacer, SessionMode, TopicPublisher, TransportConfig,
+};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -396,9 +398,6 @@ pub fn play(args: PlayArgs) -> Result<()> {
     // Let the last publications leave before the session closes.
     std::thread::sleep(Duration::from_millis(200));
     let _ = session.close().wait();
-    println!(
-        "played {published} messages on {} topic(s)",
-        played.len()
-    );
+    println!("played {published} messages on {} topic(s)", played.len());
     Ok(())
 }

@@ -7,9 +7,9 @@ use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use nrslam_msgs::{topics, Message};
+use nrslam_runtime::bag::{self, BagWriter, WriterOptions};
 use nrslam_runtime::compose::{anyhow_free, Graph, Observer};
 use nrslam_runtime::launch::{Launch, Mode, NodeDecl};
-use nrslam_runtime::bag::{self, BagWriter, WriterOptions};
 use nrslam_runtime::transport::{
     self, KeyStyle, Pacer, SessionMode, TopicPublisher, TransportConfig,
 };
@@ -238,9 +238,9 @@ impl Observer for RunObserver {
             mirror.publish(topic, message)?;
         }
         if let Some(recorder) = &mut self.recorder {
-            recorder.take(topic, message).map_err(|e| -> Box<dyn std::error::Error + Send + Sync> {
-                format!("{e:#}").into()
-            })?;
+            recorder.take(topic, message).map_err(
+                |e| -> Box<dyn std::error::Error + Send + Sync> { format!("{e:#}").into() },
+            )?;
         }
         Ok(())
     }
@@ -267,7 +267,9 @@ pub fn launch(args: LaunchArgs) -> Result<()> {
         )
     });
     if args.ros_domain_id.is_some() && mode == Mode::Processes {
-        bail!("--ros-domain-id: only in-process launches mirror their topics (use --mode in-process)");
+        bail!(
+            "--ros-domain-id: only in-process launches mirror their topics (use --mode in-process)"
+        );
     }
     let built = build_all(&launch, args.seed)?;
     let recorder = match &args.record {
@@ -345,11 +347,8 @@ impl RecordedRun {
 
 /// `custom_data` identifying the run of `launch` with `seed`.
 fn run_identity(launch: &Launch, seed: u64) -> Result<std::collections::BTreeMap<String, String>> {
-    let summary = Reporter::default().summary(
-        &launch.arguments,
-        seed,
-        &launch.path.display().to_string(),
-    );
+    let summary =
+        Reporter::default().summary(&launch.arguments, seed, &launch.path.display().to_string());
     Ok(std::collections::BTreeMap::from([
         (bag::RUN_LAUNCH_KEY.to_owned(), summary.launch),
         (
@@ -385,9 +384,9 @@ fn replayed_run(launch: &Launch) -> Result<Option<(PathBuf, RecordedRun)>> {
             arguments: serde_json::from_str(arguments).with_context(|| {
                 format!("{}: custom_data {}", dir.display(), bag::RUN_ARGUMENTS_KEY)
             })?,
-            seed: seed.parse().with_context(|| {
-                format!("{}: custom_data {}", dir.display(), bag::RUN_SEED_KEY)
-            })?,
+            seed: seed
+                .parse()
+                .with_context(|| format!("{}: custom_data {}", dir.display(), bag::RUN_SEED_KEY))?,
         },
         // A bag recorded from a live graph does not know its run: the replay names itself.
         _ => return Ok(None),
@@ -583,7 +582,9 @@ fn run_processes(
             }
         }
     }
-    listened.retain(|t| built.nodes.iter().any(|(_, n)| n.outputs().contains(t)) || REPORTED.contains(t));
+    listened.retain(|t| {
+        built.nodes.iter().any(|(_, n)| n.outputs().contains(t)) || REPORTED.contains(t)
+    });
     drop(built.nodes);
     let port = free_loopback_port()?;
     let endpoint = format!("tcp/127.0.0.1:{port}");

@@ -72,7 +72,10 @@ fn a_recorded_run_is_counted_replayed_exactly_and_recovered_after_a_cut() {
     assert!(count(&info, "/map") >= 1);
     assert_eq!(info["undecodable"], 0);
     assert_eq!(info["complete"], true);
-    assert_eq!(info["start_ns"], 1_000_000_000u64, "log time = simulated clock");
+    assert_eq!(
+        info["start_ns"], 1_000_000_000u64,
+        "log time = simulated clock"
+    );
     assert!(info["chunks"].as_u64().unwrap() > 2, "{info}");
     let metadata = read(&bag_dir.join("metadata.yaml"));
     assert!(
@@ -135,7 +138,10 @@ fn a_recorded_run_is_counted_replayed_exactly_and_recovered_after_a_cut() {
         .iter()
         .filter(|c| c.end_byte > cut as u64)
         .count() as u64;
-    assert_eq!(lost_chunks, after_cut, "only chunks not yet written are lost");
+    assert_eq!(
+        lost_chunks, after_cut,
+        "only chunks not yet written are lost"
+    );
     let prefix = bag::open(&cut_dir, ReadMode::Recover).unwrap();
     assert_eq!(
         prefix.messages[..],
@@ -207,10 +213,7 @@ fn a_recorder_killed_mid_run_loses_at_most_the_chunk_it_was_filling() {
     let file_bytes = std::fs::metadata(&file).unwrap().len();
     let recovered = bag::open(&bag_dir, ReadMode::Recover).unwrap();
     assert!(recovered.chunks.len() >= 2, "{:?}", recovered.chunks);
-    assert!(recovered
-        .messages
-        .iter()
-        .all(|m| m.decode().is_ok()));
+    assert!(recovered.messages.iter().all(|m| m.decode().is_ok()));
     // What follows the last complete chunk is at most one chunk: its message data (chunk size plus
     // the message that crossed it; an occupancy grid at most) and its record framing.
     let largest = recovered
@@ -291,7 +294,11 @@ fn play_at_rate_zero_delivers_every_message_to_a_recorder_over_zenoh() {
             .iter()
             .filter(|m| m.topic == topic.name)
             .collect();
-        assert_eq!(mine, theirs, "{}: every message, in order, same bytes", topic.name);
+        assert_eq!(
+            mine, theirs,
+            "{}: every message, in order, same bytes",
+            topic.name
+        );
     }
 }
 
@@ -304,12 +311,17 @@ fn bad_bag_input_is_one_clear_line() {
             vec!["bag", "info", dir.path().to_str().unwrap()],
             "no metadata.yaml",
         ),
+        (vec!["launch", "launch/replay.toml"], "no bag folder given"),
         (
-            vec!["launch", "launch/replay.toml"],
-            "no bag folder given",
-        ),
-        (
-            vec!["bag", "record", "x", "--topics", "/nope", "--connect", "tcp/127.0.0.1:1"],
+            vec![
+                "bag",
+                "record",
+                "x",
+                "--topics",
+                "/nope",
+                "--connect",
+                "tcp/127.0.0.1:1",
+            ],
             "unknown topic",
         ),
     ] {
@@ -353,14 +365,15 @@ fn play_with_a_ros_domain_id_speaks_rmw_zenoh_key_expressions_and_attachments() 
         .unwrap();
     let session = zenoh::Wait::wait(zenoh::open(config)).unwrap();
     let (sender, received) = std::sync::mpsc::channel();
-    let _subscriber = zenoh::Wait::wait(session.declare_subscriber("7/**").callback(move |sample| {
-        let _ = sender.send((
-            sample.key_expr().as_str().to_owned(),
-            sample.payload().to_bytes().into_owned(),
-            sample.attachment().map(|a| a.to_bytes().into_owned()),
-        ));
-    }))
-    .unwrap();
+    let _subscriber =
+        zenoh::Wait::wait(session.declare_subscriber("7/**").callback(move |sample| {
+            let _ = sender.send((
+                sample.key_expr().as_str().to_owned(),
+                sample.payload().to_bytes().into_owned(),
+                sample.attachment().map(|a| a.to_bytes().into_owned()),
+            ));
+        }))
+        .unwrap();
     ok(&[
         "bag",
         "play",
@@ -379,7 +392,11 @@ fn play_with_a_ros_domain_id_speaks_rmw_zenoh_key_expressions_and_attachments() 
             Err(_) => break,
         }
     }
-    assert_eq!(samples.len(), recorded.messages.len(), "every message, no end marker");
+    assert_eq!(
+        samples.len(),
+        recorded.messages.len(),
+        "every message, no end marker"
+    );
     let map_key = "7/map/nav_msgs::msg::dds_::OccupancyGrid_/RIHS01_8d348150c12913a31ee0ec170fbf25089e4745d17035792a1ba94d6f0bc0cfc7";
     let pose_key = format!(
         "7/slam/pose/geometry_msgs::msg::dds_::PoseStamped_/{}",
@@ -399,11 +416,16 @@ fn play_with_a_ros_domain_id_speaks_rmw_zenoh_key_expressions_and_attachments() 
         for (index, ((_, payload, attachment), data)) in theirs.iter().zip(&mine).enumerate() {
             assert_eq!(payload, *data, "{key}: CDR unchanged");
             let (sequence, timestamp_ns, gid) = nrslam_runtime::rmw_zenoh::parse_attachment(
-                attachment.as_deref().expect("rmw_zenoh needs an attachment"),
+                attachment
+                    .as_deref()
+                    .expect("rmw_zenoh needs an attachment"),
             )
             .expect("a 33-byte rmw_zenoh attachment");
             assert_eq!(sequence, index as i64 + 1, "{key}: sequence from 1");
-            assert!(timestamp_ns > 1_600_000_000_000_000_000, "wall-clock source timestamp");
+            assert!(
+                timestamp_ns > 1_600_000_000_000_000_000,
+                "wall-clock source timestamp"
+            );
             gids.insert(gid);
         }
         assert_eq!(gids.len(), 1, "{key}: one publisher GID");

@@ -253,7 +253,11 @@ impl TopicPublisher {
     }
 
     /// Publishes bytes already in CDR (e.g. read from a bag) on `topic`.
-    pub fn publish_cdr(&mut self, topic: &'static str, bytes: Vec<u8>) -> Result<(), TransportError> {
+    pub fn publish_cdr(
+        &mut self,
+        topic: &'static str,
+        bytes: Vec<u8>,
+    ) -> Result<(), TransportError> {
         if bytes.is_empty() {
             return Err(TransportError::Decode {
                 topic: topic.into(),

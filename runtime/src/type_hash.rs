@@ -105,10 +105,7 @@ fn fields(type_name: &str, text: &str) -> Result<Vec<Field>, TypeHashError> {
                     .and_then(|s| s.strip_suffix(']'))
                     .ok_or_else(bad)?;
                 match inner.strip_prefix("<=") {
-                    Some(bound) => (
-                        BOUNDED_SEQUENCE_OFFSET,
-                        bound.parse().map_err(|_| bad())?,
-                    ),
+                    Some(bound) => (BOUNDED_SEQUENCE_OFFSET, bound.parse().map_err(|_| bad())?),
                     None => (ARRAY_OFFSET, inner.parse().map_err(|_| bad())?),
                 }
             }
@@ -218,7 +215,10 @@ mod tests {
 
     #[test]
     fn occupancy_grid_hash_is_the_one_ros2_publishes() {
-        assert_eq!(rihs01("nav_msgs/msg/OccupancyGrid").unwrap(), OCCUPANCY_GRID);
+        assert_eq!(
+            rihs01("nav_msgs/msg/OccupancyGrid").unwrap(),
+            OCCUPANCY_GRID
+        );
     }
 
     #[test]
@@ -236,11 +236,17 @@ mod tests {
             nrslam_msgs::schema::definition_of(name).map(str::to_owned)
         })
         .unwrap();
-        let header = json.find("\"type_name\": \"builtin_interfaces/msg/Time\"").unwrap();
-        let pose = json.find("\"type_name\": \"geometry_msgs/msg/Pose\"").unwrap();
+        let header = json
+            .find("\"type_name\": \"builtin_interfaces/msg/Time\"")
+            .unwrap();
+        let pose = json
+            .find("\"type_name\": \"geometry_msgs/msg/Pose\"")
+            .unwrap();
         assert!(header < pose, "{json}");
         assert!(
-            json.contains("{\"name\": \"covariance\", \"type\": {\"type_id\": 59, \"capacity\": 36"),
+            json.contains(
+                "{\"name\": \"covariance\", \"type\": {\"type_id\": 59, \"capacity\": 36"
+            ),
             "{json}"
         );
     }

@@ -41,8 +41,8 @@ pub struct BridgeConfig {
 }
 
 fn qos(topic: &str) -> QosProfile {
-    let latched = topics::spec(topic)
-        .is_some_and(|s| s.qos.durability == topics::Durability::TransientLocal);
+    let latched =
+        topics::spec(topic).is_some_and(|s| s.qos.durability == topics::Durability::TransientLocal);
     let profile = QosProfile::default().reliable().keep_last(100);
     if latched {
         profile.transient_local()
@@ -60,8 +60,8 @@ pub fn run(session: &Session, config: &BridgeConfig) -> Result<()> {
         }
     }
     let context = r2r::Context::create().context("initialising ROS 2 (rcl)")?;
-    let mut node = r2r::Node::create(context, &config.node_name, "")
-        .context("creating the ROS 2 node")?;
+    let mut node =
+        r2r::Node::create(context, &config.node_name, "").context("creating the ROS 2 node")?;
 
     // Graph -> ROS 2: zenoh samples into a channel, published from the spin loop.
     let mut ros_publishers = Vec::new();

@@ -23,7 +23,9 @@ mod reader;
 mod source;
 mod writer;
 
-pub use metadata::{BagInfo, FileInfo, MetadataFile, Nanoseconds, StartingTime, TopicMetadata, TopicWithCount};
+pub use metadata::{
+    BagInfo, FileInfo, MetadataFile, Nanoseconds, StartingTime, TopicMetadata, TopicWithCount,
+};
 pub use reader::{open, BagContents, BagMessage, ChunkSpan, ReadMode, TopicSummary};
 pub use source::{BagSource, SourceParams};
 pub use writer::{BagWriter, WriterOptions};

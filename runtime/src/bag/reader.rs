@@ -422,7 +422,10 @@ mod tests {
         assert!(contents.chunks.len() > 1, "{:?}", contents.chunks);
         let in_chunks: u64 = contents.chunks.iter().map(|c| c.messages).sum();
         assert_eq!(in_chunks, 40);
-        assert!(contents.complete_bytes() < contents.file_bytes, "the summary follows");
+        assert!(
+            contents.complete_bytes() < contents.file_bytes,
+            "the summary follows"
+        );
         assert_eq!(contents.custom_data["nrslam.seed"], "3");
         assert_eq!(contents.topics[0].name, topics::CLOCK);
         assert_eq!(contents.topics[1].count, 20);

@@ -93,7 +93,10 @@ impl Node for BagSource {
     }
 
     fn on_message(&mut self, topic: &str, _: &Message, _: &mut Outbox) -> Result<(), NodeError> {
-        Err(NodeError::invalid_input(topic, "a bag source has no inputs"))
+        Err(NodeError::invalid_input(
+            topic,
+            "a bag source has no inputs",
+        ))
     }
 
     fn tick(&mut self, outbox: &mut Outbox) -> Result<Tick, NodeError> {

@@ -162,11 +162,10 @@ impl BagWriter {
                 topic: topic.to_owned(),
                 reason: format!("no ros2msg schema for type {type_name}"),
             })?;
-            let hash =
-                crate::type_hash::rihs01(type_name).map_err(|e| BagError::Message {
-                    topic: topic.to_owned(),
-                    reason: e.to_string(),
-                })?;
+            let hash = crate::type_hash::rihs01(type_name).map_err(|e| BagError::Message {
+                topic: topic.to_owned(),
+                reason: e.to_string(),
+            })?;
             let qos = topics::spec(topic)
                 .map(|spec| offered_qos_profiles(&spec.qos))
                 .unwrap_or_else(|| {
