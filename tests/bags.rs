@@ -337,6 +337,9 @@ fn bad_bag_input_is_one_clear_line() {
     }
 }
 
+/// A received zenoh sample: key expression, payload, attachment.
+type Sample = (String, Vec<u8>, Option<Vec<u8>>);
+
 #[test]
 fn play_with_a_ros_domain_id_speaks_rmw_zenoh_key_expressions_and_attachments() {
     let dir = temp();
@@ -409,8 +412,7 @@ fn play_with_a_ros_domain_id_speaks_rmw_zenoh_key_expressions_and_attachments() 
             .filter(|m| m.topic == topic)
             .map(|m| &m.data)
             .collect();
-        let theirs: Vec<&(String, Vec<u8>, Option<Vec<u8>>)> =
-            samples.iter().filter(|(k, _, _)| *k == key).collect();
+        let theirs: Vec<&Sample> = samples.iter().filter(|(k, _, _)| *k == key).collect();
         assert_eq!(theirs.len(), mine.len(), "{key}");
         let mut gids = std::collections::BTreeSet::new();
         for (index, ((_, payload, attachment), data)) in theirs.iter().zip(&mine).enumerate() {

@@ -320,10 +320,10 @@ fn read_mcap(bytes: &[u8], mode: ReadMode) -> Result<BagContents, String> {
                 };
                 let parsed = ChunkReader::new(header, &data)
                     .map_err(|e| e.to_string())
-                    .and_then(|records| {
-                        records
-                            .map(|r| r.map_err(|e| e.to_string()).and_then(|r| inner.take(r)))
-                            .collect::<Result<(), String>>()
+                    .and_then(|mut records| {
+                        records.try_for_each(|r| {
+                            r.map_err(|e| e.to_string()).and_then(|r| inner.take(r))
+                        })
                     });
                 match parsed {
                     Ok(()) => {
