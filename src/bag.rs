@@ -38,8 +38,9 @@ pub enum BagCommand {
 /// Chunking of a recording.
 #[derive(Args, Debug, Clone)]
 pub struct ChunkArgs {
-    /// Message data per MCAP chunk, in KiB. Each full chunk is flushed to disk at once, so a
-    /// recorder that is killed loses at most this much (the chunk it was filling).
+    /// Message data per MCAP chunk, in KiB. A chunk is closed and flushed to disk as soon as it
+    /// holds this much, so a recorder that is killed loses at most the chunk it was filling (this
+    /// much, plus the message that crossed the limit).
     #[arg(long, value_name = "KIB", default_value_t = 768)]
     pub chunk_size_kib: u64,
 }
