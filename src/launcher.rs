@@ -7,9 +7,12 @@ use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use nrslam_msgs::{topics, Message};
+use nrslam_runtime::bag::{self, BagWriter, WriterOptions};
 use nrslam_runtime::compose::{anyhow_free, Graph, Observer};
 use nrslam_runtime::launch::{Launch, Mode, NodeDecl};
-use nrslam_runtime::transport::{self, Pacer, SessionMode, TopicPublisher, TransportConfig};
+use nrslam_runtime::transport::{
+    self, KeyStyle, Pacer, SessionMode, TopicPublisher, TransportConfig,
+};
 use nrslam_runtime::{Node, NodeContext};
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
@@ -48,6 +51,20 @@ pub struct LaunchArgs {
     /// How long node processes may take to come up, in seconds (processes mode).
     #[arg(long, value_name = "SECONDS", default_value_t = 30)]
     pub start_timeout_s: u64,
+    /// Record the run into this new rosbag2 folder (metadata.yaml + MCAP, log times = simulated
+    /// clock); `launch/replay.toml bag:=DIR` replays it.
+    #[arg(long, value_name = "DIR")]
+    pub record: Option<PathBuf>,
+    /// With --record: topics to record (default: every topic the launch publishes).
+    #[arg(long, value_name = "TOPIC", num_args = 1..)]
+    pub record_topics: Vec<String>,
+    #[command(flatten)]
+    pub chunk: crate::bag::ChunkArgs,
+    /// With --listen/--connect: publish the mirrored topics as rmw_zenoh does in this ROS domain
+    /// (key `<domain>/<topic>/<type>/<RIHS01 hash>` plus rmw_zenoh's attachment), so ROS 2 nodes on
+    /// rmw_zenoh receive them without a bridge (in-process mode).
+    #[arg(long, value_name = "DOMAIN_ID")]
+    pub ros_domain_id: Option<u32>,
     #[command(flatten)]
     pub transport: TransportArgs,
 }
@@ -167,12 +184,41 @@ fn progress(frames: Option<u64>) -> ProgressBar {
     bar
 }
 
-/// The reporter plus what a run shows while it goes: progress and an optional zenoh mirror.
+/// The reporter plus what a run shows while it goes: progress, an optional zenoh mirror and an
+/// optional bag recording.
 struct RunObserver {
     reporter: Reporter,
     bar: ProgressBar,
     mirror: Option<TopicPublisher>,
     pacer: Pacer,
+    recorder: Option<Recorder>,
+}
+
+/// A bag being recorded from a run, with the topics it takes.
+pub(crate) struct Recorder {
+    writer: BagWriter,
+    topics: Vec<&'static str>,
+}
+
+impl Recorder {
+    fn take(&mut self, topic: &'static str, message: &Message) -> Result<()> {
+        if self.topics.contains(&topic) {
+            self.writer.write_message(topic, message)?;
+        }
+        Ok(())
+    }
+
+    fn finish(self) -> Result<()> {
+        let dir = self.writer.dir().to_owned();
+        let info = self.writer.finish()?;
+        eprintln!(
+            "recorded {} messages on {} topic(s) into {}",
+            info.message_count,
+            info.topics_with_message_count.len(),
+            dir.display()
+        );
+        Ok(())
+    }
 }
 
 impl Observer for RunObserver {
@@ -190,6 +236,11 @@ impl Observer for RunObserver {
         }
         if let Some(mirror) = &mut self.mirror {
             mirror.publish(topic, message)?;
+        }
+        if let Some(recorder) = &mut self.recorder {
+            recorder.take(topic, message).map_err(
+                |e| -> Box<dyn std::error::Error + Send + Sync> { format!("{e:#}").into() },
+            )?;
         }
         Ok(())
     }
@@ -215,23 +266,40 @@ pub fn launch(args: LaunchArgs) -> Result<()> {
                 .unwrap_or_else(|| "run".into()),
         )
     });
+    if args.ros_domain_id.is_some() && mode == Mode::Processes {
+        bail!(
+            "--ros-domain-id: only in-process launches mirror their topics (use --mode in-process)"
+        );
+    }
     let built = build_all(&launch, args.seed)?;
+    let recorder = match &args.record {
+        Some(dir) => Some(recorder(&args, &launch, &built, dir)?),
+        None => None,
+    };
+    let replayed = replayed_run(&launch)?;
     let started = Instant::now();
     let reporter = match mode {
-        Mode::InProcess => run_in_process(&args, built)?,
-        Mode::Processes => run_processes(&args, &launch, built, &out)?,
+        Mode::InProcess => run_in_process(&args, built, recorder)?,
+        Mode::Processes => run_processes(&args, &launch, built, &out, recorder)?,
     };
-    let summary = reporter.summary(
+    let mut summary = reporter.summary(
         &launch.arguments,
         args.seed,
         &launch.path.display().to_string(),
     );
+    if let Some((_, identity)) = &replayed {
+        identity.apply(&mut summary);
+    }
     reporter.write_all(&out, &summary)?;
-    let run_info = serde_json::json!({
+    let mut run_info = serde_json::json!({
         "mode": match mode { Mode::InProcess => "in-process", Mode::Processes => "processes" },
         "wall_time_s": started.elapsed().as_secs_f64(),
         "rate": args.rate,
     });
+    if let Some((bag, _)) = &replayed {
+        run_info["replayed_bag"] = serde_json::Value::from(bag.display().to_string());
+        run_info["replay_launch"] = serde_json::Value::from(launch.path.display().to_string());
+    }
     std::fs::write(
         out.join("run.json"),
         serde_json::to_string_pretty(&run_info)? + "\n",
@@ -261,7 +329,96 @@ fn transport_config(mode: SessionMode, args: &TransportArgs) -> TransportConfig 
     }
 }
 
-fn run_in_process(args: &LaunchArgs, built: Built) -> Result<Reporter> {
+/// The identity (launch, arguments, seed) of a recorded run, from its bag's `custom_data`.
+struct RecordedRun {
+    launch: String,
+    arguments: std::collections::BTreeMap<String, serde_json::Value>,
+    seed: u64,
+}
+
+impl RecordedRun {
+    /// The recorded run's summary is reproduced: it names the recorded launch, not the replay.
+    fn apply(&self, summary: &mut crate::report::Summary) {
+        summary.launch = self.launch.clone();
+        summary.arguments = self.arguments.clone();
+        summary.seed = self.seed;
+    }
+}
+
+/// `custom_data` identifying the run of `launch` with `seed`.
+fn run_identity(launch: &Launch, seed: u64) -> Result<std::collections::BTreeMap<String, String>> {
+    let summary =
+        Reporter::default().summary(&launch.arguments, seed, &launch.path.display().to_string());
+    Ok(std::collections::BTreeMap::from([
+        (bag::RUN_LAUNCH_KEY.to_owned(), summary.launch),
+        (
+            bag::RUN_ARGUMENTS_KEY.to_owned(),
+            serde_json::to_string(&summary.arguments)?,
+        ),
+        (bag::RUN_SEED_KEY.to_owned(), seed.to_string()),
+    ]))
+}
+
+/// For a launch that replays a bag (a node of kind `bag`): the bag and its recorded run.
+fn replayed_run(launch: &Launch) -> Result<Option<(PathBuf, RecordedRun)>> {
+    let Some(decl) = launch.nodes.iter().find(|n| n.kind == "bag") else {
+        return Ok(None);
+    };
+    let Some(path) = decl.params.get("path").and_then(|p| p.as_str()) else {
+        return Ok(None);
+    };
+    let recover = decl
+        .params
+        .get("recover")
+        .and_then(|r| r.as_bool())
+        .unwrap_or(false);
+    let dir = PathBuf::from(path);
+    let custom = bag::custom_data(&dir, recover)?;
+    let identity = match (
+        custom.get(bag::RUN_LAUNCH_KEY),
+        custom.get(bag::RUN_ARGUMENTS_KEY),
+        custom.get(bag::RUN_SEED_KEY),
+    ) {
+        (Some(launch), Some(arguments), Some(seed)) => RecordedRun {
+            launch: launch.clone(),
+            arguments: serde_json::from_str(arguments).with_context(|| {
+                format!("{}: custom_data {}", dir.display(), bag::RUN_ARGUMENTS_KEY)
+            })?,
+            seed: seed
+                .parse()
+                .with_context(|| format!("{}: custom_data {}", dir.display(), bag::RUN_SEED_KEY))?,
+        },
+        // A bag recorded from a live graph does not know its run: the replay names itself.
+        _ => return Ok(None),
+    };
+    Ok(Some((dir, identity)))
+}
+
+/// A recorder for `launch --record DIR`: the topics asked for (default: every topic the launch
+/// publishes) and the run's identity in `custom_data`.
+fn recorder(args: &LaunchArgs, launch: &Launch, built: &Built, dir: &Path) -> Result<Recorder> {
+    let published: Vec<&'static str> = topics::CATALOGUE
+        .iter()
+        .map(|t| t.name)
+        .filter(|t| built.nodes.iter().any(|(_, n)| n.outputs().contains(t)))
+        .collect();
+    let topics = if args.record_topics.is_empty() {
+        published
+    } else {
+        crate::bag::catalogue_topics(&args.record_topics)?
+    };
+    let writer = BagWriter::create(
+        dir,
+        WriterOptions {
+            chunk_size_bytes: args.chunk.bytes()?,
+            custom_data: run_identity(launch, args.seed)?,
+        },
+    )
+    .context("--record")?;
+    Ok(Recorder { writer, topics })
+}
+
+fn run_in_process(args: &LaunchArgs, built: Built, recorder: Option<Recorder>) -> Result<Reporter> {
     let session = if args.transport.listen.is_empty() && args.transport.connect.is_empty() {
         None
     } else {
@@ -273,7 +430,12 @@ fn run_in_process(args: &LaunchArgs, built: Built) -> Result<Reporter> {
     let mirror = match &session {
         Some(session) => {
             let all: Vec<&'static str> = topics::CATALOGUE.iter().map(|t| t.name).collect();
-            let publisher = TopicPublisher::new(session, &args.transport.namespace, &all)?;
+            let style = match args.ros_domain_id {
+                Some(domain_id) => KeyStyle::RmwZenoh { domain_id },
+                None => KeyStyle::Nrslam,
+            };
+            let publisher =
+                TopicPublisher::with_style(session, &args.transport.namespace, &all, style)?;
             // Give outside subscribers that are already connected a moment to be matched.
             std::thread::sleep(Duration::from_millis(500));
             Some(publisher)
@@ -285,10 +447,14 @@ fn run_in_process(args: &LaunchArgs, built: Built) -> Result<Reporter> {
         bar: progress(built.expected_frames),
         mirror,
         pacer: Pacer::new(args.rate),
+        recorder,
     };
     let result = Graph::new(built.nodes).run(&mut observer);
     observer.bar.finish_and_clear();
     result?;
+    if let Some(recorder) = observer.recorder.take() {
+        recorder.finish()?;
+    }
     if let Some(session) = session {
         let _ = zenoh::Wait::wait(session.close());
     }
@@ -399,7 +565,26 @@ fn kill_all(children: &mut [NodeProcess]) {
     }
 }
 
-fn run_processes(args: &LaunchArgs, launch: &Launch, built: Built, out: &Path) -> Result<Reporter> {
+fn run_processes(
+    args: &LaunchArgs,
+    launch: &Launch,
+    built: Built,
+    out: &Path,
+    mut recorder: Option<Recorder>,
+) -> Result<Reporter> {
+    // Topics to listen to: the reporter's, and those recorded. Each ends with the node that
+    // publishes it; topics no node publishes are not waited for.
+    let mut listened: Vec<&'static str> = REPORTED.to_vec();
+    if let Some(recorder) = &recorder {
+        for topic in &recorder.topics {
+            if !listened.contains(topic) {
+                listened.push(topic);
+            }
+        }
+    }
+    listened.retain(|t| {
+        built.nodes.iter().any(|(_, n)| n.outputs().contains(t)) || REPORTED.contains(t)
+    });
     drop(built.nodes);
     let port = free_loopback_port()?;
     let endpoint = format!("tcp/127.0.0.1:{port}");
@@ -408,7 +593,7 @@ fn run_processes(args: &LaunchArgs, launch: &Launch, built: Built, out: &Path) -
     let session = transport::open(&transport_config(SessionMode::Router, &transport_args))
         .context("opening the launcher's zenoh router")?;
     let (_subscribers, received) =
-        transport::subscribe(&session, &args.transport.namespace, REPORTED)?;
+        transport::subscribe(&session, &args.transport.namespace, &listened)?;
     let params_dir = out.join("params");
     std::fs::create_dir_all(&params_dir)
         .with_context(|| format!("cannot create {}", params_dir.display()))?;
@@ -442,7 +627,7 @@ fn run_processes(args: &LaunchArgs, launch: &Launch, built: Built, out: &Path) -
     }
     let bar = progress(built.expected_frames);
     let mut reporter = Reporter::default();
-    let mut open: Vec<&'static str> = REPORTED.to_vec();
+    let mut open: Vec<&'static str> = listened.clone();
     let outcome = (|| -> Result<()> {
         while !open.is_empty() {
             match received.recv_timeout(Duration::from_millis(200)) {
@@ -453,6 +638,9 @@ fn run_processes(args: &LaunchArgs, launch: &Launch, built: Built, out: &Path) -
                         bar.inc(1);
                     }
                     reporter.take(topic, &message);
+                    if let Some(recorder) = &mut recorder {
+                        recorder.take(topic, &message)?;
+                    }
                 }
                 Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
                     check_children(&mut children).map_err(|e| anyhow!(e))?;
@@ -496,6 +684,9 @@ fn run_processes(args: &LaunchArgs, launch: &Launch, built: Built, out: &Path) -
         }
     }
     let _ = zenoh::Wait::wait(session.close());
+    if let Some(recorder) = recorder {
+        recorder.finish()?;
+    }
     Ok(reporter)
 }
 

@@ -4,12 +4,15 @@
 //! line on stderr and a non-zero exit.
 
 mod accuracy;
+mod bag;
 mod launcher;
 mod montecarlo;
 mod plot;
 mod registry;
 mod report;
 mod reproduce;
+#[cfg(feature = "ros2")]
+mod ros2;
 mod tools;
 mod tradeoff;
 
@@ -62,6 +65,11 @@ enum Command {
     Reproduce(reproduce::ReproduceArgs),
     /// Sweep the knobs that trade speed for accuracy: tradeoff.csv and a Pareto plot.
     Tradeoff(tradeoff::TradeoffArgs),
+    /// rosbag2 bags (metadata.yaml + MCAP): record a live graph, print a bag's contents, play it back.
+    Bag(bag::BagArgs),
+    /// Bridge the graph and ROS 2 (r2r; built with `--features ros2` and a sourced ROS 2).
+    #[cfg(feature = "ros2")]
+    Ros2Bridge(ros2::Ros2BridgeArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -85,6 +93,9 @@ fn main() -> std::process::ExitCode {
         Command::Merge(args) => montecarlo::merge(args),
         Command::Reproduce(args) => reproduce::reproduce(args),
         Command::Tradeoff(args) => tradeoff::tradeoff(args),
+        Command::Bag(args) => bag::bag(args),
+        #[cfg(feature = "ros2")]
+        Command::Ros2Bridge(args) => ros2::bridge(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -6,7 +6,7 @@ use nrslam_runtime::{parse_params, Node, NodeContext, NodeError, ParamsError};
 #[derive(Debug, thiserror::Error)]
 pub enum BuildError {
     /// No such kind.
-    #[error("unknown node kind {0:?} (known: radar, estimator, association, mapper, segmenter, evaluator)")]
+    #[error("unknown node kind {0:?} (known: radar, estimator, association, mapper, segmenter, evaluator, bag)")]
     UnknownKind(String),
     /// Bad parameters.
     #[error(transparent)]
@@ -14,6 +14,9 @@ pub enum BuildError {
     /// The node refused to start.
     #[error(transparent)]
     Node(#[from] NodeError),
+    /// A `bag` node's bag could not be read.
+    #[error(transparent)]
+    Bag(#[from] nrslam_runtime::bag::BagError),
 }
 
 macro_rules! build_kind {
@@ -37,6 +40,10 @@ pub fn build(
         "segmenter" => build_kind!(nrslam_segmenter, table, ctx),
         "evaluator" => build_kind!(nrslam_evaluator, table, ctx),
         "estimator" => build_kind!(nrslam_estimator, table, ctx),
+        "bag" => {
+            let params: nrslam_runtime::bag::SourceParams = parse_params(table)?;
+            Box::new(nrslam_runtime::bag::BagSource::new(&params)?)
+        }
         other => return Err(BuildError::UnknownKind(other.to_owned())),
     })
 }

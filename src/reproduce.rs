@@ -102,6 +102,12 @@ pub fn reproduce(args: ReproduceArgs) -> Result<()> {
             mode: None,
             rate: 0.0,
             start_timeout_s: 30,
+            record: None,
+            record_topics: Vec::new(),
+            chunk: crate::bag::ChunkArgs {
+                chunk_size_kib: 768,
+            },
+            ros_domain_id: None,
             transport: TransportArgs::default(),
         })?;
         montecarlo::montecarlo(MonteCarloArgs {

@@ -5,15 +5,21 @@
 //! - [`compose`]: the in-process composition used for batch and Monte Carlo runs.
 //! - [`config`]: typed parameters and the [`InvalidParam`] error that names the field.
 //! - [`launch`]: TOML launch files with `name:=value` arguments.
+//! - [`bag`]: rosbag2 bags (metadata.yaml + MCAP): writer, reader with recovery, replay source node.
+//! - [`type_hash`]: ROS 2 RIHS01 type description hashes; [`rmw_zenoh`]: rmw_zenoh's key
+//!   expressions and attachments.
 //! - `transport` (feature `zenoh`): the zenoh session, node adapters and the start barrier.
 #![warn(missing_docs)]
 
+pub mod bag;
 pub mod compose;
 pub mod config;
 pub mod launch;
 pub mod merge;
 pub mod node;
+pub mod rmw_zenoh;
 pub mod seed;
+pub mod type_hash;
 
 pub use config::{parse_params, InvalidParam, ParamsError};
 pub use node::{Node, NodeContext, NodeError, Outbox, Tick};

@@ -131,6 +131,29 @@ pub struct TopicPublisher {
     session: Session,
     namespace: String,
     publishers: BTreeMap<&'static str, zenoh::pubsub::Publisher<'static>>,
+    rmw_zenoh: Option<RmwZenohKeys>,
+}
+
+/// Publishing as rmw_zenoh does (see [`crate::rmw_zenoh`]): per-topic sequence numbers and GIDs.
+struct RmwZenohKeys {
+    domain_id: u32,
+    sequence: BTreeMap<&'static str, i64>,
+    gid_prefix: String,
+}
+
+/// How topics map to key expressions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum KeyStyle {
+    /// nrslam's own: the topic name without its leading '/', under the namespace; empty payload at
+    /// the end of each stream.
+    #[default]
+    Nrslam,
+    /// rmw_zenoh's, in ROS domain `domain_id`: `<domain>/<topic>/<DDS type>/<RIHS01 hash>`, every
+    /// sample with rmw_zenoh's attachment; no end-of-stream marker (ROS 2 has none).
+    RmwZenoh {
+        /// ROS domain id (`ROS_DOMAIN_ID`).
+        domain_id: u32,
+    },
 }
 
 impl TopicPublisher {
@@ -140,19 +163,79 @@ impl TopicPublisher {
         namespace: &str,
         topics: &[&'static str],
     ) -> Result<Self, TransportError> {
-        let mut publishers = BTreeMap::new();
+        Self::with_style(session, namespace, topics, KeyStyle::Nrslam)
+    }
+
+    /// Declares one publisher per topic, with key expressions in `style`.
+    pub fn with_style(
+        session: &Session,
+        namespace: &str,
+        topics: &[&'static str],
+        style: KeyStyle,
+    ) -> Result<Self, TransportError> {
+        let rmw_zenoh = match style {
+            KeyStyle::Nrslam => None,
+            KeyStyle::RmwZenoh { domain_id } => Some(RmwZenohKeys {
+                domain_id,
+                sequence: BTreeMap::new(),
+                gid_prefix: session.zid().to_string(),
+            }),
+        };
+        let mut publisher = Self {
+            session: session.clone(),
+            namespace: namespace.to_owned(),
+            publishers: BTreeMap::new(),
+            rmw_zenoh,
+        };
         for &topic in topics {
-            let publisher = session
-                .declare_publisher(topics::key_expr(namespace, topic))
+            publisher.declare(topic)?;
+        }
+        Ok(publisher)
+    }
+
+    fn key_expr(&self, topic: &'static str) -> Result<String, TransportError> {
+        match &self.rmw_zenoh {
+            None => Ok(topics::key_expr(&self.namespace, topic)),
+            Some(keys) => {
+                let spec = topics::spec(topic).ok_or_else(|| TransportError::Decode {
+                    topic: topic.into(),
+                    reason: "not in the topic catalogue".into(),
+                })?;
+                let name = if self.namespace.trim_matches('/').is_empty() {
+                    topic.to_owned()
+                } else {
+                    format!("/{}{topic}", self.namespace.trim_matches('/'))
+                };
+                crate::rmw_zenoh::key_expr(keys.domain_id, &name, spec.type_name).map_err(|e| {
+                    TransportError::Decode {
+                        topic: topic.into(),
+                        reason: e.to_string(),
+                    }
+                })
+            }
+        }
+    }
+
+    fn declare(&mut self, topic: &'static str) -> Result<(), TransportError> {
+        if !self.publishers.contains_key(topic) {
+            let publisher = self
+                .session
+                .declare_publisher(self.key_expr(topic)?)
                 .congestion_control(CongestionControl::Block)
                 .wait()
                 .map_err(zerr)?;
-            publishers.insert(topic, publisher);
+            self.publishers.insert(topic, publisher);
         }
-        Ok(Self {
-            session: session.clone(),
-            namespace: namespace.to_owned(),
-            publishers,
+        Ok(())
+    }
+
+    /// Whether every declared publisher has at least one matching subscriber.
+    pub fn all_matched(&self) -> bool {
+        self.publishers.values().all(|p| {
+            p.matching_status()
+                .wait()
+                .map(|s| s.matching())
+                .unwrap_or(false)
         })
     }
 
@@ -169,22 +252,51 @@ impl TopicPublisher {
         self.put(topic, bytes)
     }
 
+    /// Publishes bytes already in CDR (e.g. read from a bag) on `topic`.
+    pub fn publish_cdr(
+        &mut self,
+        topic: &'static str,
+        bytes: Vec<u8>,
+    ) -> Result<(), TransportError> {
+        if bytes.is_empty() {
+            return Err(TransportError::Decode {
+                topic: topic.into(),
+                reason: "empty CDR payload (reserved for the end of a stream)".into(),
+            });
+        }
+        self.put(topic, bytes)
+    }
+
     /// Marks the end of `topic`'s stream.
+    /// (With [`KeyStyle::RmwZenoh`]: nothing, ROS 2 has no end-of-stream.)
     pub fn end(&mut self, topic: &'static str) -> Result<(), TransportError> {
+        if self.rmw_zenoh.is_some() {
+            return Ok(());
+        }
         self.put(topic, Vec::new())
     }
 
     fn put(&mut self, topic: &'static str, bytes: Vec<u8>) -> Result<(), TransportError> {
-        if !self.publishers.contains_key(topic) {
-            let publisher = self
-                .session
-                .declare_publisher(topics::key_expr(&self.namespace, topic))
-                .congestion_control(CongestionControl::Block)
-                .wait()
-                .map_err(zerr)?;
-            self.publishers.insert(topic, publisher);
+        self.declare(topic)?;
+        let publisher = &self.publishers[topic];
+        match &mut self.rmw_zenoh {
+            None => publisher.put(bytes).wait().map_err(zerr),
+            Some(keys) => {
+                let sequence = keys.sequence.entry(topic).or_insert(0);
+                *sequence += 1;
+                let now_ns = std::time::SystemTime::now()
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .map(|d| d.as_nanos() as i64)
+                    .unwrap_or(0);
+                let gid = crate::rmw_zenoh::gid_for(&format!("{}{topic}", keys.gid_prefix));
+                let attachment = crate::rmw_zenoh::attachment(*sequence, now_ns, &gid);
+                publisher
+                    .put(bytes)
+                    .attachment(attachment)
+                    .wait()
+                    .map_err(zerr)
+            }
         }
-        self.publishers[topic].put(bytes).wait().map_err(zerr)
     }
 }
 

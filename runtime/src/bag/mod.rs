@@ -1,0 +1,135 @@
+//! Topic bags: rosbag2 directories with one MCAP file, written and read once here for every verb
+//! and node that needs them (`launch --record`, `bag record/info/play`, the `bag` source node of
+//! `launch/replay.toml`).
+//!
+//! A bag is what `ros2 bag record -s mcap` writes, so standard ROS 2 tools open it:
+//!
+//! - `DIR/metadata.yaml`: `rosbag2_bagfile_information` version 8 (storage `mcap`, per-topic type,
+//!   `cdr`, QoS, RIHS01 `type_description_hash`, counts, start and duration), written when the
+//!   recording finishes; `custom_data` carries the recorded run's identity (launch, arguments,
+//!   seed) so a replay can reproduce its `summary.json`.
+//! - `DIR/<DIR name>_0.mcap`: profile `ros2`, one `ros2msg` schema per type (dependencies
+//!   appended), channels with message encoding `cdr`, messages in uncompressed chunks with message
+//!   indexes, chunk indexes and statistics in the summary. Log and publish times are the header
+//!   stamps (simulated clock, which starts at 1 s, never 0).
+//!
+//! Crash safety: the writer cuts a chunk every `chunk_size_bytes` of message data and flushes it
+//! to the operating system, so a recorder killed mid-run loses at most the chunk it was filling;
+//! [`ReadMode::Recover`] reads such a file (no summary, no end magic, no `metadata.yaml`) up to its
+//! last complete chunk.
+
+mod metadata;
+mod reader;
+mod source;
+mod writer;
+
+pub use metadata::{
+    BagInfo, FileInfo, MetadataFile, Nanoseconds, StartingTime, TopicMetadata, TopicWithCount,
+};
+pub use reader::{open, BagContents, BagMessage, ChunkSpan, ReadMode, TopicSummary};
+pub use source::{BagSource, SourceParams};
+pub use writer::{BagWriter, WriterOptions};
+
+use std::path::PathBuf;
+
+/// `custom_data` key: the launch file of the recorded run.
+pub const RUN_LAUNCH_KEY: &str = "nrslam.launch";
+/// `custom_data` key: the launch arguments of the recorded run, as a JSON object.
+pub const RUN_ARGUMENTS_KEY: &str = "nrslam.arguments";
+/// `custom_data` key: the seed of the recorded run.
+pub const RUN_SEED_KEY: &str = "nrslam.seed";
+/// Name of the MCAP metadata record that repeats `custom_data` at the start of the file (so a
+/// recovered bag still knows its run).
+pub const MCAP_METADATA_NAME: &str = "nrslam";
+
+/// A bag could not be written or read. Each message names the path.
+#[derive(Debug, thiserror::Error)]
+pub enum BagError {
+    /// A file operation failed.
+    #[error("{path}: {source}")]
+    Io {
+        /// File or folder.
+        path: PathBuf,
+        /// Cause.
+        source: std::io::Error,
+    },
+    /// The folder is not a bag (no metadata.yaml, no MCAP file, ...).
+    #[error("{path}: not a bag: {reason}")]
+    NotABag {
+        /// Folder.
+        path: PathBuf,
+        /// What is missing.
+        reason: String,
+    },
+    /// The MCAP file or metadata.yaml is damaged.
+    #[error("{path}: {reason}")]
+    Corrupt {
+        /// File.
+        path: PathBuf,
+        /// What is wrong.
+        reason: String,
+    },
+    /// The bag folder exists and is not empty.
+    #[error("{path}: already exists and is not empty (choose a new folder)")]
+    Exists {
+        /// Folder.
+        path: PathBuf,
+    },
+    /// A message could not be written.
+    #[error("{topic}: {reason}")]
+    Message {
+        /// Topic.
+        topic: String,
+        /// Why.
+        reason: String,
+    },
+    /// No bag folder was given.
+    #[error("no bag folder given (e.g. bag:=DIR on the command line)")]
+    NoPath,
+    /// A topic asked for is not in the bag.
+    #[error("topic {topic} is not in the bag (recorded: {recorded})")]
+    UnknownTopic {
+        /// Topic asked for.
+        topic: String,
+        /// Topics the bag holds, comma-separated.
+        recorded: String,
+    },
+}
+
+/// rosbag2's offered QoS string (metadata.yaml version 8: numeric enums) for a catalogue QoS:
+/// reliable, keep-all history, volatile or transient-local durability, automatic liveliness,
+/// infinite deadline, lifespan and lease.
+pub fn offered_qos_profiles(qos: &nrslam_msgs::topics::Qos) -> String {
+    use nrslam_msgs::topics::Durability;
+    const INFINITE: &str = "\n    sec: 9223372036\n    nsec: 854775807";
+    let durability = match qos.durability {
+        Durability::TransientLocal => 1,
+        Durability::Volatile => 2,
+    };
+    format!(
+        "- history: 2\n  depth: 0\n  reliability: 1\n  durability: {durability}\n  deadline:{INFINITE}\n  lifespan:{INFINITE}\n  liveliness: 1\n  liveliness_lease_duration:{INFINITE}\n  avoid_ros_namespace_conventions: false"
+    )
+}
+
+/// The `custom_data` of a bag (the recorded run's identity), from metadata.yaml without reading
+/// the messages, or, when it has none (a recorder that was killed), from the MCAP file's `nrslam`
+/// metadata record (`recover` must then be set).
+pub fn custom_data(
+    dir: &std::path::Path,
+    recover: bool,
+) -> Result<std::collections::BTreeMap<String, String>, BagError> {
+    let metadata_path = dir.join("metadata.yaml");
+    if let Ok(text) = std::fs::read_to_string(&metadata_path) {
+        let file = MetadataFile::from_yaml(&text).map_err(|e| BagError::Corrupt {
+            path: metadata_path.clone(),
+            reason: format!("not rosbag2 metadata: {e}"),
+        })?;
+        return Ok(file.rosbag2_bagfile_information.custom_data);
+    }
+    let mode = if recover {
+        ReadMode::Recover
+    } else {
+        ReadMode::Strict
+    };
+    Ok(open(dir, mode)?.custom_data)
+}

@@ -1,0 +1,404 @@
+//! `nrslam bag record|info|play`: rosbag2 bags (metadata.yaml + MCAP) of a live graph, over zenoh.
+//! The bag format itself lives in `nrslam_runtime::bag`; this module is the command line around it.
+
+use crate::TransportArgs;
+use anyhow::{anyhow, bail, Context, Result};
+use clap::{Args, Subcommand};
+use nrslam_msgs::topics;
+use nrslam_runtime::bag::{self, BagContents, BagWriter, ReadMode, WriterOptions};
+use nrslam_runtime::transport::{
+    self, KeyStyle, Pacer, SessionMode, TopicPublisher, TransportConfig,
+};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+use zenoh::Wait;
+
+/// `nrslam bag`.
+#[derive(Args, Debug)]
+pub struct BagArgs {
+    #[command(subcommand)]
+    pub command: BagCommand,
+}
+
+/// The bag verbs.
+#[derive(Subcommand, Debug)]
+pub enum BagCommand {
+    /// Record a live graph's topics into a new rosbag2 folder (MCAP), until every recorded topic's
+    /// stream has ended, --duration-s has passed, or Ctrl-C.
+    Record(RecordArgs),
+    /// Print a bag's topics, types, message counts, start and duration.
+    Info(InfoArgs),
+    /// Publish a bag's messages onto a graph over zenoh with their original timing scaled by --rate.
+    Play(PlayArgs),
+}
+
+/// Chunking of a recording.
+#[derive(Args, Debug, Clone)]
+pub struct ChunkArgs {
+    /// Message data per MCAP chunk, in KiB. A chunk is closed and flushed to disk as soon as it
+    /// holds this much, so a recorder that is killed loses at most the chunk it was filling (this
+    /// much, plus the message that crossed the limit).
+    #[arg(long, value_name = "KIB", default_value_t = 768)]
+    pub chunk_size_kib: u64,
+}
+
+impl ChunkArgs {
+    /// Bytes, validated.
+    pub fn bytes(&self) -> Result<u64> {
+        if !(1..=1024 * 1024).contains(&self.chunk_size_kib) {
+            bail!(
+                "--chunk-size-kib: {} is out of range (allowed: 1 to 1048576 KiB)",
+                self.chunk_size_kib
+            );
+        }
+        Ok(self.chunk_size_kib * 1024)
+    }
+}
+
+/// `nrslam bag record`.
+#[derive(Args, Debug)]
+pub struct RecordArgs {
+    /// Bag folder to create (must not exist, or be empty).
+    pub dir: PathBuf,
+    /// Topics to record (default: every catalogue topic, see `nrslam topics`).
+    #[arg(long, value_name = "TOPIC", num_args = 1..)]
+    pub topics: Vec<String>,
+    /// Stop after this many wall-clock seconds (0: only when the topics end or on Ctrl-C).
+    #[arg(long, value_name = "SECONDS", default_value_t = 0.0)]
+    pub duration_s: f64,
+    #[command(flatten)]
+    pub chunk: ChunkArgs,
+    #[command(flatten)]
+    pub transport: TransportArgs,
+}
+
+/// `nrslam bag info`.
+#[derive(Args, Debug)]
+pub struct InfoArgs {
+    /// Bag folder (or its .mcap file).
+    pub dir: PathBuf,
+    /// Read a bag whose recorder was killed: without metadata.yaml or the MCAP summary, up to the
+    /// last complete chunk.
+    #[arg(long)]
+    pub recover: bool,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `nrslam bag play`.
+#[derive(Args, Debug)]
+pub struct PlayArgs {
+    /// Bag folder.
+    pub dir: PathBuf,
+    /// Real-time factor R: recorded seconds per wall-clock second (2 = twice as fast).
+    /// 0 (default): as fast as the subscribers take the messages; nothing is dropped either way
+    /// (reliable publication that blocks on congestion).
+    #[arg(
+        long,
+        value_name = "R",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
+    )]
+    pub rate: f64,
+    /// Play again from the start when the bag ends, until Ctrl-C (no end-of-stream is sent).
+    #[arg(long = "loop")]
+    pub repeat: bool,
+    /// Topics to play (default: every topic of the bag).
+    #[arg(long, value_name = "TOPIC", num_args = 1..)]
+    pub topics: Vec<String>,
+    /// Read a bag whose recorder was killed, up to its last complete chunk.
+    #[arg(long)]
+    pub recover: bool,
+    /// Seconds to wait for every played topic to have a subscriber before publishing (topics
+    /// still without one are published anyway).
+    #[arg(long, value_name = "SECONDS", default_value_t = 5.0)]
+    pub match_timeout_s: f64,
+    /// Publish as rmw_zenoh does in this ROS domain (key `<domain>/<topic>/<type>/<RIHS01 hash>`,
+    /// rmw_zenoh's attachment), so ROS 2 nodes on rmw_zenoh receive the messages without a bridge.
+    #[arg(long, value_name = "DOMAIN_ID")]
+    pub ros_domain_id: Option<u32>,
+    #[command(flatten)]
+    pub transport: TransportArgs,
+}
+
+/// `nrslam bag ...`.
+pub fn bag(args: BagArgs) -> Result<()> {
+    match args.command {
+        BagCommand::Record(args) => record(args),
+        BagCommand::Info(args) => info(args),
+        BagCommand::Play(args) => play(args),
+    }
+}
+
+/// Catalogue topics named on the command line (default: the whole catalogue).
+pub fn catalogue_topics(names: &[String]) -> Result<Vec<&'static str>> {
+    if names.is_empty() {
+        return Ok(topics::CATALOGUE.iter().map(|t| t.name).collect());
+    }
+    names
+        .iter()
+        .map(|name| {
+            topics::spec(name).map(|s| s.name).ok_or_else(|| {
+                anyhow!(
+                    "--topics: unknown topic {name:?} (known: {})",
+                    topics::CATALOGUE
+                        .iter()
+                        .map(|t| t.name)
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            })
+        })
+        .collect()
+}
+
+fn session(args: &TransportArgs) -> Result<zenoh::Session> {
+    if args.listen.is_empty() && args.connect.is_empty() {
+        bail!("give --connect ENDPOINT (e.g. the --listen endpoint of a running `nrslam launch`) or --listen ENDPOINT");
+    }
+    transport::open(&TransportConfig {
+        mode: SessionMode::Peer,
+        listen: args.listen.clone(),
+        connect: args.connect.clone(),
+        namespace: args.namespace.clone(),
+    })
+    .context("opening the zenoh session")
+}
+
+/// Sets a flag on Ctrl-C (SIGINT) so a recorder or player can finish cleanly.
+fn interrupted() -> Arc<AtomicBool> {
+    let flag = Arc::new(AtomicBool::new(false));
+    let set = flag.clone();
+    std::thread::spawn(move || {
+        if let Ok(runtime) = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+        {
+            if runtime.block_on(tokio::signal::ctrl_c()).is_ok() {
+                set.store(true, Ordering::SeqCst);
+            }
+        }
+    });
+    flag
+}
+
+/// `nrslam bag record`.
+pub fn record(args: RecordArgs) -> Result<()> {
+    if !(args.duration_s.is_finite() && args.duration_s >= 0.0) {
+        bail!(
+            "--duration-s: {} is out of range (allowed: 0 for no limit, or positive seconds)",
+            args.duration_s
+        );
+    }
+    let wanted = catalogue_topics(&args.topics)?;
+    let chunk_size_bytes = args.chunk.bytes()?;
+    let session = session(&args.transport)?;
+    let (_subscribers, received) =
+        transport::subscribe(&session, &args.transport.namespace, &wanted)?;
+    let mut writer = BagWriter::create(
+        &args.dir,
+        WriterOptions {
+            chunk_size_bytes,
+            custom_data: BTreeMap::new(),
+        },
+    )?;
+    let stop = interrupted();
+    let started = Instant::now();
+    let mut seen: Vec<&'static str> = Vec::new();
+    let mut ended: Vec<&'static str> = Vec::new();
+    eprintln!(
+        "recording {} topic(s) into {} (Ctrl-C to stop)",
+        wanted.len(),
+        args.dir.display()
+    );
+    loop {
+        if stop.load(Ordering::SeqCst) {
+            break;
+        }
+        if args.duration_s > 0.0 && started.elapsed().as_secs_f64() >= args.duration_s {
+            break;
+        }
+        match received.recv_timeout(Duration::from_millis(100)) {
+            Ok((topic, bytes)) if bytes.is_empty() => {
+                if !ended.contains(&topic) {
+                    ended.push(topic);
+                }
+                if !seen.is_empty() && seen.iter().all(|t| ended.contains(t)) {
+                    break;
+                }
+            }
+            Ok((topic, bytes)) => {
+                let message = transport::decode(topic, &bytes)?;
+                if !seen.contains(&topic) {
+                    seen.push(topic);
+                }
+                writer.write_cdr(
+                    topic,
+                    message.type_name(),
+                    message.stamp().as_nanos(),
+                    &bytes,
+                )?;
+            }
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
+            Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => bail!("zenoh session closed"),
+        }
+    }
+    let info = writer.finish()?;
+    let _ = session.close().wait();
+    println!(
+        "recorded {} messages on {} topic(s) into {}",
+        info.message_count,
+        info.topics_with_message_count.len(),
+        args.dir.display()
+    );
+    Ok(())
+}
+
+fn open_bag(dir: &Path, recover: bool) -> Result<BagContents> {
+    let mode = if recover {
+        ReadMode::Recover
+    } else {
+        ReadMode::Strict
+    };
+    Ok(bag::open(dir, mode)?)
+}
+
+/// `nrslam bag info`.
+pub fn info(args: InfoArgs) -> Result<()> {
+    let contents = open_bag(&args.dir, args.recover)?;
+    let mut undecodable = 0u64;
+    for message in &contents.messages {
+        if message.decode().is_err() {
+            undecodable += 1;
+        }
+    }
+    let (start_ns, end_ns) = contents.time_range_ns().unwrap_or((0, 0));
+    let duration_s = (end_ns - start_ns) as f64 * 1e-9;
+    if args.json {
+        let json = serde_json::json!({
+            "path": contents.dir.display().to_string(),
+            "file": contents.mcap_path.display().to_string(),
+            "file_bytes": contents.file_bytes,
+            "messages": contents.messages.len(),
+            "chunks": contents.chunks.len(),
+            "complete_bytes": contents.complete_bytes(),
+            "start_ns": start_ns,
+            "duration_ns": end_ns - start_ns,
+            "undecodable": undecodable,
+            "complete": contents.stopped.is_none(),
+            "stopped": contents.stopped,
+            "topics": contents.topics.iter().map(|t| serde_json::json!({
+                "name": t.name, "type": t.type_name, "count": t.count,
+            })).collect::<Vec<_>>(),
+            "custom_data": contents.custom_data,
+        });
+        println!("{}", serde_json::to_string_pretty(&json)?);
+        return Ok(());
+    }
+    println!("bag:       {}", contents.dir.display());
+    println!(
+        "file:      {} ({} bytes, {} chunks)",
+        contents.mcap_path.display(),
+        contents.file_bytes,
+        contents.chunks.len()
+    );
+    println!("messages:  {}", contents.messages.len());
+    println!(
+        "start:     {:.3} s (simulated clock)",
+        start_ns as f64 * 1e-9
+    );
+    println!("duration:  {duration_s:.3} s");
+    if let Some(stopped) = &contents.stopped {
+        println!("recovered: read up to the last complete chunk ({stopped})");
+    }
+    if undecodable > 0 {
+        println!("undecodable messages: {undecodable}");
+    }
+    println!("{:<24} {:<32} {:>8}", "topic", "type", "count");
+    for topic in &contents.topics {
+        println!(
+            "{:<24} {:<32} {:>8}",
+            topic.name, topic.type_name, topic.count
+        );
+    }
+    Ok(())
+}
+
+/// `nrslam bag play`.
+pub fn play(args: PlayArgs) -> Result<()> {
+    if !args.rate.is_finite() || args.rate < 0.0 {
+        bail!(
+            "--rate: {} is out of range (allowed: 0 for as fast as possible, or a positive real-time factor)",
+            args.rate
+        );
+    }
+    if !(args.match_timeout_s.is_finite() && (0.0..=3600.0).contains(&args.match_timeout_s)) {
+        bail!(
+            "--match-timeout-s: {} is out of range (allowed: 0 to 3600 s)",
+            args.match_timeout_s
+        );
+    }
+    let mut contents = open_bag(&args.dir, args.recover)?;
+    contents.retain_topics(&args.topics)?;
+    let mut messages = Vec::with_capacity(contents.messages.len());
+    for message in &contents.messages {
+        let spec = topics::spec(&message.topic).ok_or_else(|| {
+            anyhow!(
+                "{}: topic {} is not a topic of the nrslam graph (use --topics to leave it out)",
+                args.dir.display(),
+                message.topic
+            )
+        })?;
+        messages.push((spec.name, message.log_time_ns, &message.data));
+    }
+    let played: Vec<&'static str> = {
+        let mut names: Vec<&'static str> = Vec::new();
+        for (topic, _, _) in &messages {
+            if !names.contains(topic) {
+                names.push(topic);
+            }
+        }
+        names
+    };
+    let session = session(&args.transport)?;
+    let style = match args.ros_domain_id {
+        Some(domain_id) => KeyStyle::RmwZenoh { domain_id },
+        None => KeyStyle::Nrslam,
+    };
+    let mut publisher =
+        TopicPublisher::with_style(&session, &args.transport.namespace, &played, style)?;
+    let deadline = Instant::now() + Duration::from_secs_f64(args.match_timeout_s);
+    while !publisher.all_matched() && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let stop = interrupted();
+    let mut published = 0u64;
+    'outer: loop {
+        let mut pacer = Pacer::new(args.rate);
+        for (topic, log_time_ns, data) in &messages {
+            if stop.load(Ordering::SeqCst) {
+                break 'outer;
+            }
+            pacer.pace(*log_time_ns as f64 * 1e-9);
+            publisher.publish_cdr(topic, data.to_vec())?;
+            published += 1;
+        }
+        if !args.repeat {
+            break;
+        }
+    }
+    if !stop.load(Ordering::SeqCst) {
+        for topic in &played {
+            publisher.end(topic)?;
+        }
+    }
+    // Let the last publications leave before the session closes.
+    std::thread::sleep(Duration::from_millis(200));
+    let _ = session.close().wait();
+    println!("played {published} messages on {} topic(s)", played.len());
+    Ok(())
+}
