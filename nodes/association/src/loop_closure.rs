@@ -180,10 +180,7 @@ pub fn match_loop(
         for (cell, p) in cells.iter_mut().zip(&sample) {
             let x = c * p[0] - s * p[1] + base[0];
             let y = s * p[0] + c * p[1] + base[1];
-            *cell = (
-                (x / step_m).floor() as i64,
-                (y / step_m).floor() as i64,
-            );
+            *cell = ((x / step_m).floor() as i64, (y / step_m).floor() as i64);
         }
         for ix in -steps_t..=steps_t {
             let tx = predicted.x_m + ix as f64 * step_m;
