@@ -306,11 +306,12 @@ pub fn launch(args: LaunchArgs) -> Result<()> {
     )
     .with_context(|| format!("cannot write {}", out.join("run.json").display()))?;
     println!(
-        "{} frames, final ET-GOPSA {}, GOSPA {}, pose RMSE {} m; wrote {}",
+        "{} frames, final ET-GOPSA {}, GOSPA {}, pose RMSE {} m (final keyframe trajectory {} m); wrote {}",
         summary.frames,
         fmt_opt(summary.etgospa),
         fmt_opt(summary.gospa),
         fmt_opt(summary.pose_rmse_m),
+        fmt_opt(summary.keyframe_rmse_m),
         out.display()
     );
     Ok(())

@@ -3,7 +3,7 @@
 //! `segments.png`.
 
 use anyhow::{Context, Result};
-use nrslam_msgs::{topics, Message, Metrics, OccupancyGrid, Segments, TargetSet};
+use nrslam_msgs::{topics, KeyframePoses, Message, Metrics, OccupancyGrid, Segments, TargetSet};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -15,6 +15,7 @@ pub const REPORTED: &[&str] = &[
     topics::GROUND_TRUTH_POSE,
     topics::SLAM_POSE,
     topics::KEYFRAME,
+    topics::KEYFRAME_POSES,
     topics::ASSOCIATION_STATS,
     topics::MAP,
     topics::SEGMENTS,
@@ -46,6 +47,12 @@ pub struct Reporter {
     pub true_path: Vec<(f64, f64)>,
     /// SLAM path (x_m, y_m).
     pub slam_path: Vec<(f64, f64)>,
+    /// True position (x_m, y_m) by stamp (sec, nanosec), to score keyframes.
+    pub true_by_stamp: BTreeMap<(i32, u32), (f64, f64)>,
+    /// Each keyframe's stamp and the position it was first published at, by id.
+    pub keyframes_by_id: BTreeMap<u32, ((i32, u32), (f64, f64))>,
+    /// Latest `/slam/keyframe_poses`: every keyframe after the last loop closure.
+    pub keyframe_poses: Option<KeyframePoses>,
     /// Topics whose stream has ended.
     pub ended: Vec<&'static str>,
 }
@@ -55,7 +62,15 @@ impl Reporter {
     pub fn take(&mut self, topic: &str, message: &Message) {
         match (topic, message) {
             (topics::CLOCK, Message::Clock(_)) => self.frames += 1,
-            (topics::KEYFRAME, Message::Keyframe(_)) => self.keyframes += 1,
+            (topics::KEYFRAME, Message::Keyframe(k)) => {
+                self.keyframes += 1;
+                let stamp = (k.header.stamp.sec, k.header.stamp.nanosec);
+                let at = (k.pose.position.x, k.pose.position.y);
+                self.keyframes_by_id.insert(k.id, (stamp, at));
+            }
+            (topics::KEYFRAME_POSES, Message::KeyframePoses(k)) => {
+                self.keyframe_poses = Some(k.clone())
+            }
             (topics::ASSOCIATION_STATS, Message::AssociationStats(s)) => {
                 self.loop_closures = u64::from(s.loop_closures);
                 self.association_frames += 1;
@@ -66,13 +81,44 @@ impl Reporter {
             (topics::SEGMENTS, Message::Segments(s)) => self.segments = Some(s.clone()),
             (topics::GROUND_TRUTH_TARGETS, Message::TargetSet(t)) => self.targets = Some(t.clone()),
             (topics::GROUND_TRUTH_POSE, Message::PoseStamped(p)) => {
-                self.true_path.push((p.pose.position.x, p.pose.position.y))
+                let at = (p.pose.position.x, p.pose.position.y);
+                self.true_path.push(at);
+                let stamp = (p.header.stamp.sec, p.header.stamp.nanosec);
+                self.true_by_stamp.insert(stamp, at);
             }
             (topics::SLAM_POSE, Message::PoseStamped(p)) => {
                 self.slam_path.push((p.pose.position.x, p.pose.position.y))
             }
             _ => {}
         }
+    }
+
+    /// RMSE (m) of the keyframe positions at the end of the run against the truth at their
+    /// stamps: the back end's final trajectory estimate, every loop closure applied (the latest
+    /// `/slam/keyframe_poses`; without it, the keyframes as first published). `None` when no
+    /// keyframe has a true pose at its stamp.
+    pub fn keyframe_rmse_m(&self) -> Option<f64> {
+        let mut final_at: BTreeMap<u32, (f64, f64)> = self
+            .keyframes_by_id
+            .iter()
+            .map(|(id, (_, at))| (*id, *at))
+            .collect();
+        if let Some(k) = &self.keyframe_poses {
+            for (id, pose) in k.ids.iter().zip(&k.poses) {
+                if let Some(at) = final_at.get_mut(id) {
+                    *at = (pose.position.x, pose.position.y);
+                }
+            }
+        }
+        let squared: Vec<f64> = final_at
+            .iter()
+            .filter_map(|(id, at)| {
+                let (stamp, _) = self.keyframes_by_id.get(id)?;
+                let truth = self.true_by_stamp.get(stamp)?;
+                Some((at.0 - truth.0).powi(2) + (at.1 - truth.1).powi(2))
+            })
+            .collect();
+        (!squared.is_empty()).then(|| (squared.iter().sum::<f64>() / squared.len() as f64).sqrt())
     }
 
     /// The summary of the run.
@@ -94,6 +140,7 @@ impl Reporter {
             pose_rmse_m: (!squared.is_empty())
                 .then(|| (squared.iter().sum::<f64>() / squared.len() as f64).sqrt()),
             final_position_error_m: last.map(|m| m.position_error_m),
+            keyframe_rmse_m: self.keyframe_rmse_m(),
             frames: self.frames,
             metric_steps: self.metrics.len() as u64,
             keyframes: self.keyframes,
@@ -179,6 +226,9 @@ pub struct Summary {
     pub pose_rmse_m: Option<f64>,
     /// Position error at the last step (m).
     pub final_position_error_m: Option<f64>,
+    /// RMSE of the final keyframe trajectory, every loop closure applied (m); see
+    /// [`Reporter::keyframe_rmse_m`]. `pose_rmse_m` scores each pose when it was published.
+    pub keyframe_rmse_m: Option<f64>,
     /// Radar frames.
     pub frames: u64,
     /// Rows of metrics.csv.
@@ -208,5 +258,80 @@ fn toml_to_json(value: &toml::Value) -> serde_json::Value {
         toml::Value::Float(f) => serde_json::Value::from(*f),
         toml::Value::Boolean(b) => serde_json::Value::Bool(*b),
         other => serde_json::Value::String(other.to_string()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nrslam_msgs::{Header, Keyframe, Point, Pose, PoseStamped, Time};
+
+    fn header(seconds: f64) -> Header {
+        Header {
+            stamp: Time::from_seconds(seconds),
+            frame_id: "map".into(),
+        }
+    }
+
+    fn pose(x: f64, y: f64) -> Pose {
+        Pose {
+            position: Point { x, y, z: 0.0 },
+            ..Pose::default()
+        }
+    }
+
+    /// Keyframes at t = 1, 2 first published 1 m and 2 m off the truth; the truth at t = 3 has no
+    /// keyframe and must not count.
+    fn reporter() -> Reporter {
+        let mut r = Reporter::default();
+        for (t, x) in [(1.0, 0.0), (2.0, 10.0), (3.0, 20.0)] {
+            let truth = PoseStamped {
+                header: header(t),
+                pose: pose(x, 0.0),
+            };
+            r.take(topics::GROUND_TRUTH_POSE, &Message::PoseStamped(truth));
+        }
+        for (id, t, x) in [(0, 1.0, 1.0), (1, 2.0, 12.0)] {
+            let keyframe = Keyframe {
+                header: header(t),
+                id,
+                pose: pose(x, 0.0),
+                ..Keyframe::default()
+            };
+            r.take(topics::KEYFRAME, &Message::Keyframe(keyframe));
+        }
+        r
+    }
+
+    #[test]
+    fn keyframe_rmse_scores_keyframes_as_published_without_corrections() {
+        let rmse = reporter().keyframe_rmse_m().unwrap();
+        assert!((rmse - (2.5f64).sqrt()).abs() < 1e-12, "{rmse}");
+    }
+
+    #[test]
+    fn keyframe_rmse_takes_the_latest_corrected_poses() {
+        let mut r = reporter();
+        for (revision, second_x) in [(1, 11.0), (2, 10.0)] {
+            let corrected = KeyframePoses {
+                header: header(2.0),
+                revision,
+                ids: vec![0, 1],
+                poses: vec![pose(0.0, 0.0), pose(second_x, 0.0)],
+            };
+            r.take(topics::KEYFRAME_POSES, &Message::KeyframePoses(corrected));
+        }
+        assert_eq!(r.keyframe_rmse_m(), Some(0.0));
+    }
+
+    #[test]
+    fn keyframe_rmse_is_none_without_truth_at_the_keyframe_stamps() {
+        let mut r = Reporter::default();
+        let keyframe = Keyframe {
+            header: header(5.0),
+            ..Keyframe::default()
+        };
+        r.take(topics::KEYFRAME, &Message::Keyframe(keyframe));
+        assert_eq!(r.keyframe_rmse_m(), None);
     }
 }
