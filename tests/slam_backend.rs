@@ -111,6 +111,14 @@ fn loop_closure_closes_the_lap_and_modes_agree() {
         final_error(&c),
         final_error(&o)
     );
+    // The closure corrects the keyframe trajectory behind it, not only the current pose.
+    let keyframe_rmse = |s: &serde_json::Value| s["keyframe_rmse_m"].as_f64().unwrap();
+    assert!(
+        keyframe_rmse(&c) < 0.6 * keyframe_rmse(&o),
+        "final keyframe trajectory: {} m vs {} m",
+        keyframe_rmse(&c),
+        keyframe_rmse(&o)
+    );
     // The rebuilt map scores no worse.
     let etgospa = |s: &serde_json::Value| s["etgospa"].as_f64().unwrap();
     assert!(
