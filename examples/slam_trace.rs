@@ -5,7 +5,7 @@
 //! ```text
 //! cargo run --release --example slam_trace -- RANGE_STD_M ANGLE_STD_DEG SEED [LOOP_CLOSURE \
 //!     LOCAL_MAP_M COVARIANCE_WEIGHTING OVERLAP_DISTANCE_M MIN_INLIER_RATIO RADIUS_PER_M MAX_RADIUS_M
-//!     LOOP_STD_DEG]
+//!     LOOP_STD_DEG QUERY_KEYFRAMES SUBMAP_KEYFRAMES MAX_AMBIGUITY]
 //! ```
 
 use nrslam_association::{detection_to_agv_m, Association, Params, Pose2};
@@ -35,6 +35,9 @@ fn main() -> anyhow::Result<()> {
     params.loop_closure.search_radius_per_m = get(9, "0.03").parse()?;
     params.loop_closure.max_search_radius_m = get(10, "6").parse()?;
     params.loop_closure.loop_std_deg = get(11, "2").parse()?;
+    params.loop_closure.query_keyframes = get(12, "10").parse()?;
+    params.loop_closure.submap_keyframes = get(13, "10").parse()?;
+    params.loop_closure.max_ambiguity = get(14, "0.85").parse()?;
     let ctx = nrslam_runtime::NodeContext::for_tests(seed);
     let mut sim = nrslam_radar::Simulator::from_params(
         &radar,

@@ -182,12 +182,12 @@ pub fn accuracy(args: AccuracyArgs) -> Result<()> {
         &args.refine,
     )?;
     for r in &rows {
-        println!(
+        outln!(
             "SNR {:>6.1} dB: range RMSE {:.4} m (CRB {:.2e}, grid {:.4}), angle RMSE {:.3}° (CRB {:.2e}, grid {:.3}), missed {}",
             r.snr_db, r.range_rmse_m, r.range_crb_m, r.range_grid_m, r.angle_rmse_deg, r.angle_crb_deg, r.angle_grid_deg, r.misses
         );
     }
-    println!("wrote {} and accuracy.png", csv_path.display());
+    outln!("wrote {} and accuracy.png", csv_path.display());
     Ok(())
 }
 

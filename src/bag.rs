@@ -249,7 +249,7 @@ pub fn record(args: RecordArgs) -> Result<()> {
     }
     let info = writer.finish()?;
     let _ = session.close().wait();
-    println!(
+    outln!(
         "recorded {} messages on {} topic(s) into {}",
         info.message_count,
         info.topics_with_message_count.len(),
@@ -296,33 +296,35 @@ pub fn info(args: InfoArgs) -> Result<()> {
             })).collect::<Vec<_>>(),
             "custom_data": contents.custom_data,
         });
-        println!("{}", serde_json::to_string_pretty(&json)?);
+        outln!("{}", serde_json::to_string_pretty(&json)?);
         return Ok(());
     }
-    println!("bag:       {}", contents.dir.display());
-    println!(
+    outln!("bag:       {}", contents.dir.display());
+    outln!(
         "file:      {} ({} bytes, {} chunks)",
         contents.mcap_path.display(),
         contents.file_bytes,
         contents.chunks.len()
     );
-    println!("messages:  {}", contents.messages.len());
-    println!(
+    outln!("messages:  {}", contents.messages.len());
+    outln!(
         "start:     {:.3} s (simulated clock)",
         start_ns as f64 * 1e-9
     );
-    println!("duration:  {duration_s:.3} s");
+    outln!("duration:  {duration_s:.3} s");
     if let Some(stopped) = &contents.stopped {
-        println!("recovered: read up to the last complete chunk ({stopped})");
+        outln!("recovered: read up to the last complete chunk ({stopped})");
     }
     if undecodable > 0 {
-        println!("undecodable messages: {undecodable}");
+        outln!("undecodable messages: {undecodable}");
     }
-    println!("{:<24} {:<32} {:>8}", "topic", "type", "count");
+    outln!("{:<24} {:<32} {:>8}", "topic", "type", "count");
     for topic in &contents.topics {
-        println!(
+        outln!(
             "{:<24} {:<32} {:>8}",
-            topic.name, topic.type_name, topic.count
+            topic.name,
+            topic.type_name,
+            topic.count
         );
     }
     Ok(())
@@ -399,6 +401,6 @@ pub fn play(args: PlayArgs) -> Result<()> {
     // Let the last publications leave before the session closes.
     std::thread::sleep(Duration::from_millis(200));
     let _ = session.close().wait();
-    println!("played {published} messages on {} topic(s)", played.len());
+    outln!("played {published} messages on {} topic(s)", played.len());
     Ok(())
 }

@@ -305,7 +305,7 @@ pub fn launch(args: LaunchArgs) -> Result<()> {
         serde_json::to_string_pretty(&run_info)? + "\n",
     )
     .with_context(|| format!("cannot write {}", out.join("run.json").display()))?;
-    println!(
+    outln!(
         "{} frames, final ET-GOPSA {}, GOSPA {}, pose RMSE {} m (final keyframe trajectory {} m); wrote {}",
         summary.frames,
         fmt_opt(summary.etgospa),

@@ -3,6 +3,22 @@
 //! Thin entry point: parse the command line, hand each verb to its module, turn errors into one
 //! line on stderr and a non-zero exit.
 
+/// `println!` for command output that may be piped: when the reader has gone (`nrslam bag info
+/// DIR | head`) the process ends quietly with status 0, as Unix tools do, instead of panicking on
+/// the broken pipe.
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        if let Err(error) = writeln!(std::io::stdout().lock(), $($arg)*) {
+            if error.kind() == std::io::ErrorKind::BrokenPipe {
+                std::process::exit(0);
+            }
+            eprintln!("error: cannot write to standard output: {error}");
+            std::process::exit(1);
+        }
+    }};
+}
+
 mod accuracy;
 mod bag;
 mod launcher;

@@ -147,7 +147,7 @@ pub fn montecarlo(args: MonteCarloArgs) -> Result<()> {
         "trials_in_study": args.trials,
     });
     write_study(&args.out, &header, &trials)?;
-    println!("{} trials; wrote {}", trials.len(), args.out.display());
+    outln!("{} trials; wrote {}", trials.len(), args.out.display());
     Ok(())
 }
 
@@ -268,6 +268,6 @@ pub fn merge(args: MergeArgs) -> Result<()> {
     }
     let header = header.ok_or_else(|| anyhow!("no shard given"))?;
     write_study(&args.out, &header, &all)?;
-    println!("{} trials merged into {}", all.len(), args.out.display());
+    outln!("{} trials merged into {}", all.len(), args.out.display());
     Ok(())
 }

@@ -152,7 +152,7 @@ pub fn reproduce(args: ReproduceArgs) -> Result<()> {
         serde_json::to_string_pretty(&run)? + "\n",
     )
     .with_context(|| format!("cannot write {}", args.out.join("reproduce.json").display()))?;
-    println!(
+    outln!(
         "wrote {} in {:.1} s",
         args.out.display(),
         started.elapsed().as_secs_f64()

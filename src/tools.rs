@@ -111,18 +111,23 @@ fn session_for(args: &TransportArgs) -> Result<zenoh::Session> {
 /// `nrslam topics`.
 pub fn topics(args: TopicsArgs) -> Result<()> {
     if args.transport.listen.is_empty() && args.transport.connect.is_empty() {
-        println!(
+        outln!(
             "{:<24} {:<32} {:<16} description",
-            "topic", "type", "durability"
+            "topic",
+            "type",
+            "durability"
         );
         for spec in topics::CATALOGUE {
             let durability = match spec.qos.durability {
                 topics::Durability::Volatile => "volatile",
                 topics::Durability::TransientLocal => "transient-local",
             };
-            println!(
+            outln!(
                 "{:<24} {:<32} {:<16} {}",
-                spec.name, spec.type_name, durability, spec.description
+                spec.name,
+                spec.type_name,
+                durability,
+                spec.description
             );
         }
         return Ok(());
@@ -146,13 +151,15 @@ pub fn topics(args: TopicsArgs) -> Result<()> {
             }
         }
     }
-    println!(
+    outln!(
         "{:<24} {:<32} messages in {} s",
-        "topic", "type", args.duration_s
+        "topic",
+        "type",
+        args.duration_s
     );
     for spec in topics::CATALOGUE {
         if let Some(count) = counts.get(spec.name) {
-            println!("{:<24} {:<32} {count}", spec.name, spec.type_name);
+            outln!("{:<24} {:<32} {count}", spec.name, spec.type_name);
         }
     }
     let _ = session.close().wait();
@@ -181,7 +188,7 @@ pub fn echo(args: EchoArgs) -> Result<()> {
             break;
         }
         let message = transport::decode(spec.name, &bytes)?;
-        println!("{}", message_json(&message)?);
+        outln!("{}", message_json(&message)?);
         seen += 1;
         if args.count > 0 && seen >= args.count {
             break;
@@ -232,27 +239,44 @@ pub fn metric(args: MetricArgs) -> Result<()> {
     };
     let report = nrslam_evaluator::evaluate_files(&args.truth, &args.estimates, &params)?;
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        outln!("{}", serde_json::to_string_pretty(&report)?);
     } else {
-        println!(
+        outln!(
             "targets {}, truth points {}, estimates {}",
-            report.target_count, report.truth_point_count, report.estimate_count
+            report.target_count,
+            report.truth_point_count,
+            report.estimate_count
         );
-        println!(
+        outln!(
             "{:<10} {:>12} {:>14} {:>12} {:>12} {:>12}",
-            "metric", "total", "localisation", "confusion", "missed", "false"
+            "metric",
+            "total",
+            "localisation",
+            "confusion",
+            "missed",
+            "false"
         );
         let g = &report.gospa;
-        println!(
+        outln!(
             "{:<10} {:>12.6} {:>14.6} {:>12} {:>12.6} {:>12.6}",
-            "GOSPA", g.total, g.localisation, "-", g.missed, g.false_estimates
+            "GOSPA",
+            g.total,
+            g.localisation,
+            "-",
+            g.missed,
+            g.false_estimates
         );
         let e = &report.etgospa;
-        println!(
+        outln!(
             "{:<10} {:>12.6} {:>14.6} {:>12.6} {:>12.6} {:>12.6}",
-            "ET-GOPSA", e.total, e.localisation, e.confusion, e.missed, e.false_estimates
+            "ET-GOPSA",
+            e.total,
+            e.localisation,
+            e.confusion,
+            e.missed,
+            e.false_estimates
         );
-        println!("(terms are summed p-th powers; total = (sum of terms)^(1/p))");
+        outln!("(terms are summed p-th powers; total = (sum of terms)^(1/p))");
     }
     Ok(())
 }

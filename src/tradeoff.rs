@@ -489,7 +489,7 @@ pub fn tradeoff(args: TradeoffArgs) -> Result<()> {
     write_csv(&args.out.join("tradeoff.csv"), &rows)?;
     plot(&args.out.join("pareto.png"), &rows)?;
     for r in &rows {
-        println!(
+        outln!(
             "{:<10} {:<24} {:>9.3} ms/frame {:>8.2} s/trial  range {:.4} m  angle {:.2}°  ET-GOPSA {:>6.1} ± {:<5.1} pose RMSE {:.2} m{}",
             r.setting.knob,
             r.setting.label,
@@ -503,7 +503,7 @@ pub fn tradeoff(args: TradeoffArgs) -> Result<()> {
             if r.pareto { "  (Pareto)" } else { "" }
         );
     }
-    println!("wrote {}", args.out.display());
+    outln!("wrote {}", args.out.display());
     Ok(())
 }
 

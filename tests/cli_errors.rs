@@ -145,3 +145,19 @@ fn bad_metric_input_names_file_line_and_column() {
     ]);
     assert_clean_failure(&output, &["c"]);
 }
+
+#[test]
+fn a_closed_output_pipe_ends_quietly_instead_of_panicking() {
+    // `nrslam topics | head -0`: the reader is gone before nrslam writes its catalogue.
+    let mut child = nrslam()
+        .arg("topics")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("nrslam starts");
+    drop(child.stdout.take());
+    let output = child.wait_with_output().expect("nrslam ends");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{:?}: {stderr}", output.status);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}

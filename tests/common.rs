@@ -16,6 +16,17 @@ pub fn run(args: &[&str]) -> Output {
     nrslam().args(args).output().expect("nrslam runs")
 }
 
+/// Runs `nrslam` with `args` and asserts that it succeeded, showing its stderr if not.
+pub fn run_ok(args: &[&str]) -> Output {
+    let output = run(args);
+    assert!(
+        output.status.success(),
+        "nrslam {args:?} failed: {}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    output
+}
+
 /// The repository root.
 pub fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))

@@ -359,6 +359,43 @@ impl IcpResult {
     }
 }
 
+/// The thresholds both solvers use, squared once.
+struct Limits {
+    max_distance_m2: f64,
+    tolerance_rad: f64,
+    min_pairs: usize,
+    robust_scale_m2: f64,
+}
+
+impl Limits {
+    /// The early exits [`align`] and [`align_weighted`] share (scan matching off, no finite
+    /// scan point, no map or a non-finite start: the prediction is kept with the reason), else
+    /// the thresholds.
+    fn start(
+        map: &PointMap,
+        finite_points: usize,
+        initial: Pose2,
+        params: &Params,
+    ) -> Result<Self, IcpResult> {
+        let keep = |status| Err(IcpResult::unchanged(initial, status));
+        if !params.scan_matching {
+            return keep(IcpStatus::Disabled);
+        }
+        if finite_points == 0 {
+            return keep(IcpStatus::EmptyScan);
+        }
+        if map.is_empty() || !initial.is_finite() {
+            return keep(IcpStatus::EmptyMap);
+        }
+        Ok(Limits {
+            max_distance_m2: params.max_correspondence_m * params.max_correspondence_m,
+            tolerance_rad: params.convergence_rotation_rad(),
+            min_pairs: params.min_correspondences as usize,
+            robust_scale_m2: params.robust_scale_m * params.robust_scale_m,
+        })
+    }
+}
+
 /// One closed-form ICP update.
 struct Step {
     /// Rigid motion of map-frame points.
@@ -438,25 +475,20 @@ pub fn align(
     initial: Pose2,
     params: &Params,
 ) -> IcpResult {
-    if !params.scan_matching {
-        return IcpResult::unchanged(initial, IcpStatus::Disabled);
-    }
     let scan: Vec<[f64; 2]> = scan_agv_m
         .iter()
         .copied()
         .filter(|p| p[0].is_finite() && p[1].is_finite())
         .collect();
-    if scan.is_empty() {
-        return IcpResult::unchanged(initial, IcpStatus::EmptyScan);
-    }
-    if map.is_empty() || !initial.is_finite() {
-        return IcpResult::unchanged(initial, IcpStatus::EmptyMap);
-    }
-
-    let max_distance_m2 = params.max_correspondence_m * params.max_correspondence_m;
-    let tolerance_rad = params.convergence_rotation_rad();
-    let min_pairs = params.min_correspondences as usize;
-    let robust_scale_m2 = params.robust_scale_m * params.robust_scale_m;
+    let Limits {
+        max_distance_m2,
+        tolerance_rad,
+        min_pairs,
+        robust_scale_m2,
+    } = match Limits::start(map, scan.len(), initial, params) {
+        Ok(limits) => limits,
+        Err(kept) => return kept,
+    };
 
     let mut pose = initial;
     let mut sources = Vec::with_capacity(scan.len());
@@ -587,9 +619,6 @@ pub fn align_weighted(
     initial: Pose2,
     params: &Params,
 ) -> IcpResult {
-    if !params.scan_matching {
-        return IcpResult::unchanged(initial, IcpStatus::Disabled);
-    }
     let points: Vec<([f64; 2], [f64; 2])> = scan_agv_m
         .iter()
         .zip(std.iter().chain(std::iter::repeat(&[0.0, 0.0])))
@@ -603,16 +632,15 @@ pub fn align_weighted(
             (*p, [pick(s[0], floor[0]), pick(s[1], floor[1])])
         })
         .collect();
-    if points.is_empty() {
-        return IcpResult::unchanged(initial, IcpStatus::EmptyScan);
-    }
-    if map.is_empty() || !initial.is_finite() {
-        return IcpResult::unchanged(initial, IcpStatus::EmptyMap);
-    }
-    let max_distance_m2 = params.max_correspondence_m * params.max_correspondence_m;
-    let tolerance_rad = params.convergence_rotation_rad();
-    let min_pairs = params.min_correspondences as usize;
-    let robust_scale_m2 = params.robust_scale_m * params.robust_scale_m;
+    let Limits {
+        max_distance_m2,
+        tolerance_rad,
+        min_pairs,
+        robust_scale_m2,
+    } = match Limits::start(map, points.len(), initial, params) {
+        Ok(limits) => limits,
+        Err(kept) => return kept,
+    };
     let map_var_m2 = params.map_std_m * params.map_std_m;
     let gate2 = params.gate_sigma * params.gate_sigma;
 
