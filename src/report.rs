@@ -22,6 +22,11 @@ pub const REPORTED: &[&str] = &[
     topics::METRICS,
 ];
 
+/// A message stamp as (sec, nanosec), exact, for matching keyframes to the truth.
+type StampKey = (i32, u32);
+/// A planar position (x_m, y_m).
+type PositionM = (f64, f64);
+
 /// Collected run.
 #[derive(Debug, Default)]
 pub struct Reporter {
@@ -48,9 +53,9 @@ pub struct Reporter {
     /// SLAM path (x_m, y_m).
     pub slam_path: Vec<(f64, f64)>,
     /// True position (x_m, y_m) by stamp (sec, nanosec), to score keyframes.
-    pub true_by_stamp: BTreeMap<(i32, u32), (f64, f64)>,
+    pub true_by_stamp: BTreeMap<StampKey, PositionM>,
     /// Each keyframe's stamp and the position it was first published at, by id.
-    pub keyframes_by_id: BTreeMap<u32, ((i32, u32), (f64, f64))>,
+    pub keyframes_by_id: BTreeMap<u32, (StampKey, PositionM)>,
     /// Latest `/slam/keyframe_poses`: every keyframe after the last loop closure.
     pub keyframe_poses: Option<KeyframePoses>,
     /// Topics whose stream has ended.
@@ -98,7 +103,7 @@ impl Reporter {
     /// `/slam/keyframe_poses`; without it, the keyframes as first published). `None` when no
     /// keyframe has a true pose at its stamp.
     pub fn keyframe_rmse_m(&self) -> Option<f64> {
-        let mut final_at: BTreeMap<u32, (f64, f64)> = self
+        let mut final_at: BTreeMap<u32, PositionM> = self
             .keyframes_by_id
             .iter()
             .map(|(id, (_, at))| (*id, *at))

@@ -6,7 +6,7 @@ use common::*;
 
 fn rows(refine: &str, snr: &str) -> Vec<std::collections::BTreeMap<String, f64>> {
     let dir = temp();
-    let output = run_ok(&[
+    run_ok(&[
         "accuracy",
         "--fidelity",
         "spectral",

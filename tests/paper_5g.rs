@@ -6,7 +6,7 @@ use common::*;
 
 fn launch(fidelity: &str, frames: u32) -> serde_json::Value {
     let dir = temp();
-    let output = run_ok(&[
+    run_ok(&[
         "launch",
         "launch/paper-5g.toml",
         &format!("fidelity:={fidelity}"),
@@ -37,7 +37,7 @@ fn spectral_waveform_and_ideal_all_run_the_graph() {
 fn the_estimator_is_left_out_at_ideal_fidelity() {
     // At ideal the radar publishes detections itself; an estimator would have no input.
     let dir = temp();
-    let output = run_ok(&[
+    run_ok(&[
         "launch",
         "launch/paper-5g.toml",
         "fidelity:=ideal",

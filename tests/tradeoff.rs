@@ -37,7 +37,7 @@ fn number(r: &Record, column: &str) -> f64 {
 #[test]
 fn a_small_sweep_writes_every_column_and_a_consistent_pareto_front() {
     let dir = temp();
-    let output = run_ok(&[
+    run_ok(&[
         "tradeoff",
         "--trials",
         "1",
