@@ -12,6 +12,7 @@ use serde::{Deserialize, Serialize};
 use crate::config::{EstimatorConfig, Refinement};
 use crate::detect::{DetectScratch, Lobes, MapView, Peak};
 use crate::error::EstimatorError;
+use crate::kernels::{self, Isa};
 use crate::refine;
 
 const ZERO: Complex64 = Complex64 { re: 0.0, im: 0.0 };
@@ -89,6 +90,8 @@ pub struct Estimator {
     det: DetectScratch,
     detections: Vec<RangeAngleDetection>,
     floor: f64,
+    /// Form of the streaming loops (AVX2 when the CPU has it).
+    isa: Isa,
 }
 
 impl std::fmt::Debug for Estimator {
@@ -156,108 +159,6 @@ fn twiddles(len: usize) -> Vec<Complex64> {
     (0..len)
         .map(|q| Complex64::from_polar(1.0, -2.0 * PI * q as f64 / len as f64))
         .collect()
-}
-
-/// Gathers range bins `i0..i0 + bb` of the K·M antenna-major work rows into the bin-major tile
-/// `t[(b·M + m)·A + k]`: four bins (one cache line of each row) at a time, with the line a few
-/// lines ahead in each row prefetched, since K·M concurrent streams outrun the hardware
-/// prefetchers.
-#[allow(clippy::too_many_arguments)]
-#[inline]
-fn gather(
-    work: &[Complex64],
-    t: &mut [Complex64],
-    i0: usize,
-    bb: usize,
-    k: usize,
-    m: usize,
-    a: usize,
-    stride: usize,
-) {
-    const AHEAD: usize = 16;
-    let mut b = 0;
-    if m == 1 {
-        // The Table I case: four bins of each antenna row per step, bounds checked once.
-        let rows_end = (k - 1) * stride + i0 + bb;
-        assert!(rows_end <= work.len() && bb * a <= t.len() && k <= a);
-        let (src, dst) = (work.as_ptr(), t.as_mut_ptr());
-        while b + 4 <= bb {
-            for kk in 0..k {
-                let base = kk * stride + i0 + b;
-                // SAFETY: base + 3 < (k − 1)·stride + i0 + bb ≤ work.len() and
-                // (b + 3)·a + kk < bb·a ≤ t.len() (asserted above); prefetch is only a hint.
-                unsafe {
-                    #[cfg(target_arch = "x86_64")]
-                    {
-                        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-                        _mm_prefetch::<_MM_HINT_T0>(src.wrapping_add(base + AHEAD) as *const i8);
-                    }
-                    let d = dst.add(b * a + kk);
-                    *d = *src.add(base);
-                    *d.add(a) = *src.add(base + 1);
-                    *d.add(2 * a) = *src.add(base + 2);
-                    *d.add(3 * a) = *src.add(base + 3);
-                }
-            }
-            b += 4;
-        }
-    }
-    while b + 4 <= bb {
-        for kk in 0..k {
-            for mm in 0..m {
-                let base = (kk * m + mm) * stride + i0 + b;
-                let src = &work[base..base + 4];
-                #[cfg(target_arch = "x86_64")]
-                if base + AHEAD < work.len() {
-                    // SAFETY: prefetch is a hint; the address is inside `work`.
-                    unsafe {
-                        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-                        _mm_prefetch::<_MM_HINT_T0>(work.as_ptr().add(base + AHEAD) as *const i8);
-                    }
-                }
-                for (j, v) in src.iter().enumerate() {
-                    t[((b + j) * m + mm) * a + kk] = *v;
-                }
-            }
-        }
-        b += 4;
-    }
-    for b in b..bb {
-        for mm in 0..m {
-            for kk in 0..k {
-                t[(b * m + mm) * a + kk] = work[(kk * m + mm) * stride + i0 + b];
-            }
-        }
-    }
-}
-
-/// `out[i] = |line[i]|²`, returning the maximum, or NaN when any power is not finite (a sum
-/// rides along to carry NaN/∞: the max alone would skip NaN). Four lanes so it vectorises.
-#[inline]
-fn norm_sqr_max(line: &[Complex64], out: &mut [f64]) -> f64 {
-    let mut lanes = [0.0f64; 4];
-    let mut sums = [0.0f64; 4];
-    let mut chunks = line.chunks_exact(4);
-    let mut outs = out.chunks_exact_mut(4);
-    for (c, o) in (&mut chunks).zip(&mut outs) {
-        for l in 0..4 {
-            let p = c[l].re * c[l].re + c[l].im * c[l].im;
-            o[l] = p;
-            lanes[l] = if p > lanes[l] { p } else { lanes[l] };
-            sums[l] += p;
-        }
-    }
-    for (v, o) in chunks.remainder().iter().zip(outs.into_remainder()) {
-        *o = v.norm_sqr();
-        lanes[0] = if *o > lanes[0] { *o } else { lanes[0] };
-        sums[0] += *o;
-    }
-    let mx = lanes.into_iter().fold(0.0, f64::max);
-    if sums.iter().sum::<f64>().is_finite() {
-        mx
-    } else {
-        f64::NAN
-    }
 }
 
 /// Signed angle bin of an FFT-order column: c for c < A − ⌊A/2⌋, c − A above.
@@ -497,6 +398,7 @@ impl Estimator {
             det: DetectScratch::default(),
             detections: Vec::new(),
             floor: 0.0,
+            isa: Isa::detect(),
             config,
         })
     }
@@ -806,8 +708,10 @@ impl Estimator {
             power,
             row_max,
             doppler_bin,
+            isa,
             ..
         } = self;
+        let isa = *isa;
         let (n, k, m, n_pad, stride, a, rows) = (*n, *k, *m, *n_pad, *stride, *a, *rows);
 
         // 1/X scaled by the paper's 1/N (and 1/M, so that a static echo's zero-Doppler bin equals
@@ -846,9 +750,7 @@ impl Estimator {
             // No per-sample finiteness test here: a NaN or infinity reaches every output of
             // the row's IDFT and from there every cell's power, where it is caught below.
             let inv = &inv_x[(r % m) * n..(r % m + 1) * n];
-            for ((dst, y), ix) in row[..n].iter_mut().zip(y).zip(inv) {
-                *dst = y * ix;
-            }
+            kernels::mul_row(isa, &mut row[..n], y, inv);
             let row = &mut row[..n_pad];
             row[n..].fill(ZERO);
             ifft_range.process_with_scratch(row, scratch);
@@ -864,12 +766,12 @@ impl Estimator {
             if a > k {
                 t.fill(ZERO);
             }
-            gather(work, t, i0, bb, k, m, a, stride);
+            kernels::gather(isa, work, t, i0, bb, k, m, a, stride);
             fft_angle.process_with_scratch(t, scratch);
             if m == 1 {
                 for (b, line) in t.chunks_exact(a).enumerate() {
                     let out = &mut power[(i0 + b) * a..(i0 + b + 1) * a];
-                    row_max[i0 + b] = norm_sqr_max(line, out);
+                    row_max[i0 + b] = kernels::norm_sqr_max(isa, line, out);
                     if let Some(map) = map.as_deref_mut() {
                         let dst = &mut map[(i0 + b) * a..(i0 + b + 1) * a];
                         for (c, v) in line.iter().enumerate() {
