@@ -769,10 +769,15 @@ impl Estimator {
             kernels::gather(isa, work, t, i0, bb, k, m, a, stride);
             fft_angle.process_with_scratch(t, scratch);
             if m == 1 {
-                for (b, line) in t.chunks_exact(a).enumerate() {
-                    let out = &mut power[(i0 + b) * a..(i0 + b + 1) * a];
-                    row_max[i0 + b] = kernels::norm_sqr_max(isa, line, out);
-                    if let Some(map) = map.as_deref_mut() {
+                kernels::norm_sqr_max_rows(
+                    isa,
+                    t,
+                    a,
+                    &mut power[i0 * a..(i0 + bb) * a],
+                    &mut row_max[i0..i0 + bb],
+                );
+                if let Some(map) = map.as_deref_mut() {
+                    for (b, line) in t.chunks_exact(a).enumerate() {
                         let dst = &mut map[(i0 + b) * a..(i0 + b + 1) * a];
                         for (c, v) in line.iter().enumerate() {
                             dst[(c + half) % a] = *v;

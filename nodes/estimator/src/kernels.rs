@@ -57,20 +57,47 @@ pub(crate) fn mul_row(isa: Isa, dst: &mut [Complex64], y: &[Complex64], inv: &[C
 /// `out[i] = |line[i]|²`, returning the maximum, or NaN when any power is not finite (a sum
 /// rides along to carry NaN/∞: the max alone would skip NaN). Cell i feeds lane i mod 4 of the
 /// max and the sum, in both forms.
-#[inline]
+#[cfg(test)]
 pub(crate) fn norm_sqr_max(isa: Isa, line: &[Complex64], out: &mut [f64]) -> f64 {
-    let len = line.len().min(out.len());
-    let (line, out) = (&line[..len], &mut out[..len]);
-    let mut lanes = [0.0f64; 4];
-    let mut sums = [0.0f64; 4];
-    let done = match isa {
-        Isa::Portable => 0,
+    let mut mx = [0.0];
+    norm_sqr_max_rows(isa, line, line.len().max(1), out, &mut mx);
+    mx[0]
+}
+
+/// `norm_sqr_max` of each `cols`-cell line of `lines` (a tile), into the matching line of
+/// `out` and entry of `maxes`.
+#[inline]
+pub(crate) fn norm_sqr_max_rows(
+    isa: Isa,
+    lines: &[Complex64],
+    cols: usize,
+    out: &mut [f64],
+    maxes: &mut [f64],
+) {
+    match isa {
+        Isa::Portable => {
+            for ((line, out), mx) in lines
+                .chunks(cols)
+                .zip(out.chunks_mut(cols))
+                .zip(maxes.iter_mut())
+            {
+                *mx = norm_tail(line, out, [0.0; 4], [0.0; 4]);
+            }
+        }
         // SAFETY: as in `mul_row`.
         #[cfg(target_arch = "x86_64")]
-        Isa::Avx2 => unsafe { x86::norm_sqr_max(line, out, &mut lanes, &mut sums) },
-    };
-    let mut chunks = line[done..].chunks_exact(4);
-    let mut outs = out[done..].chunks_exact_mut(4);
+        Isa::Avx2 => unsafe { x86::norm_sqr_max_rows(lines, cols, out, maxes) },
+    }
+}
+
+/// The portable `norm_sqr_max` of one line, continuing from lanes already accumulated (the
+/// cells before `line` were whole groups of four).
+#[inline(always)]
+fn norm_tail(line: &[Complex64], out: &mut [f64], mut lanes: [f64; 4], mut sums: [f64; 4]) -> f64 {
+    let len = line.len().min(out.len());
+    let (line, out) = (&line[..len], &mut out[..len]);
+    let mut chunks = line.chunks_exact(4);
+    let mut outs = out.chunks_exact_mut(4);
     for (c, o) in (&mut chunks).zip(&mut outs) {
         for l in 0..4 {
             let p = c[l].re * c[l].re + c[l].im * c[l].im;
@@ -240,38 +267,48 @@ mod x86 {
         }
     }
 
-    /// The whole groups of four of `super::norm_sqr_max`, into its lanes; returns the cells
-    /// done. |v|² = re·re + im·im by a horizontal add of the squares, lanes put back in cell
-    /// order; max as `if p > lane { p } else { lane }` (MAXPD's definition).
+    /// `super::norm_sqr_max_rows`: per line, the whole groups of four with 256-bit vectors
+    /// (|v|² = re·re + im·im by a horizontal add of the squares, put back in cell order; max as
+    /// `if p > lane { p } else { lane }`, MAXPD's definition), the rest by `norm_tail`.
     #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn norm_sqr_max(
-        line: &[Complex64],
+    pub(super) unsafe fn norm_sqr_max_rows(
+        lines: &[Complex64],
+        cols: usize,
         out: &mut [f64],
-        lanes: &mut [f64; 4],
-        sums: &mut [f64; 4],
-    ) -> usize {
-        let len = line.len().min(out.len());
-        let (src, dst) = (line.as_ptr() as *const f64, out.as_mut_ptr());
-        let mut mx = _mm256_loadu_pd(lanes.as_ptr());
-        let mut sum = _mm256_loadu_pd(sums.as_ptr());
-        let mut i = 0;
-        while i + 4 <= len {
-            // SAFETY: cells i..i + 4 are inside `line` and `out`.
-            unsafe {
-                let v0 = _mm256_loadu_pd(src.add(2 * i));
-                let v1 = _mm256_loadu_pd(src.add(2 * i + 4));
-                // [p0, p2, p1, p3] → [p0, p1, p2, p3]
-                let h = _mm256_hadd_pd(_mm256_mul_pd(v0, v0), _mm256_mul_pd(v1, v1));
-                let p = _mm256_permute4x64_pd::<0b11_01_10_00>(h);
-                _mm256_storeu_pd(dst.add(i), p);
-                mx = _mm256_max_pd(p, mx);
-                sum = _mm256_add_pd(sum, p);
+        maxes: &mut [f64],
+    ) {
+        for ((line, out), mx) in lines
+            .chunks(cols)
+            .zip(out.chunks_mut(cols))
+            .zip(maxes.iter_mut())
+        {
+            let len = line.len().min(out.len());
+            let (src, dst) = (line.as_ptr() as *const f64, out.as_mut_ptr());
+            let mut vmax = _mm256_setzero_pd();
+            let mut vsum = _mm256_setzero_pd();
+            let mut i = 0;
+            while i + 4 <= len {
+                // SAFETY: cells i..i + 4 are inside `line` and `out`.
+                unsafe {
+                    let v0 = _mm256_loadu_pd(src.add(2 * i));
+                    let v1 = _mm256_loadu_pd(src.add(2 * i + 4));
+                    // [p0, p2, p1, p3] → [p0, p1, p2, p3]
+                    let h = _mm256_hadd_pd(_mm256_mul_pd(v0, v0), _mm256_mul_pd(v1, v1));
+                    let p = _mm256_permute4x64_pd::<0b11_01_10_00>(h);
+                    _mm256_storeu_pd(dst.add(i), p);
+                    vmax = _mm256_max_pd(p, vmax);
+                    vsum = _mm256_add_pd(vsum, p);
+                }
+                i += 4;
             }
-            i += 4;
+            let (mut lanes, mut sums) = ([0.0; 4], [0.0; 4]);
+            // SAFETY: four f64 each.
+            unsafe {
+                _mm256_storeu_pd(lanes.as_mut_ptr(), vmax);
+                _mm256_storeu_pd(sums.as_mut_ptr(), vsum);
+            }
+            *mx = super::norm_tail(&line[i..], &mut out[i..], lanes, sums);
         }
-        _mm256_storeu_pd(lanes.as_mut_ptr(), mx);
-        _mm256_storeu_pd(sums.as_mut_ptr(), sum);
-        i
     }
 
     /// `super::gather_m1` moving 2 × 2 blocks (two bins of two antennas) per 256-bit
