@@ -268,7 +268,7 @@ mod x86 {
     }
 
     /// `super::norm_sqr_max_rows`: per line, the whole groups of four with 256-bit vectors
-    /// (|v|² = re·re + im·im by a horizontal add of the squares, put back in cell order; max as
+    /// (|v|² = re·re + im·im by a horizontal add of the squares; max as
     /// `if p > lane { p } else { lane }`, MAXPD's definition), the rest by `norm_tail`.
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn norm_sqr_max_rows(
@@ -290,11 +290,12 @@ mod x86 {
             while i + 4 <= len {
                 // SAFETY: cells i..i + 4 are inside `line` and `out`.
                 unsafe {
-                    let v0 = _mm256_loadu_pd(src.add(2 * i));
-                    let v1 = _mm256_loadu_pd(src.add(2 * i + 4));
-                    // [p0, p2, p1, p3] → [p0, p1, p2, p3]
-                    let h = _mm256_hadd_pd(_mm256_mul_pd(v0, v0), _mm256_mul_pd(v1, v1));
-                    let p = _mm256_permute4x64_pd::<0b11_01_10_00>(h);
+                    // v0 = [c0, c2], v1 = [c1, c3]: the horizontal add of the squares is then
+                    // [p0, p1, p2, p3] in cell order.
+                    let c = src.add(2 * i);
+                    let v0 = _mm256_loadu2_m128d(c.add(4), c);
+                    let v1 = _mm256_loadu2_m128d(c.add(6), c.add(2));
+                    let p = _mm256_hadd_pd(_mm256_mul_pd(v0, v0), _mm256_mul_pd(v1, v1));
                     _mm256_storeu_pd(dst.add(i), p);
                     vmax = _mm256_max_pd(p, vmax);
                     vsum = _mm256_add_pd(vsum, p);
