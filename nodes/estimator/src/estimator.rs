@@ -718,25 +718,13 @@ impl Estimator {
         // the mean over symbols of `nrslam_ofdm::reference`); zero (skip) where X is zero or
         // subnormal.
         let scale = 1.0 / (n as f64 * m as f64);
-        let mut usable = 0usize;
-        for (i, (dst, x)) in inv_x.iter_mut().zip(&grid.transmitted).enumerate() {
-            if !(x.re.is_finite() && x.im.is_finite()) {
-                return Err(EstimatorError::NonFinite {
-                    input: "transmitted",
-                    index: i,
-                    value: x.to_string(),
-                });
+        let usable = kernels::reciprocals(isa, &grid.transmitted, inv_x, scale).map_err(|i| {
+            EstimatorError::NonFinite {
+                input: "transmitted",
+                index: i,
+                value: grid.transmitted[i].to_string(),
             }
-            let s = x.re.abs().max(x.im.abs());
-            let inv_s = 1.0 / s;
-            *dst = if s > 0.0 && inv_s.is_finite() {
-                let xs = x * inv_s;
-                usable += 1;
-                xs.conj() * (scale * inv_s / xs.norm_sqr())
-            } else {
-                ZERO
-            };
-        }
+        })?;
         if usable == 0 {
             return Err(EstimatorError::NoReference);
         }

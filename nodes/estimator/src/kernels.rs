@@ -54,6 +54,43 @@ pub(crate) fn mul_row(isa: Isa, dst: &mut [Complex64], y: &[Complex64], inv: &[C
     }
 }
 
+/// `dst[i] = scale / x[i]` for the usable `x[i]`, else 0, returning how many were usable; or
+/// `Err(i)` at the first non-finite `x[i]`. Usable: s = max(|re|, |im|) > 0 with 1/s finite
+/// (zero and subnormal X are skipped). Computed on x·(1/s), whose components are at most about
+/// 1 in magnitude, so the squared norm can neither overflow nor underflow:
+/// conj(x·(1/s)) · (scale · (1/s) / |x·(1/s)|²).
+#[inline]
+pub(crate) fn reciprocals(
+    isa: Isa,
+    x: &[Complex64],
+    dst: &mut [Complex64],
+    scale: f64,
+) -> Result<usize, usize> {
+    let len = x.len().min(dst.len());
+    let (x, dst) = (&x[..len], &mut dst[..len]);
+    let (done, mut usable) = match isa {
+        Isa::Portable => (0, 0),
+        // SAFETY: as in `mul_row`.
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx2 => unsafe { x86::reciprocals(x, dst, scale) },
+    };
+    for (i, (d, x)) in dst.iter_mut().zip(x).enumerate().skip(done) {
+        if !(x.re.is_finite() && x.im.is_finite()) {
+            return Err(i);
+        }
+        let s = x.re.abs().max(x.im.abs());
+        let inv_s = 1.0 / s;
+        *d = if s > 0.0 && inv_s.is_finite() {
+            let xs = x * inv_s;
+            usable += 1;
+            xs.conj() * (scale * inv_s / xs.norm_sqr())
+        } else {
+            Complex64::new(0.0, 0.0)
+        };
+    }
+    Ok(usable)
+}
+
 /// `out[i] = |line[i]|²`, returning the maximum, or NaN when any power is not finite (a sum
 /// rides along to carry NaN/∞: the max alone would skip NaN). Cell i feeds lane i mod 4 of the
 /// max and the sum, in both forms.
@@ -267,6 +304,54 @@ mod x86 {
         }
     }
 
+    /// `super::reciprocals`, two values per 256-bit vector, the same operations lane by lane
+    /// (|x|² by a horizontal add, conj as a sign flip of the product: (−a)·b = −(a·b) exactly).
+    /// Stops before the first pair holding a non-finite value; returns (values done, usable).
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn reciprocals(
+        x: &[Complex64],
+        dst: &mut [Complex64],
+        scale: f64,
+    ) -> (usize, usize) {
+        let len = x.len().min(dst.len());
+        let (src, out) = (x.as_ptr() as *const f64, dst.as_mut_ptr() as *mut f64);
+        let abs_mask = _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX));
+        let conj = _mm256_set_pd(-0.0, 0.0, -0.0, 0.0);
+        let (inf, zero, one) = (
+            _mm256_set1_pd(f64::INFINITY),
+            _mm256_setzero_pd(),
+            _mm256_set1_pd(1.0),
+        );
+        let vscale = _mm256_set1_pd(scale);
+        let (mut i, mut usable) = (0, 0);
+        while i + 2 <= len {
+            // SAFETY: values i, i + 1 are inside both slices.
+            unsafe {
+                let v = _mm256_loadu_pd(src.add(2 * i));
+                let a = _mm256_and_pd(v, abs_mask);
+                if _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_LT_OQ>(a, inf)) != 0b1111 {
+                    break;
+                }
+                // [s0, s0, s1, s1]
+                let s = _mm256_max_pd(a, _mm256_permute_pd::<0b0101>(a));
+                let inv_s = _mm256_div_pd(one, s);
+                let xs = _mm256_mul_pd(v, inv_s);
+                let sq = _mm256_mul_pd(xs, xs);
+                let nrm = _mm256_hadd_pd(sq, sq);
+                let f = _mm256_div_pd(_mm256_mul_pd(vscale, inv_s), nrm);
+                let r = _mm256_xor_pd(_mm256_mul_pd(xs, f), conj);
+                let ok = _mm256_and_pd(
+                    _mm256_cmp_pd::<_CMP_GT_OQ>(s, zero),
+                    _mm256_cmp_pd::<_CMP_LT_OQ>(_mm256_and_pd(inv_s, abs_mask), inf),
+                );
+                _mm256_storeu_pd(out.add(2 * i), _mm256_blendv_pd(zero, r, ok));
+                usable += (_mm256_movemask_pd(ok) & 0b0101).count_ones() as usize;
+            }
+            i += 2;
+        }
+        (i, usable)
+    }
+
     /// `super::norm_sqr_max_rows`: per line, the whole groups of four with 256-bit vectors
     /// (|v|² = re·re + im·im by a horizontal add of the squares; max as
     /// `if p > lane { p } else { lane }`, MAXPD's definition), the rest by `norm_tail`.
@@ -426,6 +511,39 @@ mod tests {
                             p.to_bits() == q.to_bits() || (p.is_nan() && q.is_nan()),
                             "{isa:?} len {len} cell {i}: {p} vs {q}"
                         );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn reciprocal_forms_are_bit_identical() {
+        for len in [0, 1, 2, 3, 4, 5, 9, 64, 1001] {
+            let mut x = values(len, 77 + len as u64);
+            for (i, v) in x.iter_mut().enumerate() {
+                match i % 11 {
+                    1 => *v = Complex64::new(f64::MIN_POSITIVE / 8.0, -f64::MIN_POSITIVE / 3.0),
+                    2 => *v = Complex64::new(1e308, -1e308),
+                    3 => *v = Complex64::new(0.0, -0.0),
+                    4 => *v = Complex64::new(f64::MIN_POSITIVE, 0.0),
+                    _ => {}
+                }
+            }
+            let mut results = Vec::new();
+            for isa in isas() {
+                let mut dst = vec![Complex64::new(9.0, 9.0); len];
+                let usable = reciprocals(isa, &x, &mut dst, 1.0 / 10240.0);
+                results.push((usable, bits(&dst)));
+            }
+            assert!(results.windows(2).all(|w| w[0] == w[1]), "len {len}");
+            for bad in [f64::NAN, f64::INFINITY] {
+                if len > 3 {
+                    let mut y = x.clone();
+                    y[len - 2].im = bad;
+                    for isa in isas() {
+                        let mut dst = vec![Complex64::new(0.0, 0.0); len];
+                        assert_eq!(reciprocals(isa, &y, &mut dst, 1.0), Err(len - 2));
                     }
                 }
             }
