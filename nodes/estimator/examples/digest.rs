@@ -37,13 +37,22 @@ fn main() {
         },
     ];
     let mut total = DefaultHasher::new();
-    for &(n, k, m) in &[(10240, 32, 1), (1000, 7, 1), (512, 8, 4), (1, 1, 1), (3, 2, 1)] {
+    for &(n, k, m) in &[
+        (10240, 32, 1),
+        (1000, 7, 1),
+        (512, 8, 4),
+        (1, 1, 1),
+        (3, 2, 1),
+    ] {
         let p = params(n, k, m);
         let dr = p.range_bin_m();
         let echoes: Vec<Echo> = (0..20)
             .map(|i| Echo::at_sine((12.0 + 7.3 * i as f64) * dr, -0.9 + 0.09 * i as f64))
             .collect();
-        for (gi, snr) in [Some(p.snr_db), Some(-20.0), None, Some(300.0)].into_iter().enumerate() {
+        for (gi, snr) in [Some(p.snr_db), Some(-20.0), None, Some(300.0)]
+            .into_iter()
+            .enumerate()
+        {
             let g = grid(&p, &echoes, snr, 7 + gi as u64);
             for (ci, cfg) in configs.iter().enumerate() {
                 let mut h = DefaultHasher::new();

@@ -76,7 +76,7 @@ pub struct Estimator {
     fft_doppler: Arc<dyn Fft<f64>>,
     scratch: Vec<Complex64>,
     inv_x: Vec<Complex64>,
-    work: Vec<Complex64>,
+    work: AlignedBuf<Complex64>,
     tile: Vec<Complex64>,
     tile2: Vec<Complex64>,
     tile_bins: usize,
@@ -153,6 +153,80 @@ fn alloc<T: Clone>(len: usize, value: T) -> Result<Vec<T>, EstimatorError> {
         })?;
     v.resize(len, value);
     Ok(v)
+}
+
+/// Bytes of a transparent huge page (x86_64 and aarch64 Linux with 4 KiB base pages).
+const HUGE_PAGE: usize = 2 << 20;
+
+/// Asks Linux to back the whole 2 MiB pages inside `bytes` at `addr` with transparent huge
+/// pages (when `/sys/kernel/mm/transparent_hugepage/enabled` is `madvise` or `always`): the
+/// large buffers are streamed many rows at a time, and 4 KiB pages cost TLB misses there.
+#[allow(unused_variables)]
+fn advise_huge_pages(addr: usize, bytes: usize) {
+    #[cfg(target_os = "linux")]
+    {
+        let start = addr.div_ceil(HUGE_PAGE) * HUGE_PAGE;
+        let end = addr.saturating_add(bytes) / HUGE_PAGE * HUGE_PAGE;
+        if end > start {
+            // SAFETY: madvise only changes how pages of this process's own (allocated, not yet
+            // touched) memory are backed; the result is ignored (it is a hint).
+            unsafe {
+                libc::madvise(start as *mut libc::c_void, end - start, libc::MADV_HUGEPAGE);
+            }
+        }
+    }
+}
+
+/// `alloc` with huge pages advised before the memory is first touched.
+fn alloc_huge<T: Clone>(len: usize, value: T) -> Result<Vec<T>, EstimatorError> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(len)
+        .map_err(|_| EstimatorError::Allocation {
+            bytes: len.saturating_mul(std::mem::size_of::<T>()),
+        })?;
+    advise_huge_pages(v.as_ptr() as usize, len * std::mem::size_of::<T>());
+    v.resize(len, value);
+    Ok(v)
+}
+
+/// A buffer of `len` values starting at a huge-page boundary of a larger allocation (when the
+/// values take at least one huge page), so all of it can be backed by huge pages.
+struct AlignedBuf<T> {
+    buf: Vec<T>,
+    start: usize,
+    len: usize,
+}
+
+impl<T: Clone> AlignedBuf<T> {
+    fn new(len: usize, value: T) -> Result<Self, EstimatorError> {
+        let size = std::mem::size_of::<T>().max(1);
+        let slack = if len.saturating_mul(size) >= HUGE_PAGE {
+            HUGE_PAGE / size
+        } else {
+            0
+        };
+        let buf = alloc_huge(len + slack, value)?;
+        let addr = buf.as_ptr() as usize;
+        let start = if slack > 0 {
+            (addr.div_ceil(HUGE_PAGE) * HUGE_PAGE - addr) / size
+        } else {
+            0
+        };
+        Ok(Self { buf, start, len })
+    }
+}
+
+impl<T> std::ops::Deref for AlignedBuf<T> {
+    type Target = [T];
+    fn deref(&self) -> &[T] {
+        &self.buf[self.start..self.start + self.len]
+    }
+}
+
+impl<T> std::ops::DerefMut for AlignedBuf<T> {
+    fn deref_mut(&mut self) -> &mut [T] {
+        &mut self.buf[self.start..self.start + self.len]
+    }
 }
 
 fn twiddles(len: usize) -> Vec<Complex64> {
@@ -384,11 +458,11 @@ impl Estimator {
             fft_doppler,
             scratch: alloc(scratch_len, ZERO)?,
             inv_x: alloc(m * n, ZERO)?,
-            work: alloc(work_cells, ZERO)?,
+            work: AlignedBuf::new(work_cells, ZERO)?,
             tile: alloc(tile_bins * m * a, ZERO)?,
             tile2: alloc(if m > 1 { tile_bins * m * a } else { 0 }, ZERO)?,
             tile_bins,
-            power: alloc(rows * a, 0.0)?,
+            power: alloc_huge(rows * a, 0.0)?,
             row_max: alloc(rows, 0.0)?,
             doppler_bin: alloc(if m > 1 { rows * a } else { 0 }, 0u16)?,
             visible_fft: visibility(a, spacing_wl, |c| signed_fft(c, a)),

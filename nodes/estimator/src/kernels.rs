@@ -598,7 +598,11 @@ mod tests {
             for isa in isas() {
                 let mut t = vec![Complex64::new(0.0, 0.0); bb * m * a];
                 gather(isa, &work, &mut t, i0, bb, k, m, a, stride);
-                assert_eq!(bits(&t), bits(&reference), "{isa:?} k {k} m {m} a {a} bb {bb}");
+                assert_eq!(
+                    bits(&t),
+                    bits(&reference),
+                    "{isa:?} k {k} m {m} a {a} bb {bb}"
+                );
             }
         }
     }
