@@ -900,3 +900,34 @@ impl Estimator {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn aligned_buffers_start_on_a_huge_page_and_hold_len_values() {
+        for len in [
+            0,
+            1,
+            1000,
+            HUGE_PAGE / 16,
+            HUGE_PAGE / 16 + 3,
+            3 * HUGE_PAGE / 16,
+        ] {
+            let mut b = AlignedBuf::new(len, ZERO).unwrap();
+            assert_eq!(b.len(), len);
+            assert!(b.iter().all(|v| *v == ZERO));
+            if len * 16 >= HUGE_PAGE {
+                assert_eq!(b.as_ptr() as usize % HUGE_PAGE, 0);
+            }
+            if let Some(last) = b.last_mut() {
+                *last = Complex64::new(1.0, 2.0);
+            }
+            assert_eq!(
+                b.iter().filter(|v| **v != ZERO).count(),
+                usize::from(len > 0)
+            );
+        }
+    }
+}
