@@ -1,5 +1,5 @@
-//! The estimator's three streaming loops outside rustfft — S = Y·(1/X) per antenna row, the
-//! gather of range bins into the angle tile, |S|² with the row maximum — each in a portable form
+//! The estimator's loops outside rustfft — the scaled reciprocals 1/X, S = Y·(1/X) per antenna
+//! row, the gather of range bins into the angle tile, |S|² with the row maximum — each in a portable form
 //! and, on x86_64 CPUs with AVX2 (detected at run time: the build targets plain x86_64, so the
 //! portable loops compile to SSE2), a 256-bit form.
 //!
