@@ -1,7 +1,7 @@
 //! The estimator's loops outside rustfft — the scaled reciprocals 1/X, S = Y·(1/X) per antenna
 //! row, the gather of range bins into the angle tile, |S|² with the row maximum — each in a
-//! portable form and, on x86_64 CPUs with AVX2 (detected at run time: the build targets plain x86_64, so the
-//! portable loops compile to SSE2), a 256-bit form.
+//! portable form and, on x86_64 CPUs with AVX2 (detected at run time: the build targets plain
+//! x86_64, so the portable loops compile to SSE2), a 256-bit form.
 //!
 //! The AVX2 forms are bit-identical to the portable ones: the same IEEE operations on the same
 //! operands in the same order (no FMA contraction; an addition's operands may be swapped, which
