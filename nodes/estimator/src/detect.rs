@@ -94,29 +94,44 @@ impl MapView<'_> {
     }
 
     /// Whether (row, col) with power `p` is a local maximum of its 8-neighbourhood.
+    ///
+    /// Neighbours wrap in angle (and in range when `circular_range`); the wrapped indices are
+    /// picked by comparison, not `rem_euclid` (an integer division per neighbour). The same-row
+    /// neighbours are tested first: most cells above the threshold lie on a side-lobe ridge and
+    /// fail there. The order of the tests does not change the result (all must pass).
     #[inline]
     fn is_local_max(&self, row: usize, col: usize, p: f64) -> bool {
-        let own = row * self.cols + col;
-        for dr in [-1isize, 0, 1] {
-            let r = row as isize + dr;
-            let r = if r < 0 || r >= self.rows as isize {
-                if !self.circular_range {
-                    continue;
-                }
-                r.rem_euclid(self.rows as isize) as usize
-            } else {
-                r as usize
-            };
-            for dc in [-1isize, 0, 1] {
-                if dr == 0 && dc == 0 {
-                    continue;
-                }
-                let c = (col as isize + dc).rem_euclid(self.cols as isize) as usize;
-                let key = r * self.cols + c;
-                let q = self.at(r, c);
-                if (key < own && p <= q) || (key > own && p < q) {
-                    return false;
-                }
+        let cols = self.cols;
+        let own = row * cols + col;
+        let left = if col == 0 { cols - 1 } else { col - 1 };
+        let right = if col + 1 == cols { 0 } else { col + 1 };
+        // A neighbour at storage index `key` beats the cell when it is at least as strong and
+        // earlier, or stronger and later (a plateau keeps exactly its first cell).
+        let beaten = |key: usize| {
+            let q = self.power[key];
+            (key < own && p <= q) || (key > own && p < q)
+        };
+        if beaten(row * cols + left) || beaten(row * cols + right) {
+            return false;
+        }
+        let above = if row > 0 {
+            Some(row - 1)
+        } else if self.circular_range {
+            Some(self.rows - 1)
+        } else {
+            None
+        };
+        let below = if row + 1 < self.rows {
+            Some(row + 1)
+        } else if self.circular_range {
+            Some(0)
+        } else {
+            None
+        };
+        for r in [above, below].into_iter().flatten() {
+            let base = r * cols;
+            if beaten(base + left) || beaten(base + col) || beaten(base + right) {
+                return false;
             }
         }
         true

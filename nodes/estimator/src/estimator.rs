@@ -12,6 +12,7 @@ use serde::{Deserialize, Serialize};
 use crate::config::{EstimatorConfig, Refinement};
 use crate::detect::{DetectScratch, Lobes, MapView, Peak};
 use crate::error::EstimatorError;
+use crate::kernels::{self, Isa};
 use crate::refine;
 
 const ZERO: Complex64 = Complex64 { re: 0.0, im: 0.0 };
@@ -75,7 +76,7 @@ pub struct Estimator {
     fft_doppler: Arc<dyn Fft<f64>>,
     scratch: Vec<Complex64>,
     inv_x: Vec<Complex64>,
-    work: Vec<Complex64>,
+    work: AlignedBuf<Complex64>,
     tile: Vec<Complex64>,
     tile2: Vec<Complex64>,
     tile_bins: usize,
@@ -89,6 +90,8 @@ pub struct Estimator {
     det: DetectScratch,
     detections: Vec<RangeAngleDetection>,
     floor: f64,
+    /// Form of the streaming loops (AVX2 when the CPU has it).
+    isa: Isa,
 }
 
 impl std::fmt::Debug for Estimator {
@@ -152,112 +155,84 @@ fn alloc<T: Clone>(len: usize, value: T) -> Result<Vec<T>, EstimatorError> {
     Ok(v)
 }
 
+/// Bytes of a transparent huge page (x86_64 and aarch64 Linux with 4 KiB base pages).
+const HUGE_PAGE: usize = 2 << 20;
+
+/// Asks Linux to back the whole 2 MiB pages inside `bytes` at `addr` with transparent huge
+/// pages (when `/sys/kernel/mm/transparent_hugepage/enabled` is `madvise` or `always`): the
+/// large buffers are streamed many rows at a time, and 4 KiB pages cost TLB misses there.
+#[allow(unused_variables)]
+fn advise_huge_pages(addr: usize, bytes: usize) {
+    #[cfg(target_os = "linux")]
+    {
+        let start = addr.div_ceil(HUGE_PAGE) * HUGE_PAGE;
+        let end = addr.saturating_add(bytes) / HUGE_PAGE * HUGE_PAGE;
+        if end > start {
+            // SAFETY: madvise only changes how pages of this process's own (allocated, not yet
+            // touched) memory are backed; the result is ignored (it is a hint).
+            unsafe {
+                libc::madvise(start as *mut libc::c_void, end - start, libc::MADV_HUGEPAGE);
+            }
+        }
+    }
+}
+
+/// `alloc` with huge pages advised before the memory is first touched.
+fn alloc_huge<T: Clone>(len: usize, value: T) -> Result<Vec<T>, EstimatorError> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(len)
+        .map_err(|_| EstimatorError::Allocation {
+            bytes: len.saturating_mul(std::mem::size_of::<T>()),
+        })?;
+    advise_huge_pages(v.as_ptr() as usize, len * std::mem::size_of::<T>());
+    v.resize(len, value);
+    Ok(v)
+}
+
+/// A buffer of `len` values starting at a huge-page boundary of a larger allocation (when the
+/// values take at least one huge page), so all of it can be backed by huge pages.
+struct AlignedBuf<T> {
+    buf: Vec<T>,
+    start: usize,
+    len: usize,
+}
+
+impl<T: Clone> AlignedBuf<T> {
+    fn new(len: usize, value: T) -> Result<Self, EstimatorError> {
+        let size = std::mem::size_of::<T>().max(1);
+        let slack = if len.saturating_mul(size) >= HUGE_PAGE {
+            HUGE_PAGE / size
+        } else {
+            0
+        };
+        let buf = alloc_huge(len + slack, value)?;
+        let addr = buf.as_ptr() as usize;
+        let start = if slack > 0 {
+            (addr.div_ceil(HUGE_PAGE) * HUGE_PAGE - addr) / size
+        } else {
+            0
+        };
+        Ok(Self { buf, start, len })
+    }
+}
+
+impl<T> std::ops::Deref for AlignedBuf<T> {
+    type Target = [T];
+    fn deref(&self) -> &[T] {
+        &self.buf[self.start..self.start + self.len]
+    }
+}
+
+impl<T> std::ops::DerefMut for AlignedBuf<T> {
+    fn deref_mut(&mut self) -> &mut [T] {
+        &mut self.buf[self.start..self.start + self.len]
+    }
+}
+
 fn twiddles(len: usize) -> Vec<Complex64> {
     (0..len)
         .map(|q| Complex64::from_polar(1.0, -2.0 * PI * q as f64 / len as f64))
         .collect()
-}
-
-/// Gathers range bins `i0..i0 + bb` of the K·M antenna-major work rows into the bin-major tile
-/// `t[(b·M + m)·A + k]`: four bins (one cache line of each row) at a time, with the line a few
-/// lines ahead in each row prefetched, since K·M concurrent streams outrun the hardware
-/// prefetchers.
-#[allow(clippy::too_many_arguments)]
-#[inline]
-fn gather(
-    work: &[Complex64],
-    t: &mut [Complex64],
-    i0: usize,
-    bb: usize,
-    k: usize,
-    m: usize,
-    a: usize,
-    stride: usize,
-) {
-    const AHEAD: usize = 16;
-    let mut b = 0;
-    if m == 1 {
-        // The Table I case: four bins of each antenna row per step, bounds checked once.
-        let rows_end = (k - 1) * stride + i0 + bb;
-        assert!(rows_end <= work.len() && bb * a <= t.len() && k <= a);
-        let (src, dst) = (work.as_ptr(), t.as_mut_ptr());
-        while b + 4 <= bb {
-            for kk in 0..k {
-                let base = kk * stride + i0 + b;
-                // SAFETY: base + 3 < (k − 1)·stride + i0 + bb ≤ work.len() and
-                // (b + 3)·a + kk < bb·a ≤ t.len() (asserted above); prefetch is only a hint.
-                unsafe {
-                    #[cfg(target_arch = "x86_64")]
-                    {
-                        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-                        _mm_prefetch::<_MM_HINT_T0>(src.wrapping_add(base + AHEAD) as *const i8);
-                    }
-                    let d = dst.add(b * a + kk);
-                    *d = *src.add(base);
-                    *d.add(a) = *src.add(base + 1);
-                    *d.add(2 * a) = *src.add(base + 2);
-                    *d.add(3 * a) = *src.add(base + 3);
-                }
-            }
-            b += 4;
-        }
-    }
-    while b + 4 <= bb {
-        for kk in 0..k {
-            for mm in 0..m {
-                let base = (kk * m + mm) * stride + i0 + b;
-                let src = &work[base..base + 4];
-                #[cfg(target_arch = "x86_64")]
-                if base + AHEAD < work.len() {
-                    // SAFETY: prefetch is a hint; the address is inside `work`.
-                    unsafe {
-                        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-                        _mm_prefetch::<_MM_HINT_T0>(work.as_ptr().add(base + AHEAD) as *const i8);
-                    }
-                }
-                for (j, v) in src.iter().enumerate() {
-                    t[((b + j) * m + mm) * a + kk] = *v;
-                }
-            }
-        }
-        b += 4;
-    }
-    for b in b..bb {
-        for mm in 0..m {
-            for kk in 0..k {
-                t[(b * m + mm) * a + kk] = work[(kk * m + mm) * stride + i0 + b];
-            }
-        }
-    }
-}
-
-/// `out[i] = |line[i]|²`, returning the maximum, or NaN when any power is not finite (a sum
-/// rides along to carry NaN/∞: the max alone would skip NaN). Four lanes so it vectorises.
-#[inline]
-fn norm_sqr_max(line: &[Complex64], out: &mut [f64]) -> f64 {
-    let mut lanes = [0.0f64; 4];
-    let mut sums = [0.0f64; 4];
-    let mut chunks = line.chunks_exact(4);
-    let mut outs = out.chunks_exact_mut(4);
-    for (c, o) in (&mut chunks).zip(&mut outs) {
-        for l in 0..4 {
-            let p = c[l].re * c[l].re + c[l].im * c[l].im;
-            o[l] = p;
-            lanes[l] = if p > lanes[l] { p } else { lanes[l] };
-            sums[l] += p;
-        }
-    }
-    for (v, o) in chunks.remainder().iter().zip(outs.into_remainder()) {
-        *o = v.norm_sqr();
-        lanes[0] = if *o > lanes[0] { *o } else { lanes[0] };
-        sums[0] += *o;
-    }
-    let mx = lanes.into_iter().fold(0.0, f64::max);
-    if sums.iter().sum::<f64>().is_finite() {
-        mx
-    } else {
-        f64::NAN
-    }
 }
 
 /// Signed angle bin of an FFT-order column: c for c < A − ⌊A/2⌋, c − A above.
@@ -483,11 +458,11 @@ impl Estimator {
             fft_doppler,
             scratch: alloc(scratch_len, ZERO)?,
             inv_x: alloc(m * n, ZERO)?,
-            work: alloc(work_cells, ZERO)?,
+            work: AlignedBuf::new(work_cells, ZERO)?,
             tile: alloc(tile_bins * m * a, ZERO)?,
             tile2: alloc(if m > 1 { tile_bins * m * a } else { 0 }, ZERO)?,
             tile_bins,
-            power: alloc(rows * a, 0.0)?,
+            power: alloc_huge(rows * a, 0.0)?,
             row_max: alloc(rows, 0.0)?,
             doppler_bin: alloc(if m > 1 { rows * a } else { 0 }, 0u16)?,
             visible_fft: visibility(a, spacing_wl, |c| signed_fft(c, a)),
@@ -497,6 +472,7 @@ impl Estimator {
             det: DetectScratch::default(),
             detections: Vec::new(),
             floor: 0.0,
+            isa: Isa::detect(),
             config,
         })
     }
@@ -806,33 +782,23 @@ impl Estimator {
             power,
             row_max,
             doppler_bin,
+            isa,
             ..
         } = self;
+        let isa = *isa;
         let (n, k, m, n_pad, stride, a, rows) = (*n, *k, *m, *n_pad, *stride, *a, *rows);
 
         // 1/X scaled by the paper's 1/N (and 1/M, so that a static echo's zero-Doppler bin equals
         // the mean over symbols of `nrslam_ofdm::reference`); zero (skip) where X is zero or
         // subnormal.
         let scale = 1.0 / (n as f64 * m as f64);
-        let mut usable = 0usize;
-        for (i, (dst, x)) in inv_x.iter_mut().zip(&grid.transmitted).enumerate() {
-            if !(x.re.is_finite() && x.im.is_finite()) {
-                return Err(EstimatorError::NonFinite {
-                    input: "transmitted",
-                    index: i,
-                    value: x.to_string(),
-                });
+        let usable = kernels::reciprocals(isa, &grid.transmitted, inv_x, scale).map_err(|i| {
+            EstimatorError::NonFinite {
+                input: "transmitted",
+                index: i,
+                value: grid.transmitted[i].to_string(),
             }
-            let s = x.re.abs().max(x.im.abs());
-            let inv_s = 1.0 / s;
-            *dst = if s > 0.0 && inv_s.is_finite() {
-                let xs = x * inv_s;
-                usable += 1;
-                xs.conj() * (scale * inv_s / xs.norm_sqr())
-            } else {
-                ZERO
-            };
-        }
+        })?;
         if usable == 0 {
             return Err(EstimatorError::NoReference);
         }
@@ -846,9 +812,7 @@ impl Estimator {
             // No per-sample finiteness test here: a NaN or infinity reaches every output of
             // the row's IDFT and from there every cell's power, where it is caught below.
             let inv = &inv_x[(r % m) * n..(r % m + 1) * n];
-            for ((dst, y), ix) in row[..n].iter_mut().zip(y).zip(inv) {
-                *dst = y * ix;
-            }
+            kernels::mul_row(isa, &mut row[..n], y, inv);
             let row = &mut row[..n_pad];
             row[n..].fill(ZERO);
             ifft_range.process_with_scratch(row, scratch);
@@ -864,13 +828,18 @@ impl Estimator {
             if a > k {
                 t.fill(ZERO);
             }
-            gather(work, t, i0, bb, k, m, a, stride);
+            kernels::gather(isa, work, t, i0, bb, k, m, a, stride);
             fft_angle.process_with_scratch(t, scratch);
             if m == 1 {
-                for (b, line) in t.chunks_exact(a).enumerate() {
-                    let out = &mut power[(i0 + b) * a..(i0 + b + 1) * a];
-                    row_max[i0 + b] = norm_sqr_max(line, out);
-                    if let Some(map) = map.as_deref_mut() {
+                kernels::norm_sqr_max_rows(
+                    isa,
+                    t,
+                    a,
+                    &mut power[i0 * a..(i0 + bb) * a],
+                    &mut row_max[i0..i0 + bb],
+                );
+                if let Some(map) = map.as_deref_mut() {
+                    for (b, line) in t.chunks_exact(a).enumerate() {
                         let dst = &mut map[(i0 + b) * a..(i0 + b + 1) * a];
                         for (c, v) in line.iter().enumerate() {
                             dst[(c + half) % a] = *v;
@@ -929,5 +898,36 @@ impl Estimator {
             });
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn aligned_buffers_start_on_a_huge_page_and_hold_len_values() {
+        for len in [
+            0,
+            1,
+            1000,
+            HUGE_PAGE / 16,
+            HUGE_PAGE / 16 + 3,
+            3 * HUGE_PAGE / 16,
+        ] {
+            let mut b = AlignedBuf::new(len, ZERO).unwrap();
+            assert_eq!(b.len(), len);
+            assert!(b.iter().all(|v| *v == ZERO));
+            if len * 16 >= HUGE_PAGE {
+                assert_eq!(b.as_ptr() as usize % HUGE_PAGE, 0);
+            }
+            if let Some(last) = b.last_mut() {
+                *last = Complex64::new(1.0, 2.0);
+            }
+            assert_eq!(
+                b.iter().filter(|v| **v != ZERO).count(),
+                usize::from(len > 0)
+            );
+        }
     }
 }

@@ -51,6 +51,7 @@ pub mod config;
 mod detect;
 pub mod error;
 mod estimator;
+mod kernels;
 pub mod refine;
 
 pub use config::{Detector, EstimatorConfig, Refinement};
