@@ -56,6 +56,11 @@ pub enum LoopRejection {
     IcpFailed,
     /// Too few inliers after refinement.
     LowInlierRatio(f64),
+    /// The search peak, or the refinement from it, lies on the edge of the searched window (the
+    /// radius or the rotation range): the best motion may be outside it, where neither the
+    /// search nor the ambiguity test has looked. In a hall whose targets repeat, this is how a
+    /// drift larger than the window shows up: as a match one station pitch off at its edge.
+    AtSearchEdge,
     /// The search peak was not distinct.
     Ambiguous {
         /// Best score.
@@ -217,6 +222,18 @@ pub fn match_loop(
         0.0
     };
 
+    // A peak on the window's edge (outermost ring of translations or of rotations) is a
+    // truncated slope, not a verified maximum.
+    let edge_m = (radius_m - step_m).max(0.0);
+    let edge_rad = steps_r as f64 * step_rad - 0.5 * step_rad;
+    let outside = |motion: &Pose2| {
+        motion.distance_m(&predicted) > edge_m + 1e-9
+            || motion.rotation_to_rad(&predicted) > edge_rad.max(0.0)
+    };
+    if steps_t > 0 && steps_r > 0 && outside(&best) {
+        return Err(LoopRejection::AtSearchEdge);
+    }
+
     // Refinement: ICP of the query against the submap, from the search's best motion.
     let refine = Params {
         max_correction_m: 2.0 * step_m + 1.0,
@@ -230,6 +247,9 @@ pub fn match_loop(
         return Err(LoopRejection::IcpFailed);
     }
     let relative = icp.pose;
+    if steps_t > 0 && steps_r > 0 && outside(&relative) {
+        return Err(LoopRejection::AtSearchEdge);
+    }
     let inlier_m2 = loop_params.inlier_distance_m * loop_params.inlier_distance_m;
     let overlap_m2 = loop_params.overlap_distance_m * loop_params.overlap_distance_m;
     let (mut inliers, mut overlapping) = (0usize, 0usize);
@@ -316,6 +336,34 @@ mod tests {
         assert!(found.relative.distance_m(&truth) < 0.05, "{found:?}");
         assert!(found.relative.rotation_to_rad(&truth) < 0.5f64.to_radians());
         assert!(found.inlier_ratio > 0.95);
+    }
+
+    #[test]
+    fn a_match_beyond_the_window_is_refused_not_truncated() {
+        // The truth lies 4.3 m from the prediction, just beyond a 4 m window: the best motion
+        // inside is on the window's edge, a truncated slope rather than a verified peak.
+        let points = scene();
+        let candidate = Pose2::new(0.0, 0.0, 0.3);
+        let query = Pose2::new(1.0, 0.5, 0.35);
+        let truth = candidate.between(&query);
+        let beyond = truth.compose(&Pose2::new(3.44, -2.58, 0.0));
+        let outcome = |predicted: Pose2| {
+            match_loop(
+                &seen_from(&query, &points),
+                &seen_from(&candidate, &points),
+                predicted,
+                4.0,
+                &LoopClosureParams::default(),
+                &Params::default(),
+            )
+        };
+        assert_eq!(outcome(beyond), Err(LoopRejection::AtSearchEdge));
+        // The same just beyond the rotation window (12°): 13.5° off.
+        let turned = truth.compose(&Pose2::new(0.0, 0.0, 13.5f64.to_radians()));
+        assert_eq!(outcome(turned), Err(LoopRejection::AtSearchEdge));
+        // Well inside both, it is found.
+        let inside = truth.compose(&Pose2::new(1.0, 1.0, 4f64.to_radians()));
+        assert!(outcome(inside).is_ok());
     }
 
     #[test]

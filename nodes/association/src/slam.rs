@@ -509,7 +509,7 @@ impl Association {
                         candidate: j,
                         ..found
                     };
-                    tracing::debug!(candidate = j, current, ?found, "loop accepted");
+                    tracing::debug!(candidate = j, current, ?found, ?predicted, "loop accepted");
                     self.apply_loop(j, current, found);
                     return Some(found);
                 }
