@@ -47,6 +47,8 @@ fn main() -> anyhow::Result<()> {
     let boresight = sim.scene().sensor.boresight_rad;
     let mut slam = Association::new(params)?;
     let mut truths: Vec<Pose2> = Vec::new();
+    // The online error when each keyframe was taken, beside its final error after every closure.
+    let mut online_at_keyframe: Vec<f64> = Vec::new();
     let mut sum2 = 0.0;
     let mut n = 0.0;
     while let Some(frame) = sim.try_next_frame()? {
@@ -70,6 +72,7 @@ fn main() -> anyhow::Result<()> {
         n += 1.0;
         if let Some(id) = out.keyframe_id {
             truths.push(truth);
+            online_at_keyframe.push(err);
             if let Some(m) = out.loop_match {
                 let j = m.candidate;
                 let true_rel = truths[j].between(&truth);
@@ -105,6 +108,11 @@ fn main() -> anyhow::Result<()> {
         .zip(&truths)
         .map(|(r, t)| r.pose.distance_m(t))
         .collect();
+    for (k, (final_m, online_m)) in kf_err.iter().zip(&online_at_keyframe).enumerate() {
+        if k % 10 == 0 {
+            println!("keyframe {k:3}: error online {online_m:.2} m, final {final_m:.2} m");
+        }
+    }
     let kf_rmse = (kf_err.iter().map(|e| e * e).sum::<f64>() / kf_err.len() as f64).sqrt();
     println!(
         "pose RMSE {:.3} m, final keyframe RMSE {:.3} m, loops {}",

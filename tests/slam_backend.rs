@@ -165,3 +165,29 @@ fn loop_closure_corrects_the_5g_trajectory() {
     );
     assert!(value(&c, "etgospa") < value(&o, "etgospa"), "{c} vs {o}");
 }
+
+#[test]
+fn the_pose_oracle_maps_at_the_true_pose() {
+    // launch/true-poses.toml: exact odometry and no scan matching, so every published pose is the
+    // truth, while paper-ideal.toml with the same seed drifts.
+    let (oracle, slam) = (temp(), temp());
+    let args = ["angle_std_deg:=5", "frames:=60", "--seed", "3"];
+    launch("launch/true-poses.toml", oracle.path(), &args);
+    launch("launch/paper-ideal.toml", slam.path(), &args);
+    let exact = position_errors(oracle.path());
+    assert_eq!(exact.len(), 60);
+    for (t, e) in &exact {
+        assert!(e.abs() < 1e-6, "t = {t} s: position error {e} m");
+    }
+    let drifting = position_errors(slam.path());
+    assert!(
+        drifting.iter().any(|(_, e)| *e > 0.05),
+        "paper-ideal.toml should drift at 5°: {drifting:?}"
+    );
+    assert_eq!(
+        summary(oracle.path())["pose_rmse_m"]
+            .as_f64()
+            .map(|v| v < 1e-6),
+        Some(true)
+    );
+}

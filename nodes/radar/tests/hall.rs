@@ -194,6 +194,32 @@ fn same_seed_same_detections_different_seed_different() {
         a.iter().map(|f| f.odometry).collect::<Vec<_>>(),
         d.iter().map(|f| f.odometry).collect::<Vec<_>>()
     );
+    // And the detections are independent of the odometry noise: launch/true-poses.toml relies on
+    // it to map the same detections as paper-ideal.toml at exact poses.
+    let exact_odometry = simulate(
+        &Params {
+            odom_translation_noise: 0.0,
+            odom_rotation_noise_deg_per_m: 0.0,
+            odom_scale_bias: 0.0,
+            odom_rotation_bias_deg_per_m: 0.0,
+            ..params.clone()
+        },
+        11,
+    );
+    assert_ne!(
+        a.iter().map(|f| f.odometry).collect::<Vec<_>>(),
+        exact_odometry
+            .iter()
+            .map(|f| f.odometry)
+            .collect::<Vec<_>>()
+    );
+    assert_eq!(
+        a.iter().map(|f| &f.detections).collect::<Vec<_>>(),
+        exact_odometry
+            .iter()
+            .map(|f| &f.detections)
+            .collect::<Vec<_>>()
+    );
 }
 
 #[test]
