@@ -13,6 +13,16 @@
 //! ratio moves with the load on the other core: the estimator streams ~13 MB per frame and
 //! feels memory contention more than the floor, whose input was just copied into cache.
 //!
+//! Measured again on the same machine, idle, four runs in a row: ratios 1.44, 1.52, 1.47 and
+//! 1.41 (floor 1.20–1.40 ms, estimator 1.70–2.06 ms; interpolation 1.50–1.81, max range 20 m
+//! 0.81–1.15). The two sides move together between runs (the VM's neighbours), the ratio less,
+//! but by about ±0.05: the median, 1.46, is under the bar with less margin than that noise. In
+//! the run, the estimator's own loops take about a third of its time (`perf record` on this
+//! bench's `--profile-time`: Y/X 17 %, gather 12 %, |S|² and row maxima 9 %, detection 3 %);
+//! its FFTs take less than the floor's, since its tiles are cached and its rows on huge pages.
+//! Streaming (non-temporal) stores for the power map, which is mostly not read back, were tried
+//! and measured no faster in interleaved runs.
+//!
 //! About 0.12 ms of the estimator's gain comes from backing its own buffers with transparent huge
 //! pages, which this floor's plain `Vec`s do not get. With the floor's buffers on huge pages too
 //! (`cargo run --release -p nrslam-estimator --example floor_huge_pages`), three runs gave floor
