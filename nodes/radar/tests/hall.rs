@@ -160,6 +160,16 @@ fn every_target_is_seen_during_the_lap() {
     assert!(mean > 20.0 && mean < 300.0, "{mean}");
 }
 
+/// Each frame's detections, for comparing runs.
+fn detections(frames: &[nrslam_radar::Frame]) -> Vec<&Vec<nrslam_msgs::Detection>> {
+    frames.iter().map(|f| &f.detections).collect()
+}
+
+/// Each frame's odometry reading, for comparing runs.
+fn odometry(frames: &[nrslam_radar::Frame]) -> Vec<nrslam_radar::odometry::OdometryReading> {
+    frames.iter().map(|f| f.odometry).collect()
+}
+
 #[test]
 fn same_seed_same_detections_different_seed_different() {
     let params = Params {
@@ -173,14 +183,8 @@ fn same_seed_same_detections_different_seed_different() {
     let c = simulate(&params, 12);
     assert_eq!(a, b);
     assert_eq!(a.len(), 30);
-    assert_ne!(
-        a.iter().map(|f| &f.detections).collect::<Vec<_>>(),
-        c.iter().map(|f| &f.detections).collect::<Vec<_>>()
-    );
-    assert_ne!(
-        a.iter().map(|f| f.odometry).collect::<Vec<_>>(),
-        c.iter().map(|f| f.odometry).collect::<Vec<_>>()
-    );
+    assert_ne!(detections(&a), detections(&c));
+    assert_ne!(odometry(&a), odometry(&c));
     // The odometry stream is independent of the measurement parameters.
     let d = simulate(
         &Params {
@@ -190,10 +194,7 @@ fn same_seed_same_detections_different_seed_different() {
         },
         11,
     );
-    assert_eq!(
-        a.iter().map(|f| f.odometry).collect::<Vec<_>>(),
-        d.iter().map(|f| f.odometry).collect::<Vec<_>>()
-    );
+    assert_eq!(odometry(&a), odometry(&d));
     // And the detections are independent of the odometry noise: launch/true-poses.toml relies on
     // it to map the same detections as paper-ideal.toml at exact poses.
     let exact_odometry = simulate(
@@ -206,20 +207,8 @@ fn same_seed_same_detections_different_seed_different() {
         },
         11,
     );
-    assert_ne!(
-        a.iter().map(|f| f.odometry).collect::<Vec<_>>(),
-        exact_odometry
-            .iter()
-            .map(|f| f.odometry)
-            .collect::<Vec<_>>()
-    );
-    assert_eq!(
-        a.iter().map(|f| &f.detections).collect::<Vec<_>>(),
-        exact_odometry
-            .iter()
-            .map(|f| &f.detections)
-            .collect::<Vec<_>>()
-    );
+    assert_ne!(odometry(&a), odometry(&exact_odometry));
+    assert_eq!(detections(&a), detections(&exact_odometry));
 }
 
 #[test]
