@@ -41,6 +41,7 @@
 //! assert!((second.pose.x_m - 1.0).abs() < 1e-3);
 //! ```
 
+pub mod correlative;
 pub mod icp;
 pub mod keyframe;
 pub mod loop_closure;
@@ -50,6 +51,7 @@ pub mod pose;
 pub mod pose_graph;
 pub mod slam;
 
+pub use correlative::{CorrelativeError, MultiResolutionGrid, ProbabilityGrid, SearchWindow};
 pub use icp::{align, IcpResult, IcpStatus, LineFit, PointMap};
 pub use keyframe::KeyframeSelector;
 pub use loop_closure::{match_loop, LoopMatch, LoopRejection};

@@ -1,0 +1,1384 @@
+//! Correlative scan matching by multi-resolution branch and bound.
+//!
+//! Loop closure must find where a query scan lies in a submap when the prediction may be metres
+//! and degrees off, farther than ICP converges from. Correlative matching scores every rigid
+//! motion on a lattice around the prediction (translations one grid cell apart inside a disc,
+//! rotations one angular step apart) by how well the moved scan points land on the submap, and
+//! keeps the best. Scoring the lattice motion by motion costs translations × rotations × points
+//! lookups; this module finds the same best motion with the branch-and-bound search of Hess,
+//! Kohler, Rapp and Andor, "Real-Time Loop Closure in 2D LIDAR SLAM" (ICRA 2016), Sec. V:
+//!
+//! - [`ProbabilityGrid`]: the submap rasterised into a likelihood field. A cell holds the largest
+//!   `exp(-d² / 2σ²)` over the map points, `d` being the distance from the point to the nearest
+//!   spot of the cell, truncated at 3σ: σ (`sigma_m`) represents the radar's blur, and taking
+//!   the nearest spot of the cell means a perfectly aligned point always scores 1 whatever the
+//!   cell size. Its extent is the points' bounding box plus the kernel's reach; absurd extents
+//!   are refused ([`CorrelativeError::TooLarge`]) rather than allocated.
+//! - [`MultiResolutionGrid`]: the precomputed grids of Sec. V-C. At depth `h` the value at cell
+//!   (x, y) is the maximum of the base grid over the 2^h × 2^h block starting at (x, y), so the
+//!   sum of those values over the scan points bounds, from above, the score of every
+//!   translation in a 2^h × 2^h block of the search lattice.
+//! - [`search`] and [`search_with`]: depth-first branch and bound. The root's children are
+//!   every rotation × every block of the translation window at the coarsest depth; a node's
+//!   children are the four half-size blocks; children are visited best bound first, and a node
+//!   whose bound cannot beat the best leaf found so far is pruned. The bound never
+//!   underestimates, so the result is exactly [`exhaustive_search`]'s.
+//! - [`runner_up`]: the best motion at least some distance from a given one (the second peak
+//!   that loop closure's ambiguity test needs), by the same search with a disc of translations
+//!   excluded; it prunes against its own best, so it costs about as much as the first search.
+//! - [`exhaustive_search`]: the same lattice scored motion by motion, the reference that the
+//!   tests compare the branch and bound with and the benchmark's baseline.
+//!
+//! **Scores.** The score of a motion is the mean grid value at the moved scan points, optionally
+//! times a Gaussian prior on the translation's offset from the initial pose (loop closure uses it
+//! to prefer, among look-alike places, the one nearer where odometry puts the AGV). The prior is
+//! largest at the offset nearest the initial pose, so a node's bound is its sum of maxima times
+//! the prior at the block's offset nearest the initial pose: still never below any leaf's score.
+//! A scan point's cell is computed once per rotation, and a translation by (i, j) steps moves it
+//! by exactly (i, j) cells (the translation step is the cell size), as Hess et al. do.
+//!
+//! **Determinism.** Grid values are 16-bit fixed point, so sums are exact integers independent of
+//! order, and a bound compares with the scores it bounds without rounding doubt. Ties are broken
+//! by the smallest (rotation index, x offset, y offset), in that order, which is the order in
+//! which [`exhaustive_search`] visits the lattice: both return the same motion. Nothing depends
+//! on threads or on memory addresses.
+
+use crate::pose::Pose2;
+
+/// Largest base grid, cells (4 Mi cells, 8 MiB): a submap spanning more than ~500 m at 0.25 m is
+/// not one worth matching, and points kilometres apart must not allocate gigabytes.
+pub const MAX_GRID_CELLS: usize = 1 << 22;
+/// Deepest precomputed level (blocks of 2^10 cells).
+pub const MAX_DEPTH: u32 = 10;
+/// Largest total of the precomputed levels, cells (64 MiB).
+const MAX_LEVEL_CELLS: f64 = (1u64 << 25) as f64;
+/// Largest number of cell updates spent rasterising (points × kernel cells).
+const MAX_RASTER_UPDATES: f64 = (1u64 << 30) as f64;
+/// Largest number of translation steps either side of the initial pose.
+const MAX_LINEAR_STEPS: f64 = (1u64 << 14) as f64;
+/// Largest number of rotations searched.
+const MAX_ROTATIONS: f64 = (1u64 << 16) as f64;
+/// Largest number of (rotation, scan point) cells kept (16 MiB).
+const MAX_ROTATED_CELLS: f64 = (1u64 << 21) as f64;
+/// Largest number of root nodes (rotations × coarsest blocks).
+const MAX_ROOT_NODES: f64 = (1u64 << 22) as f64;
+/// The Gaussian kernel is cut off at this many σ (its value there is 0.011).
+const TRUNCATION_SIGMAS: f64 = 3.0;
+/// Grid values are fixed point in [0, `VALUE_SCALE`].
+const VALUE_SCALE: f64 = u16::MAX as f64;
+/// A scan point's cell is clamped to ±`CELL_LIMIT`: far outside any grid (so it scores 0), yet
+/// far from overflow when window and level offsets are added to it.
+const CELL_LIMIT: f64 = (1i64 << 30) as f64;
+/// Slack for ratios that should be integers (12° / 1° computed in radians is 12.000000000000002).
+const RATIO_SLACK: f64 = 1e-9;
+
+/// Why a grid could not be built or a search not run.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CorrelativeError {
+    /// There is no map point to rasterise.
+    #[error("the map has no point")]
+    EmptyMap,
+    /// There is no scan point to match.
+    #[error("the scan has no point")]
+    EmptyScan,
+    /// An input that must be finite is not (a NaN or infinite point or pose).
+    #[error("{0} is not finite")]
+    NonFinite(&'static str),
+    /// A parameter is outside its valid range.
+    #[error("{name} = {value} is outside its valid range")]
+    InvalidParameter {
+        /// The parameter.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// The grid or the search would exceed a size limit (cells, steps or work).
+    #[error("{what} would need {amount:e}, more than the limit {limit:e}")]
+    TooLarge {
+        /// What would be too large.
+        what: &'static str,
+        /// How much it would need.
+        amount: f64,
+        /// The limit.
+        limit: f64,
+    },
+}
+
+/// One level of values on a rectangle of cells, 0 outside it. Level `h` stores the cells
+/// x ∈ [−offset, width − offset) (and likewise y) with offset = 2^h − 1: a block starting up to
+/// 2^h − 1 cells before the base grid still overlaps it.
+#[derive(Debug, Clone)]
+struct Level {
+    offset: i64,
+    width: usize,
+    height: usize,
+    values: Vec<u16>,
+}
+
+impl Level {
+    /// The value at cell (x, y) of the base grid's indexing; 0 outside the stored rectangle.
+    #[inline]
+    fn get(&self, x: i64, y: i64) -> u16 {
+        let (column, row) = (x + self.offset, y + self.offset);
+        if column < 0 || row < 0 || column >= self.width as i64 || row >= self.height as i64 {
+            0
+        } else {
+            self.values[row as usize * self.width + column as usize]
+        }
+    }
+
+    /// The next level: blocks of 2^(h+1) cells from blocks of 2^h. A block of 2s cells starting
+    /// at x is the blocks of s cells starting at x and at x + s, so each level is two maxima per
+    /// cell (along x, then along y) of the one before: O(cells) per level.
+    fn doubled(&self) -> Level {
+        let half = self.offset + 1;
+        let offset = 2 * half - 1;
+        let width = self.width + half as usize;
+        let height = self.height + half as usize;
+        // Along x, on the previous level's rows.
+        let mut along_x = vec![0u16; width * self.height];
+        for row in 0..self.height {
+            let y = row as i64 - self.offset;
+            for column in 0..width {
+                let x = column as i64 - offset;
+                along_x[row * width + column] = self.get(x, y).max(self.get(x + half, y));
+            }
+        }
+        let along_x_at = |column: usize, y: i64| {
+            let row = y + self.offset;
+            if row < 0 || row >= self.height as i64 {
+                0
+            } else {
+                along_x[row as usize * width + column]
+            }
+        };
+        let mut values = vec![0u16; width * height];
+        for row in 0..height {
+            let y = row as i64 - offset;
+            for column in 0..width {
+                values[row * width + column] =
+                    along_x_at(column, y).max(along_x_at(column, y + half));
+            }
+        }
+        Level {
+            offset,
+            width,
+            height,
+            values,
+        }
+    }
+}
+
+/// A point set rasterised into a likelihood field: each cell's value in [0, 1] is the largest
+/// `exp(-d² / 2σ²)` over the points, `d` the distance from the point to the cell (0 inside it),
+/// cut off at 3σ. Cells outside the grid are worth 0.
+#[derive(Debug, Clone)]
+pub struct ProbabilityGrid {
+    origin_m: [f64; 2],
+    cell_m: f64,
+    sigma_m: f64,
+    level: Level,
+}
+
+impl ProbabilityGrid {
+    /// Rasterises `points_m` (metres) into cells of `cell_m` with blur `sigma_m`.
+    ///
+    /// Errors: no point ([`CorrelativeError::EmptyMap`]), a non-finite point, a non-positive or
+    /// non-finite cell or σ, or a bounding box (plus 3σ) of more than [`MAX_GRID_CELLS`] cells.
+    pub fn new(points_m: &[[f64; 2]], cell_m: f64, sigma_m: f64) -> Result<Self, CorrelativeError> {
+        check_positive("cell_m", cell_m)?;
+        check_positive("sigma_m", sigma_m)?;
+        if points_m.is_empty() {
+            return Err(CorrelativeError::EmptyMap);
+        }
+        if !points_m
+            .iter()
+            .all(|p| p[0].is_finite() && p[1].is_finite())
+        {
+            return Err(CorrelativeError::NonFinite("a map point"));
+        }
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for p in points_m {
+            for axis in 0..2 {
+                lo[axis] = lo[axis].min(p[axis]);
+                hi[axis] = hi[axis].max(p[axis]);
+            }
+        }
+        let reach_m = TRUNCATION_SIGMAS * sigma_m;
+        let origin_m = [lo[0] - reach_m, lo[1] - reach_m];
+        let columns = ((hi[0] + reach_m - origin_m[0]) / cell_m).floor() + 1.0;
+        let rows = ((hi[1] + reach_m - origin_m[1]) / cell_m).floor() + 1.0;
+        // Checked in floating point, before any cast or allocation.
+        let cells = columns * rows;
+        if cells.is_nan() || cells > MAX_GRID_CELLS as f64 {
+            return Err(CorrelativeError::TooLarge {
+                what: "the probability grid (cells)",
+                amount: cells,
+                limit: MAX_GRID_CELLS as f64,
+            });
+        }
+        let kernel_cells = (2.0 * reach_m / cell_m + 2.0).powi(2).min(cells);
+        let updates = kernel_cells * points_m.len() as f64;
+        if updates > MAX_RASTER_UPDATES {
+            return Err(CorrelativeError::TooLarge {
+                what: "rasterising the map (cell updates)",
+                amount: updates,
+                limit: MAX_RASTER_UPDATES,
+            });
+        }
+        let (width, height) = (columns as usize, rows as usize);
+        let mut values = vec![0u16; width * height];
+        let reach2_m2 = reach_m * reach_m;
+        let inverse_two_sigma2 = 1.0 / (2.0 * sigma_m * sigma_m);
+        for p in points_m {
+            // Every point lies at least `reach_m` inside the grid's lower edges, so these are ≥ 0.
+            let first = |axis: usize| ((p[axis] - reach_m - origin_m[axis]) / cell_m).floor();
+            let last = |axis: usize| ((p[axis] + reach_m - origin_m[axis]) / cell_m).floor();
+            let (c0, c1) = (first(0).max(0.0) as usize, last(0) as usize);
+            let (r0, r1) = (first(1).max(0.0) as usize, last(1) as usize);
+            for row in r0..=r1.min(height - 1) {
+                let y0 = origin_m[1] + row as f64 * cell_m;
+                let dy = (y0 - p[1]).max(p[1] - (y0 + cell_m)).max(0.0);
+                for column in c0..=c1.min(width - 1) {
+                    let x0 = origin_m[0] + column as f64 * cell_m;
+                    let dx = (x0 - p[0]).max(p[0] - (x0 + cell_m)).max(0.0);
+                    let d2 = dx * dx + dy * dy;
+                    if d2 > reach2_m2 {
+                        continue;
+                    }
+                    let value = ((-d2 * inverse_two_sigma2).exp() * VALUE_SCALE).round() as u16;
+                    let cell = &mut values[row * width + column];
+                    *cell = (*cell).max(value);
+                }
+            }
+        }
+        Ok(ProbabilityGrid {
+            origin_m,
+            cell_m,
+            sigma_m,
+            level: Level {
+                offset: 0,
+                width,
+                height,
+                values,
+            },
+        })
+    }
+
+    /// Cell size, metres.
+    pub fn cell_m(&self) -> f64 {
+        self.cell_m
+    }
+
+    /// The blur σ the grid was built with, metres.
+    pub fn sigma_m(&self) -> f64 {
+        self.sigma_m
+    }
+
+    /// The lower-left corner of cell (0, 0), metres.
+    pub fn origin_m(&self) -> [f64; 2] {
+        self.origin_m
+    }
+
+    /// Number of columns (cells along x).
+    pub fn width(&self) -> usize {
+        self.level.width
+    }
+
+    /// Number of rows (cells along y).
+    pub fn height(&self) -> usize {
+        self.level.height
+    }
+
+    /// The value of cell (`column`, `row`) in [0, 1]; 0 outside the grid.
+    pub fn value(&self, column: i64, row: i64) -> f64 {
+        f64::from(self.level.get(column, row)) / VALUE_SCALE
+    }
+
+    /// The value of the cell containing `point_m`; 0 outside the grid or for a non-finite point.
+    pub fn value_at_m(&self, point_m: [f64; 2]) -> f64 {
+        if !(point_m[0].is_finite() && point_m[1].is_finite()) {
+            return 0.0;
+        }
+        let [column, row] = self.cell_of(point_m);
+        self.value(i64::from(column), i64::from(row))
+    }
+
+    /// The cell containing a finite point, clamped far outside the grid for far points.
+    fn cell_of(&self, point_m: [f64; 2]) -> [i32; 2] {
+        [
+            clamp_cell((point_m[0] - self.origin_m[0]) / self.cell_m),
+            clamp_cell((point_m[1] - self.origin_m[1]) / self.cell_m),
+        ]
+    }
+}
+
+/// A [`ProbabilityGrid`] with its precomputed maxima over blocks of 2^h × 2^h cells,
+/// h = 1..=`depth` (Hess et al., Sec. V-C).
+#[derive(Debug, Clone)]
+pub struct MultiResolutionGrid {
+    grid: ProbabilityGrid,
+    /// `levels[h - 1]` holds depth h.
+    levels: Vec<Level>,
+}
+
+impl MultiResolutionGrid {
+    /// Precomputes depths 1..=`depth` over `grid` (depth 0 is the grid itself).
+    ///
+    /// Errors: `depth` above [`MAX_DEPTH`], or levels totalling more than 2^25 cells.
+    pub fn new(grid: ProbabilityGrid, depth: u32) -> Result<Self, CorrelativeError> {
+        if depth > MAX_DEPTH {
+            return Err(CorrelativeError::InvalidParameter {
+                name: "depth",
+                value: f64::from(depth),
+            });
+        }
+        let total: f64 = (1..=depth)
+            .map(|h| {
+                let extra = f64::from((1u32 << h) - 1);
+                (grid.width() as f64 + extra) * (grid.height() as f64 + extra)
+            })
+            .sum();
+        if total > MAX_LEVEL_CELLS {
+            return Err(CorrelativeError::TooLarge {
+                what: "the precomputed grids (cells)",
+                amount: total,
+                limit: MAX_LEVEL_CELLS,
+            });
+        }
+        let mut levels: Vec<Level> = Vec::with_capacity(depth as usize);
+        for _ in 0..depth {
+            let next = levels.last().unwrap_or(&grid.level).doubled();
+            levels.push(next);
+        }
+        Ok(MultiResolutionGrid { grid, levels })
+    }
+
+    /// The base grid.
+    pub fn grid(&self) -> &ProbabilityGrid {
+        &self.grid
+    }
+
+    /// The deepest precomputed level.
+    pub fn depth(&self) -> u32 {
+        self.levels.len() as u32
+    }
+
+    /// The maximum of the base grid over the 2^`depth` × 2^`depth` block of cells whose lowest
+    /// corner is (`column`, `row`), in [0, 1]; `None` for a depth not precomputed.
+    pub fn max_value(&self, depth: u32, column: i64, row: i64) -> Option<f64> {
+        (depth <= self.depth()).then(|| f64::from(self.level(depth).get(column, row)) / VALUE_SCALE)
+    }
+
+    fn level(&self, depth: u32) -> &Level {
+        match depth {
+            0 => &self.grid.level,
+            h => &self.levels[h as usize - 1],
+        }
+    }
+}
+
+/// The motions searched around the initial pose.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SearchWindow {
+    /// Translations within this distance of the initial position (a disc), metres. They lie on
+    /// a lattice with the grid's cell as step.
+    pub linear_m: f64,
+    /// Rotations up to this either side of the initial heading, radians, in [0, π]. The steps
+    /// either side are ⌈`angular_rad` / step⌉.
+    pub angular_rad: f64,
+}
+
+/// A disc of translations left out of a search (see [`runner_up`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Exclusion {
+    /// The disc's centre, metres (in the grid's frame).
+    pub center_m: [f64; 2],
+    /// Motions whose position is closer than this to the centre are left out, metres.
+    pub radius_m: f64,
+}
+
+/// Options of [`search_with`] beyond the window.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct SearchOptions {
+    /// Rotation step, radians; `None` takes [`angular_step_rad`] of the scan (Hess et al.'s
+    /// choice: the farthest scan point moves at most one cell per step).
+    pub angular_step_rad: Option<f64>,
+    /// σ of a Gaussian prior on the translation's offset from the initial pose that multiplies
+    /// the score, metres; `None` for no prior.
+    pub prior_sigma_m: Option<f64>,
+    /// Translations left out of the search.
+    pub exclude: Option<Exclusion>,
+}
+
+/// The best motion of a search.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Match {
+    /// The scan's pose in the grid's frame.
+    pub pose: Pose2,
+    /// What was maximised: `mean_value` times the prior at this offset (1 without a prior).
+    pub score: f64,
+    /// Mean grid value at the moved scan points, in [0, 1].
+    pub mean_value: f64,
+    /// Translation from the initial pose, in cells (steps) along x and y.
+    pub offset_cells: [i64; 2],
+    /// Rotation from the initial pose, in angular steps.
+    pub rotation_steps: i64,
+    /// The angular step searched, radians.
+    pub angular_step_rad: f64,
+}
+
+/// Hess et al.'s rotation step for a scan: `acos(1 − r² / (2 d²))` with r the cell size and d
+/// the largest distance of a scan point from the scan's origin, so that a step moves no point by
+/// more than about one cell. π when every point lies within half a cell of the origin (rotation
+/// hardly matters there); NaN for an empty scan or a non-finite point.
+pub fn angular_step_rad(scan_points_m: &[[f64; 2]], cell_m: f64) -> f64 {
+    let farthest_m = scan_points_m
+        .iter()
+        .map(|p| p[0].hypot(p[1]))
+        .fold(f64::NAN, f64::max);
+    if scan_points_m
+        .iter()
+        .any(|p| !(p[0].is_finite() && p[1].is_finite()))
+    {
+        return f64::NAN;
+    }
+    (1.0 - cell_m * cell_m / (2.0 * farthest_m * farthest_m))
+        .clamp(-1.0, 1.0)
+        .acos()
+}
+
+/// The best motion of `scan_points_m` (metres, in the scan's frame) against `grids` within
+/// `window` of `initial`, with a score of at least `min_score`; `Ok(None)` if none has. The
+/// rotation step is [`angular_step_rad`] of the scan, and there is no prior.
+pub fn search(
+    grids: &MultiResolutionGrid,
+    scan_points_m: &[[f64; 2]],
+    initial: Pose2,
+    window: &SearchWindow,
+    min_score: f64,
+) -> Result<Option<Match>, CorrelativeError> {
+    search_with(
+        grids,
+        scan_points_m,
+        initial,
+        window,
+        &SearchOptions::default(),
+        min_score,
+    )
+}
+
+/// [`search`] with options: a given rotation step, a prior, an excluded disc.
+///
+/// Errors: an empty scan, a non-finite point or initial pose, an invalid window or option, or a
+/// window too large to enumerate (more than 2^14 steps either side, 2^16 rotations, or 2^22
+/// root nodes).
+pub fn search_with(
+    grids: &MultiResolutionGrid,
+    scan_points_m: &[[f64; 2]],
+    initial: Pose2,
+    window: &SearchWindow,
+    options: &SearchOptions,
+    min_score: f64,
+) -> Result<Option<Match>, CorrelativeError> {
+    let lattice = Lattice::new(
+        grids.grid(),
+        scan_points_m,
+        initial,
+        window,
+        options,
+        min_score,
+    )?;
+    Ok(lattice.branch_and_bound(grids)?.0)
+}
+
+/// The best motion at least `distance_m` (in position) from `best`, found by [`search_with`]
+/// with that disc excluded and no minimum score: the runner-up whose score, against the best's,
+/// says how distinct the best peak is. `Ok(None)` when the window holds no such motion.
+pub fn runner_up(
+    grids: &MultiResolutionGrid,
+    scan_points_m: &[[f64; 2]],
+    initial: Pose2,
+    window: &SearchWindow,
+    options: &SearchOptions,
+    best: &Match,
+    distance_m: f64,
+) -> Result<Option<Match>, CorrelativeError> {
+    let options = SearchOptions {
+        exclude: Some(Exclusion {
+            center_m: [best.pose.x_m, best.pose.y_m],
+            radius_m: distance_m,
+        }),
+        ..*options
+    };
+    search_with(grids, scan_points_m, initial, window, &options, 0.0)
+}
+
+/// The same search as [`search_with`], scoring every motion of the lattice in turn: the
+/// reference for tests and benchmarks. Its cost grows with the window's area times its
+/// rotations times the scan's points.
+pub fn exhaustive_search(
+    grid: &ProbabilityGrid,
+    scan_points_m: &[[f64; 2]],
+    initial: Pose2,
+    window: &SearchWindow,
+    options: &SearchOptions,
+    min_score: f64,
+) -> Result<Option<Match>, CorrelativeError> {
+    let lattice = Lattice::new(grid, scan_points_m, initial, window, options, min_score)?;
+    let steps = lattice.linear_steps;
+    let mut best: Option<Node> = None;
+    for rotation in 0..lattice.rotations() {
+        for x in -steps..=steps {
+            for y in -steps..=steps {
+                let Some(leaf) = lattice.node(&grid.level, rotation, x, y, 0) else {
+                    continue;
+                };
+                // Visited in key order: only a strictly higher score replaces the best.
+                if leaf.bound >= min_score && best.is_none_or(|b| leaf.bound > b.bound) {
+                    best = Some(leaf);
+                }
+            }
+        }
+    }
+    Ok(best.map(|leaf| lattice.to_match(&leaf)))
+}
+
+fn check_positive(name: &'static str, value: f64) -> Result<(), CorrelativeError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(CorrelativeError::InvalidParameter { name, value })
+    }
+}
+
+fn clamp_cell(cells: f64) -> i32 {
+    cells.floor().clamp(-CELL_LIMIT, CELL_LIMIT) as i32
+}
+
+fn too_large(what: &'static str, amount: f64, limit: f64) -> Result<(), CorrelativeError> {
+    if amount > limit {
+        Err(CorrelativeError::TooLarge {
+            what,
+            amount,
+            limit,
+        })
+    } else {
+        Ok(())
+    }
+}
+
+/// A search node: rotation `rotation`, translations [x0, x0 + 2^depth) × [y0, y0 + 2^depth)
+/// (clipped to the window), and its bound; for a leaf (depth 0) the bound is its score.
+#[derive(Debug, Clone, Copy)]
+struct Node {
+    rotation: usize,
+    x0: i64,
+    y0: i64,
+    depth: u32,
+    bound: f64,
+    mean_value: f64,
+}
+
+impl Node {
+    /// No leaf of the node has a smaller key than this.
+    fn key(&self) -> (usize, i64, i64) {
+        (self.rotation, self.x0, self.y0)
+    }
+
+    /// Whether a leaf under this node might be preferred to `best`: a higher score, or the same
+    /// with a smaller key.
+    fn may_beat(&self, min_score: f64, best: Option<&Node>) -> bool {
+        self.bound >= min_score
+            && best.is_none_or(|b| {
+                self.bound > b.bound || (self.bound == b.bound && self.key() < b.key())
+            })
+    }
+}
+
+/// The discretised search: the scan's cells for every rotation and the window's lattice.
+struct Lattice {
+    initial: Pose2,
+    cell_m: f64,
+    angular_step_rad: f64,
+    linear_steps: i64,
+    angular_steps: i64,
+    linear2_m2: f64,
+    prior_inverse_two_sigma2: Option<f64>,
+    exclude: Option<Exclusion>,
+    points: usize,
+    /// The cell of each scan point at the initial translation, rotation-major.
+    cells: Vec<[i32; 2]>,
+    /// 1 / (points × `VALUE_SCALE`): a sum of values times this is their mean.
+    mean_scale: f64,
+    min_score: f64,
+}
+
+impl Lattice {
+    fn new(
+        grid: &ProbabilityGrid,
+        scan_points_m: &[[f64; 2]],
+        initial: Pose2,
+        window: &SearchWindow,
+        options: &SearchOptions,
+        min_score: f64,
+    ) -> Result<Self, CorrelativeError> {
+        if scan_points_m.is_empty() {
+            return Err(CorrelativeError::EmptyScan);
+        }
+        if !scan_points_m
+            .iter()
+            .all(|p| p[0].is_finite() && p[1].is_finite())
+        {
+            return Err(CorrelativeError::NonFinite("a scan point"));
+        }
+        if !initial.is_finite() {
+            return Err(CorrelativeError::NonFinite("the initial pose"));
+        }
+        let invalid = |name, value| Err(CorrelativeError::InvalidParameter { name, value });
+        if !(window.linear_m.is_finite() && window.linear_m >= 0.0) {
+            return invalid("window.linear_m", window.linear_m);
+        }
+        if !(0.0..=std::f64::consts::PI).contains(&window.angular_rad) {
+            return invalid("window.angular_rad", window.angular_rad);
+        }
+        if min_score.is_nan() {
+            return invalid("min_score", min_score);
+        }
+        if let Some(sigma_m) = options.prior_sigma_m {
+            check_positive("options.prior_sigma_m", sigma_m)?;
+        }
+        if let Some(exclude) = options.exclude {
+            if !(exclude.center_m[0].is_finite() && exclude.center_m[1].is_finite()) {
+                return Err(CorrelativeError::NonFinite("the exclusion's centre"));
+            }
+            if !(exclude.radius_m.is_finite() && exclude.radius_m >= 0.0) {
+                return invalid("options.exclude.radius_m", exclude.radius_m);
+            }
+        }
+        let cell_m = grid.cell_m;
+        let angular_step_rad = match options.angular_step_rad {
+            Some(step_rad) => {
+                check_positive("options.angular_step_rad", step_rad)?;
+                step_rad
+            }
+            None => angular_step_rad(scan_points_m, cell_m),
+        };
+        let linear_steps = (window.linear_m / cell_m - RATIO_SLACK).ceil().max(0.0);
+        too_large("translation steps", linear_steps, MAX_LINEAR_STEPS)?;
+        let angular_steps = (window.angular_rad / angular_step_rad - RATIO_SLACK)
+            .ceil()
+            .max(0.0);
+        let rotations = 2.0 * angular_steps + 1.0;
+        too_large("rotations", rotations, MAX_ROTATIONS)?;
+        too_large(
+            "rotated scan cells",
+            rotations * scan_points_m.len() as f64,
+            MAX_ROTATED_CELLS,
+        )?;
+        let (linear_steps, angular_steps) = (linear_steps as i64, angular_steps as i64);
+
+        // Each point's cell at every rotation, once: translations are integer offsets of these.
+        let base_m = [
+            initial.x_m - grid.origin_m[0],
+            initial.y_m - grid.origin_m[1],
+        ];
+        let mut cells = Vec::with_capacity(rotations as usize * scan_points_m.len());
+        for step in -angular_steps..=angular_steps {
+            let (sin, cos) = (initial.yaw_rad + step as f64 * angular_step_rad).sin_cos();
+            cells.extend(scan_points_m.iter().map(|p| {
+                [
+                    clamp_cell((cos * p[0] - sin * p[1] + base_m[0]) / cell_m),
+                    clamp_cell((sin * p[0] + cos * p[1] + base_m[1]) / cell_m),
+                ]
+            }));
+        }
+        Ok(Lattice {
+            initial,
+            cell_m,
+            angular_step_rad,
+            linear_steps,
+            angular_steps,
+            linear2_m2: window.linear_m * window.linear_m,
+            prior_inverse_two_sigma2: options
+                .prior_sigma_m
+                .map(|sigma_m| 1.0 / (2.0 * sigma_m * sigma_m)),
+            exclude: options.exclude,
+            points: scan_points_m.len(),
+            cells,
+            mean_scale: 1.0 / (scan_points_m.len() as f64 * VALUE_SCALE),
+            min_score,
+        })
+    }
+
+    fn rotations(&self) -> usize {
+        (2 * self.angular_steps + 1) as usize
+    }
+
+    /// The position of the motion `(x, y)` steps from the initial pose, metres.
+    fn position_m(&self, x: i64, y: i64) -> [f64; 2] {
+        [
+            self.initial.x_m + x as f64 * self.cell_m,
+            self.initial.y_m + y as f64 * self.cell_m,
+        ]
+    }
+
+    fn excluded(&self, x: i64, y: i64, slack_m: f64) -> bool {
+        self.exclude.is_some_and(|e| {
+            let p = self.position_m(x, y);
+            (p[0] - e.center_m[0]).hypot(p[1] - e.center_m[1]) < e.radius_m - slack_m
+        })
+    }
+
+    /// The node of `rotation` over the block of 2^`depth` translations starting at (x0, y0), with
+    /// its bound from `level` (which must be that depth's); `None` when no leaf of the block is
+    /// in the window's disc, or all are excluded.
+    fn node(&self, level: &Level, rotation: usize, x0: i64, y0: i64, depth: u32) -> Option<Node> {
+        let x1 = (x0 + (1 << depth) - 1).min(self.linear_steps);
+        let y1 = (y0 + (1 << depth) - 1).min(self.linear_steps);
+        // The block's offset nearest the initial pose: the disc and the prior are judged there.
+        let nearest = |a: i64, b: i64| if b < 0 { b } else { a.max(0) };
+        let (nx, ny) = (nearest(x0, x1), nearest(y0, y1));
+        let nearest2 = (nx * nx + ny * ny) as f64 * self.cell_m * self.cell_m;
+        if nearest2 > self.linear2_m2 {
+            return None;
+        }
+        if depth == 0 {
+            if self.excluded(x0, y0, 0.0) {
+                return None;
+            }
+        } else if self.exclude.is_some() {
+            // The distance to the centre is convex, so the block's farthest leaf is a corner. A
+            // little slack keeps rounding from dropping a block whose corner is just outside.
+            let slack_m = 1e-9 * (1.0 + self.exclude.map_or(0.0, |e| e.radius_m));
+            if [(x0, y0), (x0, y1), (x1, y0), (x1, y1)]
+                .iter()
+                .all(|&(x, y)| self.excluded(x, y, slack_m))
+            {
+                return None;
+            }
+        }
+        let cells = &self.cells[rotation * self.points..(rotation + 1) * self.points];
+        let sum: u64 = cells
+            .iter()
+            .map(|c| u64::from(level.get(i64::from(c[0]) + x0, i64::from(c[1]) + y0)))
+            .sum();
+        let mean_value = sum as f64 * self.mean_scale;
+        let prior = self
+            .prior_inverse_two_sigma2
+            .map_or(1.0, |k| (-nearest2 * k).exp());
+        Some(Node {
+            rotation,
+            x0,
+            y0,
+            depth,
+            bound: mean_value * prior,
+            mean_value,
+        })
+    }
+
+    /// Branch and bound from the coarsest level of `grids`; the best leaf and the number of nodes
+    /// scored.
+    fn branch_and_bound(
+        &self,
+        grids: &MultiResolutionGrid,
+    ) -> Result<(Option<Match>, u64), CorrelativeError> {
+        let depth = grids.depth();
+        let size = 1i64 << depth;
+        let per_axis = (2 * self.linear_steps + 1 + size - 1) / size;
+        too_large(
+            "root nodes",
+            (per_axis * per_axis) as f64 * self.rotations() as f64,
+            MAX_ROOT_NODES,
+        )?;
+        let level = grids.level(depth);
+        let mut roots = Vec::new();
+        for rotation in 0..self.rotations() {
+            for i in 0..per_axis {
+                for j in 0..per_axis {
+                    let (x0, y0) = (-self.linear_steps + i * size, -self.linear_steps + j * size);
+                    roots.extend(self.node(level, rotation, x0, y0, depth));
+                }
+            }
+        }
+        let mut scored = roots.len() as u64;
+        let mut best = None;
+        self.descend(grids, roots, &mut best, &mut scored);
+        Ok((best.map(|leaf| self.to_match(&leaf)), scored))
+    }
+
+    /// Visits `nodes` best bound first (then smallest key), descending into those that may beat
+    /// the best leaf so far.
+    fn descend(
+        &self,
+        grids: &MultiResolutionGrid,
+        mut nodes: Vec<Node>,
+        best: &mut Option<Node>,
+        scored: &mut u64,
+    ) {
+        nodes.sort_unstable_by(|a, b| b.bound.total_cmp(&a.bound).then(a.key().cmp(&b.key())));
+        for node in nodes {
+            // Sorted by bound, then key: once a node cannot beat the best, no later one can
+            // (and the best only gets harder to beat).
+            if !node.may_beat(self.min_score, best.as_ref()) {
+                break;
+            }
+            if node.depth == 0 {
+                *best = Some(node);
+                continue;
+            }
+            let depth = node.depth - 1;
+            let half = 1i64 << depth;
+            let level = grids.level(depth);
+            let mut children = Vec::with_capacity(4);
+            for (dx, dy) in [(0, 0), (0, half), (half, 0), (half, half)] {
+                let (x0, y0) = (node.x0 + dx, node.y0 + dy);
+                if x0 <= self.linear_steps && y0 <= self.linear_steps {
+                    children.extend(self.node(level, node.rotation, x0, y0, depth));
+                }
+            }
+            *scored += children.len() as u64;
+            self.descend(grids, children, best, scored);
+        }
+    }
+
+    fn to_match(&self, leaf: &Node) -> Match {
+        let rotation_steps = leaf.rotation as i64 - self.angular_steps;
+        let [x_m, y_m] = self.position_m(leaf.x0, leaf.y0);
+        Match {
+            pose: Pose2::new(
+                x_m,
+                y_m,
+                self.initial.yaw_rad + rotation_steps as f64 * self.angular_step_rad,
+            ),
+            score: leaf.bound,
+            mean_value: leaf.mean_value,
+            offset_cells: [leaf.x0, leaf.y0],
+            rotation_steps,
+            angular_step_rad: self.angular_step_rad,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+    use std::f64::consts::PI;
+
+    /// Outlines of boxes and circles over about 20 m, a point every `spacing_m`.
+    fn scene(spacing_m: f64) -> Vec<[f64; 2]> {
+        let mut points = Vec::new();
+        for &(x0, y0, w, h) in &[
+            (2.0, 3.0, 4.0, 2.0),
+            (9.0, 1.0, 1.5, 3.0),
+            (4.0, 9.0, 3.0, 1.0),
+            (-6.0, -4.0, 2.0, 5.0),
+        ] {
+            let corners = [[x0, y0], [x0 + w, y0], [x0 + w, y0 + h], [x0, y0 + h]];
+            for i in 0..4 {
+                let (a, b): ([f64; 2], [f64; 2]) = (corners[i], corners[(i + 1) % 4]);
+                let n = ((b[0] - a[0]).hypot(b[1] - a[1]) / spacing_m).round() as usize;
+                for k in 0..n {
+                    let s = k as f64 / n as f64;
+                    points.push([a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1])]);
+                }
+            }
+        }
+        for &(cx, cy, r) in &[(12.0, 8.0, 1.0), (-3.0, 7.0, 0.6), (6.0, -5.0, 1.5)] {
+            let n = (2.0 * PI * r / spacing_m).round() as usize;
+            for k in 0..n {
+                let a = 2.0 * PI * k as f64 / n as f64;
+                points.push([cx + r * a.cos(), cy + r * a.sin()]);
+            }
+        }
+        points
+    }
+
+    fn seen_from(pose: &Pose2, points: &[[f64; 2]]) -> Vec<[f64; 2]> {
+        let inverse = pose.inverse();
+        points.iter().map(|p| inverse.transform_point(*p)).collect()
+    }
+
+    fn grids(points: &[[f64; 2]], cell_m: f64, sigma_m: f64, depth: u32) -> MultiResolutionGrid {
+        MultiResolutionGrid::new(
+            ProbabilityGrid::new(points, cell_m, sigma_m).unwrap(),
+            depth,
+        )
+        .unwrap()
+    }
+
+    /// The branch and bound with its count of scored nodes.
+    fn counted(
+        grids: &MultiResolutionGrid,
+        scan: &[[f64; 2]],
+        initial: Pose2,
+        window: &SearchWindow,
+        options: &SearchOptions,
+        min_score: f64,
+    ) -> (Option<Match>, u64) {
+        Lattice::new(grids.grid(), scan, initial, window, options, min_score)
+            .unwrap()
+            .branch_and_bound(grids)
+            .unwrap()
+    }
+
+    #[test]
+    fn grid_values_peak_at_a_point_and_fall_off_with_distance() {
+        // The grid starts 3σ = 0.6 m below the lowest point: cells [−0.6 + 0.1 k, …).
+        let grid = ProbabilityGrid::new(&[[0.0, 0.0], [0.37, 0.12]], 0.1, 0.2).unwrap();
+        let origin_m = grid.origin_m();
+        assert!((origin_m[0] + 0.6).abs() < 1e-12 && (origin_m[1] + 0.6).abs() < 1e-12);
+        // A point's own cell is worth 1 wherever the point lies in it.
+        assert_eq!(grid.value_at_m([0.37, 0.12]), 1.0);
+        assert_eq!(grid.value_at_m([0.31, 0.19]), 1.0);
+        // The cell [0.6, 0.7) × [0.1, 0.2) is 0.23 m from (0.37, 0.12), along x, and out of
+        // reach of (0, 0): worth exp(−d²/2σ²).
+        let expected = (-0.23f64.powi(2) / (2.0 * 0.04)).exp();
+        assert!((grid.value_at_m([0.65, 0.15]) - expected).abs() < 1e-4);
+        assert!((grid.value(12, 7) - expected).abs() < 1e-4);
+        // Beyond 3σ, nothing; outside the grid, nothing.
+        assert_eq!(grid.value_at_m([0.37 + 0.75, 0.12]), 0.0);
+        assert_eq!(grid.value_at_m([50.0, 0.12]), 0.0);
+        assert_eq!(grid.value(-1, 0), 0.0);
+        // The points' extent plus 3σ either side: (0.97 + 0.6) / 0.1 and (0.72 + 0.6) / 0.1
+        // cells, plus the partial cell.
+        assert_eq!((grid.width(), grid.height()), (16, 14));
+    }
+
+    #[test]
+    fn max_grids_are_the_block_maxima_so_never_underestimate() {
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let points: Vec<[f64; 2]> = (0..60)
+            .map(|_| [rng.random_range(-2.0..3.0), rng.random_range(-1.0..2.0)])
+            .collect();
+        let grids = grids(&points, 0.1, 0.07, 5);
+        let base = grids.grid();
+        let (w, h) = (base.width() as i64, base.height() as i64);
+        for depth in 0..=5u32 {
+            let size = 1i64 << depth;
+            for y in -size - 1..h + 2 {
+                for x in -size - 1..w + 2 {
+                    let mut block_max = 0.0f64;
+                    for dy in 0..size {
+                        for dx in 0..size {
+                            block_max = block_max.max(base.value(x + dx, y + dy));
+                        }
+                    }
+                    let stored = grids.max_value(depth, x, y).unwrap();
+                    assert!(stored >= block_max, "depth {depth} ({x}, {y})");
+                    assert_eq!(stored, block_max, "depth {depth} ({x}, {y})");
+                }
+            }
+        }
+        assert_eq!(grids.max_value(6, 0, 0), None);
+        // Some block maxima are below 1 and above 0: the comparison above tested something.
+        let some = grids.max_value(2, 3, 3).unwrap();
+        assert!(grids.max_value(5, 0, 0).unwrap() > 0.0 && some.is_finite());
+    }
+
+    #[test]
+    fn a_shifted_and_rotated_scan_is_recovered_within_a_cell_and_a_step() {
+        let points = scene(0.1);
+        let truth = Pose2::new(1.3, 0.4, 0.25);
+        let scan: Vec<[f64; 2]> = seen_from(&truth, &points).into_iter().step_by(3).collect();
+        let initial = Pose2::new(truth.x_m + 0.83, truth.y_m - 1.17, truth.yaw_rad + 0.09);
+        let window = SearchWindow {
+            linear_m: 2.0,
+            angular_rad: 0.2,
+        };
+        for cell_m in [0.1, 0.25] {
+            let grids = grids(&points, cell_m, 0.1, 4);
+            let found = search(&grids, &scan, initial, &window, 0.5)
+                .unwrap()
+                .unwrap();
+            assert!((found.pose.x_m - truth.x_m).abs() <= cell_m, "{found:?}");
+            assert!((found.pose.y_m - truth.y_m).abs() <= cell_m, "{found:?}");
+            assert!(found.pose.rotation_to_rad(&truth) <= found.angular_step_rad);
+            assert!(found.mean_value > 0.8, "{found:?}");
+            // Hess et al.'s step for this scan: the farthest point is ~17 m away.
+            assert!(found.angular_step_rad < 0.02 && found.angular_step_rad > 0.004);
+        }
+    }
+
+    #[test]
+    fn branch_and_bound_scores_a_small_part_of_the_lattice() {
+        let points = scene(0.1);
+        let truth = Pose2::new(1.3, 0.4, 0.25);
+        let scan: Vec<[f64; 2]> = seen_from(&truth, &points).into_iter().step_by(4).collect();
+        let initial = Pose2::new(truth.x_m - 2.1, truth.y_m + 3.3, truth.yaw_rad - 0.1);
+        let window = SearchWindow {
+            linear_m: 6.0,
+            angular_rad: 12f64.to_radians(),
+        };
+        let options = SearchOptions {
+            angular_step_rad: Some(1f64.to_radians()),
+            ..SearchOptions::default()
+        };
+        let grids = grids(&points, 0.25, 0.25, 4);
+        let (found, scored) = counted(&grids, &scan, initial, &window, &options, 0.0);
+        let exhaustive =
+            exhaustive_search(grids.grid(), &scan, initial, &window, &options, 0.0).unwrap();
+        assert_eq!(found, exhaustive);
+        // 25 rotations × ~1810 translations in the disc.
+        let lattice = 25 * 1810;
+        assert!(scored * 20 < lattice, "{scored} of {lattice}");
+        assert!(found.unwrap().pose.distance_m(&truth) <= 0.25 * 2f64.sqrt());
+    }
+
+    #[test]
+    fn ties_go_to_the_smallest_rotation_then_offset() {
+        // A line of points along y = 0 from x = 0 to 3 m; one scan point at the scan's origin.
+        // Every rotation puts it in the same cell, and every cell on the line is worth 1.
+        let line: Vec<[f64; 2]> = (0..=30).map(|i| [f64::from(i) * 0.1, 0.0]).collect();
+        let grids = grids(&line, 0.1, 0.05, 3);
+        let initial = Pose2::new(1.52, 0.41, 0.0);
+        let window = SearchWindow {
+            linear_m: 1.0,
+            angular_rad: 0.1,
+        };
+        let options = SearchOptions {
+            angular_step_rad: Some(0.05),
+            ..SearchOptions::default()
+        };
+        let scan = [[0.0, 0.0]];
+        let found = search_with(&grids, &scan, initial, &window, &options, 0.0)
+            .unwrap()
+            .unwrap();
+        let exhaustive = exhaustive_search(grids.grid(), &scan, initial, &window, &options, 0.0)
+            .unwrap()
+            .unwrap();
+        assert_eq!(found, exhaustive);
+        assert_eq!(found.rotation_steps, -2);
+        assert_eq!(found.score, 1.0);
+        // y = 0.41 − 0.4 = 0.01 lies in the line's cells' row; the smallest x offset inside the
+        // 1 m disc at dy = −4 cells is −9 (9² + 4² = 97 ≤ 100).
+        assert_eq!(found.offset_cells, [-9, -4]);
+
+        // Two leaves worth 1 under the depth-2 root over offsets [−2, 1]², in different children:
+        // (−1, −2) in the child visited first, (−2, 0), the smaller key, in a later one whose
+        // bound only ties the best found. The search must still descend into it.
+        let pair = self::grids(&[[-0.1, -0.2], [-0.2, 0.0]], 0.1, 0.01, 2);
+        let window = SearchWindow {
+            linear_m: 0.6,
+            angular_rad: 0.0,
+        };
+        let (found, _) = counted(&pair, &scan, Pose2::IDENTITY, &window, &options, 0.0);
+        assert_eq!(found.unwrap().offset_cells, [-2, 0]);
+        assert_eq!(found.unwrap().score, 1.0);
+        let exhaustive =
+            exhaustive_search(pair.grid(), &scan, Pose2::IDENTITY, &window, &options, 0.0);
+        assert_eq!(found, exhaustive.unwrap());
+    }
+
+    #[test]
+    fn the_runner_up_tells_a_repetitive_row_from_a_distinct_scene() {
+        // Identical boxes every 4 m along x: one pitch away the query fits as well.
+        let mut row = Vec::new();
+        for k in 0..8 {
+            let x0 = 4.0 * f64::from(k);
+            for i in 0..10 {
+                let s = f64::from(i) * 0.2;
+                row.extend([[x0 + s, 0.0], [x0 + s, 2.0], [x0, s], [x0 + 2.0, s]]);
+            }
+        }
+        let query: Vec<[f64; 2]> = row
+            .iter()
+            .filter(|p| p[0] > 8.0 && p[0] < 20.0)
+            .copied()
+            .collect();
+        let window = SearchWindow {
+            linear_m: 6.0,
+            angular_rad: 0.1,
+        };
+        let options = SearchOptions {
+            angular_step_rad: Some(0.02),
+            ..SearchOptions::default()
+        };
+        let check = |map: &[[f64; 2]], query: &[[f64; 2]], initial: Pose2| {
+            let grids = grids(map, 0.25, 0.2, 4);
+            let best = search_with(&grids, query, initial, &window, &options, 0.0)
+                .unwrap()
+                .unwrap();
+            let second = runner_up(&grids, query, initial, &window, &options, &best, 2.0)
+                .unwrap()
+                .unwrap();
+            assert!(second.pose.distance_m(&best.pose) >= 2.0);
+            let exclude = Exclusion {
+                center_m: [best.pose.x_m, best.pose.y_m],
+                radius_m: 2.0,
+            };
+            let reference = exhaustive_search(
+                grids.grid(),
+                query,
+                initial,
+                &window,
+                &SearchOptions {
+                    exclude: Some(exclude),
+                    ..options
+                },
+                0.0,
+            )
+            .unwrap();
+            assert_eq!(Some(second), reference);
+            second.score / best.score
+        };
+        let repetitive = check(&row, &query, Pose2::new(2.0, 0.0, 0.0));
+        assert!(repetitive > 0.95, "{repetitive}");
+        let points = scene(0.2);
+        let truth = Pose2::new(0.5, -0.5, 0.1);
+        let distinct = check(&points, &seen_from(&truth, &points), truth);
+        assert!(distinct < 0.6, "{distinct}");
+    }
+
+    #[test]
+    fn bad_inputs_are_errors_not_panics() {
+        let points = scene(0.2);
+        assert_eq!(
+            ProbabilityGrid::new(&[], 0.1, 0.1).unwrap_err(),
+            CorrelativeError::EmptyMap
+        );
+        assert!(matches!(
+            ProbabilityGrid::new(&[[0.0, f64::NAN]], 0.1, 0.1),
+            Err(CorrelativeError::NonFinite(_))
+        ));
+        for (cell_m, sigma_m) in [(0.0, 0.1), (-0.1, 0.1), (f64::NAN, 0.1), (0.1, 0.0)] {
+            assert!(matches!(
+                ProbabilityGrid::new(&points, cell_m, sigma_m),
+                Err(CorrelativeError::InvalidParameter { .. })
+            ));
+        }
+        let grid = ProbabilityGrid::new(&points, 0.25, 0.2).unwrap();
+        assert!(matches!(
+            MultiResolutionGrid::new(grid.clone(), MAX_DEPTH + 1),
+            Err(CorrelativeError::InvalidParameter { name: "depth", .. })
+        ));
+        let grids = MultiResolutionGrid::new(grid, 3).unwrap();
+        let window = SearchWindow {
+            linear_m: 1.0,
+            angular_rad: 0.1,
+        };
+        let run = |scan: &[[f64; 2]], initial: Pose2, window: SearchWindow, min_score: f64| {
+            search(&grids, scan, initial, &window, min_score)
+        };
+        let id = Pose2::IDENTITY;
+        assert_eq!(
+            run(&[], id, window, 0.0).unwrap_err(),
+            CorrelativeError::EmptyScan
+        );
+        assert!(matches!(
+            run(&[[1.0, 1.0], [f64::NAN, 0.0]], id, window, 0.0),
+            Err(CorrelativeError::NonFinite(_))
+        ));
+        assert!(matches!(
+            run(&points, Pose2::new(f64::INFINITY, 0.0, 0.0), window, 0.0),
+            Err(CorrelativeError::NonFinite(_))
+        ));
+        for bad in [
+            SearchWindow {
+                linear_m: f64::NAN,
+                angular_rad: 0.1,
+            },
+            SearchWindow {
+                linear_m: -1.0,
+                angular_rad: 0.1,
+            },
+            SearchWindow {
+                linear_m: 1.0,
+                angular_rad: 4.0,
+            },
+        ] {
+            assert!(matches!(
+                run(&points, id, bad, 0.0),
+                Err(CorrelativeError::InvalidParameter { .. })
+            ));
+        }
+        assert!(matches!(
+            run(&points, id, window, f64::NAN),
+            Err(CorrelativeError::InvalidParameter { .. })
+        ));
+        for options in [
+            SearchOptions {
+                prior_sigma_m: Some(0.0),
+                ..SearchOptions::default()
+            },
+            SearchOptions {
+                angular_step_rad: Some(f64::NAN),
+                ..SearchOptions::default()
+            },
+            SearchOptions {
+                exclude: Some(Exclusion {
+                    center_m: [0.0, 0.0],
+                    radius_m: f64::NAN,
+                }),
+                ..SearchOptions::default()
+            },
+        ] {
+            assert!(matches!(
+                search_with(&grids, &points, id, &window, &options, 0.0),
+                Err(CorrelativeError::InvalidParameter { .. })
+            ));
+        }
+        // A score nobody reaches is no match, not an error.
+        assert_eq!(run(&points, id, window, 1.5), Ok(None));
+        assert!(angular_step_rad(&[], 0.1).is_nan());
+        // A scan all at its origin: rotation does not matter, the step is π.
+        assert_eq!(angular_step_rad(&[[0.0, 0.0]], 0.1), PI);
+    }
+
+    #[test]
+    fn huge_coordinates_are_refused_or_handled_without_huge_allocations() {
+        // Points 2e9 m apart would need ~10^20 cells: refused before allocating.
+        assert!(matches!(
+            ProbabilityGrid::new(&[[-1e9, -1e9], [1e9, 1e9]], 0.1, 0.1),
+            Err(CorrelativeError::TooLarge { .. })
+        ));
+        // A blur of a kilometre at 1 cm cells, likewise.
+        assert!(matches!(
+            ProbabilityGrid::new(&[[0.0, 0.0]], 0.01, 1e3),
+            Err(CorrelativeError::TooLarge { .. })
+        ));
+        // A compact scene far from the origin is an ordinary grid and search.
+        let far = Pose2::new(1e9, -1e9, 0.0);
+        let points: Vec<[f64; 2]> = scene(0.2).iter().map(|p| far.transform_point(*p)).collect();
+        let grids = grids(&points, 0.25, 0.2, 4);
+        assert!(grids.grid().width() * grids.grid().height() < 1_000_000);
+        let truth = far.compose(&Pose2::new(0.5, 0.5, 0.05));
+        let scan = seen_from(&truth, &points);
+        let initial = Pose2::new(truth.x_m + 0.6, truth.y_m - 0.4, truth.yaw_rad);
+        let window = SearchWindow {
+            linear_m: 1.5,
+            angular_rad: 0.1,
+        };
+        let found = search(&grids, &scan, initial, &window, 0.5)
+            .unwrap()
+            .unwrap();
+        assert!(
+            found.pose.distance_m(&truth) <= 0.25 * 2f64.sqrt(),
+            "{found:?}"
+        );
+        // A scan a billion metres from the map scores nothing anywhere.
+        let lost = Pose2::new(-1e9, 1e9, 0.0);
+        assert_eq!(search(&grids, &scan, lost, &window, 0.01), Ok(None));
+        let zero = search(&grids, &scan, lost, &window, 0.0).unwrap().unwrap();
+        assert_eq!(zero.score, 0.0);
+        // Windows that cannot be enumerated are refused.
+        let wide = SearchWindow {
+            linear_m: 1e9,
+            angular_rad: 0.1,
+        };
+        assert!(matches!(
+            search(&grids, &scan, initial, &wide, 0.0),
+            Err(CorrelativeError::TooLarge { .. })
+        ));
+        let fine = SearchOptions {
+            angular_step_rad: Some(1e-12),
+            ..SearchOptions::default()
+        };
+        assert!(matches!(
+            search_with(&grids, &scan, initial, &window, &fine, 0.0),
+            Err(CorrelativeError::TooLarge { .. })
+        ));
+    }
+
+    /// A random scene: clustered points (so that the grid has structure), a scan of some of them
+    /// seen from a random pose plus outliers, an initial pose off the truth, a window, options.
+    #[allow(clippy::type_complexity)]
+    fn case() -> impl Strategy<
+        Value = (
+            Vec<[f64; 2]>,
+            Vec<[f64; 2]>,
+            Pose2,
+            f64,
+            f64,
+            SearchWindow,
+            SearchOptions,
+            u32,
+            f64,
+        ),
+    > {
+        (
+            prop::collection::vec((-3.0..3.0f64, -3.0..3.0f64), 1..40),
+            prop::collection::vec((-4.0..4.0f64, -4.0..4.0f64), 0..5),
+            (-0.5..0.5f64, -0.5..0.5f64, -0.5..0.5f64),
+            (-1.0..1.0f64, -1.0..1.0f64, -0.2..0.2f64),
+            prop::sample::select(vec![0.1, 0.2, 0.3]),
+            0.03..0.4f64,
+            (0.0..1.5f64, 0.0..0.3f64),
+            (
+                prop::option::of(0.02..0.1f64),
+                prop::option::of(0.2..2.0f64),
+                prop::option::of((-1.0..1.0f64, -1.0..1.0f64, 0.0..1.2f64)),
+            ),
+            0..6u32,
+            prop::sample::select(vec![0.0, 0.0, 0.2, 0.5, 0.9]),
+        )
+            .prop_map(
+                |(map, outliers, truth, offset, cell_m, sigma_m, window, options, depth, min)| {
+                    let map: Vec<[f64; 2]> = map.into_iter().map(|(x, y)| [x, y]).collect();
+                    let truth = Pose2::new(truth.0, truth.1, truth.2);
+                    let mut scan = seen_from(&truth, &map);
+                    scan.extend(outliers.into_iter().map(|(x, y)| [x, y]));
+                    let initial = Pose2::new(
+                        truth.x_m + offset.0,
+                        truth.y_m + offset.1,
+                        truth.yaw_rad + offset.2,
+                    );
+                    let window = SearchWindow {
+                        linear_m: window.0,
+                        angular_rad: window.1,
+                    };
+                    let (step, prior, exclude) = options;
+                    let options = SearchOptions {
+                        angular_step_rad: step,
+                        prior_sigma_m: prior,
+                        exclude: exclude.map(|(dx, dy, radius_m)| Exclusion {
+                            center_m: [initial.x_m + dx, initial.y_m + dy],
+                            radius_m,
+                        }),
+                    };
+                    (
+                        map, scan, initial, cell_m, sigma_m, window, options, depth, min,
+                    )
+                },
+            )
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(200))]
+
+        #[test]
+        fn branch_and_bound_equals_the_exhaustive_search(
+            (map, scan, initial, cell_m, sigma_m, window, options, depth, min_score) in case()
+        ) {
+            let grids = grids(&map, cell_m, sigma_m, depth);
+            let fast = search_with(&grids, &scan, initial, &window, &options, min_score);
+            let slow =
+                exhaustive_search(grids.grid(), &scan, initial, &window, &options, min_score);
+            prop_assert_eq!(fast, slow);
+        }
+
+        #[test]
+        fn max_grids_never_underestimate_random_grids(
+            points in prop::collection::vec((-2.0..2.0f64, -2.0..2.0f64), 1..20),
+            cell_m in 0.05..0.5f64,
+            sigma_m in 0.01..0.5f64,
+            depth in 0..4u32,
+            x in -20..40i64,
+            y in -20..40i64,
+        ) {
+            let points: Vec<[f64; 2]> = points.into_iter().map(|(x, y)| [x, y]).collect();
+            let grids = grids(&points, cell_m, sigma_m, depth);
+            let size = 1i64 << depth;
+            let mut block_max = 0.0f64;
+            for dy in 0..size {
+                for dx in 0..size {
+                    block_max = block_max.max(grids.grid().value(x + dx, y + dy));
+                }
+            }
+            prop_assert!(grids.max_value(depth, x, y).unwrap() >= block_max);
+        }
+    }
+}
