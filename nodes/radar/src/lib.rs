@@ -12,6 +12,7 @@
 //! | module | what |
 //! |---|---|
 //! | [`scene`] | targets (exact shape, outline, ET-GOPSA samples, scatterers) from a TOML file |
+//! | [`random_scene`] | random scenes (irregular rectangles and circles, randomised loop) from a seed |
 //! | [`trajectory`] | the AGV's counter-clockwise loop, true pose per frame |
 //! | [`visibility`] | range, field of view, facing and occlusion: which scatterers are seen |
 //! | [`ideal`] | the `ideal` measurement model: true range/angle + N(0, ΔR²), N(0, Δθ²) |
@@ -43,6 +44,7 @@ pub mod ideal;
 pub mod node;
 pub mod odometry;
 pub mod params;
+pub mod random_scene;
 pub mod scene;
 pub mod sim;
 pub mod trajectory;

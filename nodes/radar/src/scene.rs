@@ -18,7 +18,7 @@
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::path::Path;
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use crate::error::{FieldError, SceneError};
 use crate::geometry::{
@@ -43,7 +43,7 @@ pub const MAX_SCATTERERS_PER_TARGET: f64 = 1e6;
 // ---------------------------------------------------------------------------------------------
 
 /// The scene file as written (TOML). See `config/hall.toml` for a commented example.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct SceneSpec {
     /// Distance between neighbouring scatterers along each outline (m); each edge is divided
@@ -67,7 +67,7 @@ fn default_spacing() -> f64 {
 }
 
 /// The hall's floor: the rectangle [0, width_m] × [0, height_m] of the map frame.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct HallSpec {
     /// Extent along x (m).
@@ -77,7 +77,7 @@ pub struct HallSpec {
 }
 
 /// The radar as mounted on the AGV (a ULA at the AGV centre, docs/conventions.md).
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SensorSpec {
     /// Array boresight relative to the AGV heading, degrees counter-clockwise (90 = left).
@@ -99,7 +99,7 @@ impl Default for SensorSpec {
 }
 
 /// Kind of an extended target.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum ShapeKind {
     /// A rectangle: `center_m`, `size_m`, optional `yaw_deg`.
@@ -109,7 +109,7 @@ pub enum ShapeKind {
 }
 
 /// One extended target as written. Fields that do not belong to the shape are refused.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct TargetSpec {
     /// Human-readable name (documentation and error messages only).
@@ -120,13 +120,13 @@ pub struct TargetSpec {
     /// Centre (m), map frame.
     pub center_m: [f64; 2],
     /// Rectangle: [width, height] (m) along its own x and y axes.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub size_m: Option<[f64; 2]>,
     /// Rectangle: rotation of its own x axis from the map's +x (degrees, counter-clockwise).
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub yaw_deg: Option<f64>,
     /// Circle: radius (m).
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub radius_m: Option<f64>,
 }
 

@@ -10,7 +10,7 @@
 
 use std::f64::consts::{FRAC_PI_2, PI};
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use crate::error::FieldError;
 use crate::geometry::{Pose2, Vec2};
@@ -24,7 +24,7 @@ pub const T0_S: f64 = 1.0;
 pub const MAX_FRAMES: usize = 10_000_000;
 
 /// The `[trajectory]` table of the scene file.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct TrajectorySpec {
     /// Left straight's x (m).
