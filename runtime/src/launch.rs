@@ -10,16 +10,29 @@
 //! default = 1.0
 //! description = "angle error std Δθ (deg)"
 //!
+//! [arguments.scene]
+//! default = "../config/hall.toml"          # written in the file: against the file's folder
+//! description = "scene file"
+//! path = true                              # scene:=out/s1.toml: against the current directory
+//!
 //! [[node]]
 //! name = "radar"
 //! kind = "radar"
 //! [node.params]
 //! angle_std_deg = "$(var angle_std_deg)"   # whole value: takes the argument's type
-//! scene = "../config/hall.toml"            # relative paths: against the launch file's folder
+//! scene = "$(var scene)"                  # relative paths: against the launch file's folder
 //! ```
 //!
 //! A string that is exactly `$(var NAME)` becomes the argument's typed value; `$(var NAME)` inside a
 //! longer string is replaced by its text. Every error names the file, the field and what is allowed.
+//!
+//! Paths: a relative path in a node's parameters resolves against the launch file's folder, so
+//! the file works from any directory. An argument declared `path = true` is a file path typed by
+//! the user: a relative value given on the command line (`scene:=out/s1.toml`) is made absolute
+//! against the current directory, as a shell user expects; its default, written in the file,
+//! stays relative and so resolves against the file's folder like every other path there.
+//! [`Launch::arguments`] keeps the values as typed (what a run's summary records), the node
+//! parameters get the resolved ones.
 
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -67,6 +80,10 @@ pub struct Argument {
     /// What it sets, with its unit.
     #[serde(default)]
     pub description: String,
+    /// The argument is a file path (string default): a relative value given on the command line
+    /// resolves against the current directory, the default against the launch file's folder.
+    #[serde(default)]
+    pub path: bool,
 }
 
 /// A node of the graph.
@@ -109,7 +126,9 @@ pub struct Launch {
     pub mode: Mode,
     /// Declared arguments.
     pub declared: BTreeMap<String, Argument>,
-    /// Every argument's effective value (defaults overridden by `name:=value`).
+    /// Every argument's effective value (defaults overridden by `name:=value`), as typed: a
+    /// `path = true` argument's command-line value before it is made absolute, so that a run's
+    /// record does not depend on the directory it was started from.
     pub arguments: BTreeMap<String, toml::Value>,
     /// The nodes, parameters substituted.
     pub nodes: Vec<NodeDecl>,
@@ -259,8 +278,21 @@ impl Launch {
         Self::parse(path, &text, overrides)
     }
 
-    /// Parses launch `text` as if read from `path`.
+    /// Parses launch `text` as if read from `path`; relative command-line values of `path = true`
+    /// arguments resolve against the process's current directory.
     pub fn parse(path: &Path, text: &str, overrides: &[String]) -> Result<Launch, LaunchError> {
+        let cwd = std::env::current_dir().ok();
+        Self::parse_in(path, text, overrides, cwd.as_deref())
+    }
+
+    /// As [`Launch::parse`], with the directory that relative command-line values of
+    /// `path = true` arguments resolve against given (`None`: unknown, an error if one is needed).
+    pub fn parse_in(
+        path: &Path,
+        text: &str,
+        overrides: &[String],
+        cwd: Option<&Path>,
+    ) -> Result<Launch, LaunchError> {
         let raw: RawLaunch = toml::from_str(text).map_err(|e| LaunchError::Parse {
             path: path.to_owned(),
             message: e.message().to_owned() + &location(text, e.span()),
@@ -269,11 +301,26 @@ impl Launch {
             description: String::new(),
             mode: Mode::default(),
         });
+        for (name, argument) in &raw.arguments {
+            if argument.path && !argument.default.is_str() {
+                return Err(LaunchError::Argument {
+                    path: path.to_owned(),
+                    name: name.clone(),
+                    problem: format!(
+                        "path = true needs a string default, got {}",
+                        type_name(&argument.default)
+                    ),
+                });
+            }
+        }
         let mut arguments: BTreeMap<String, toml::Value> = raw
             .arguments
             .iter()
             .map(|(name, argument)| (name.clone(), argument.default.clone()))
             .collect();
+        // What the node parameters receive: `arguments` with relative command-line paths made
+        // absolute against the current directory.
+        let mut resolved = arguments.clone();
         for text in overrides {
             let (name, value) = parse_assignment(text).ok_or_else(|| LaunchError::Argument {
                 path: path.to_owned(),
@@ -301,6 +348,26 @@ impl Launch {
                     name: name.clone(),
                     problem: format!("{value:?} is not {}", type_name(&declared.default)),
                 })?;
+            let effective = match &typed {
+                toml::Value::String(text) if declared.path && !text.is_empty() => {
+                    let given = Path::new(text);
+                    if given.is_absolute() {
+                        typed.clone()
+                    } else {
+                        let cwd = cwd.ok_or_else(|| LaunchError::Argument {
+                            path: path.to_owned(),
+                            name: name.clone(),
+                            problem: format!(
+                                "{text:?} is relative and the current directory is unknown; \
+                                 give an absolute path"
+                            ),
+                        })?;
+                        toml::Value::String(cwd.join(given).display().to_string())
+                    }
+                }
+                _ => typed.clone(),
+            };
+            resolved.insert(name.clone(), effective);
             arguments.insert(name, typed);
         }
         let mut nodes = raw.node;
@@ -349,7 +416,7 @@ impl Launch {
         for node in &mut nodes {
             let name = node.name.clone();
             for (_, value) in node.params.iter_mut() {
-                substitute(value, &arguments, path, &name)?;
+                substitute(value, &resolved, path, &name)?;
             }
         }
         let base_dir = path.parent().map(Path::to_owned).unwrap_or_default();
@@ -441,6 +508,64 @@ name = "x-$(var label)-y"
         let error = load(&["angle_std_deg=1"]).unwrap_err().to_string();
         assert!(error.contains("name:=value"), "{error}");
         assert!(load(&["angle_std_deg:=inf"]).is_err());
+    }
+
+    #[test]
+    fn path_arguments_resolve_command_line_values_against_the_current_directory() {
+        let text = r#"
+[arguments.scene]
+default = "../config/hall.toml"
+path = true
+[arguments.label]
+default = "out/x.toml"
+[[node]]
+name = "radar"
+kind = "radar"
+[node.params]
+scene = "$(var scene)"
+label = "$(var label)"
+"#;
+        let cwd = Path::new("/home/user/work");
+        let parse = |overrides: &[&str]| {
+            let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
+            Launch::parse_in(Path::new("launch/l.toml"), text, &overrides, Some(cwd))
+        };
+        let param =
+            |launch: &Launch, key: &str| launch.nodes[0].params[key].as_str().unwrap().to_owned();
+        // The default is written in the file: it stays relative, for the launch file's folder.
+        let launch = parse(&[]).unwrap();
+        assert_eq!(param(&launch, "scene"), "../config/hall.toml");
+        assert_eq!(launch.base_dir, Path::new("launch"));
+        // Typed on the command line: against the current directory; the record keeps the text.
+        let launch = parse(&["scene:=out/s1.toml", "label:=out/y.toml"]).unwrap();
+        assert_eq!(param(&launch, "scene"), "/home/user/work/out/s1.toml");
+        assert_eq!(launch.arguments["scene"].as_str(), Some("out/s1.toml"));
+        // Only `path = true` arguments are paths.
+        assert_eq!(param(&launch, "label"), "out/y.toml");
+        let launch = parse(&["scene:=/data/s2.toml"]).unwrap();
+        assert_eq!(param(&launch, "scene"), "/data/s2.toml");
+        // No current directory: a relative path is an error naming the argument, not a guess.
+        let error = Launch::parse_in(
+            Path::new("l.toml"),
+            text,
+            &["scene:=s.toml".to_owned()],
+            None,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            error.contains("argument scene") && error.contains("absolute"),
+            "{error}"
+        );
+        // A path argument needs a string default.
+        let bad = text.replace("default = \"../config/hall.toml\"", "default = 3");
+        let error = Launch::parse_in(Path::new("l.toml"), &bad, &[], Some(cwd))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.contains("argument scene") && error.contains("string"),
+            "{error}"
+        );
     }
 
     #[test]
