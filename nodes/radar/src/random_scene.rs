@@ -139,9 +139,10 @@ impl Default for RandomSceneParams {
 /// Why no scene was generated.
 #[derive(Debug, thiserror::Error)]
 pub enum RandomSceneError {
-    /// A parameter is out of range.
+    /// A parameter is out of range. (Not a `source`: the message already holds it, and error
+    /// chains printed on one line would repeat it.)
     #[error("random scene parameter {0}")]
-    Param(#[from] InvalidParam),
+    Param(InvalidParam),
     /// Rejection sampling could not fit the drawn number of targets.
     #[error(
         "could not place {requested} targets: {layouts} layouts (hall and loop) tried with \
@@ -585,7 +586,7 @@ fn generate_counting_layouts(
     params: &RandomSceneParams,
     seed: u64,
 ) -> Result<(SceneSpec, u32), RandomSceneError> {
-    params.validate()?;
+    params.validate().map_err(RandomSceneError::Param)?;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     // Drawn once, before any layout: retrying a crowded layout must not bias the count, shapes
     // or sizes toward what fits most easily.
