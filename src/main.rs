@@ -29,6 +29,7 @@ mod report;
 mod reproduce;
 #[cfg(feature = "ros2")]
 mod ros2;
+mod scene;
 mod tools;
 mod tradeoff;
 
@@ -81,6 +82,8 @@ enum Command {
     Reproduce(reproduce::ReproduceArgs),
     /// Sweep the knobs that trade speed for accuracy: tradeoff.csv and a Pareto plot.
     Tradeoff(tradeoff::TradeoffArgs),
+    /// Write a random scene file (irregular rectangles and circles, a randomised loop) for scene:=FILE.
+    Scene(scene::SceneArgs),
     /// rosbag2 bags (metadata.yaml + MCAP): record a live graph, print a bag's contents, play it back.
     Bag(bag::BagArgs),
     /// Bridge the graph and ROS 2 (r2r; built with `--features ros2` and a sourced ROS 2).
@@ -109,6 +112,7 @@ fn main() -> std::process::ExitCode {
         Command::Merge(args) => montecarlo::merge(args),
         Command::Reproduce(args) => reproduce::reproduce(args),
         Command::Tradeoff(args) => tradeoff::tradeoff(args),
+        Command::Scene(args) => scene::scene(args),
         Command::Bag(args) => bag::bag(args),
         #[cfg(feature = "ros2")]
         Command::Ros2Bridge(args) => ros2::bridge(args),
