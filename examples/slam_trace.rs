@@ -7,6 +7,10 @@
 //!     LOCAL_MAP_M COVARIANCE_WEIGHTING OVERLAP_DISTANCE_M MIN_INLIER_RATIO RADIUS_PER_M MAX_RADIUS_M
 //!     LOOP_STD_DEG QUERY_KEYFRAMES SUBMAP_KEYFRAMES MAX_AMBIGUITY]
 //! ```
+//!
+//! The scan matcher's parameters come from the environment where set: `CELL` (`cell_m`), `NEIGH`
+//! (`cell_neighbours`), `CORR` (`max_correspondence_m`), `ROBUST` (`robust_sigma`), `PRIOR_M`,
+//! `PRIOR_DEG` (the prior's floors) and `MAPSTD` (`map_std_m`); `ALL=1` prints every frame.
 
 use nrslam_association::{detection_to_agv_m, Association, Params, Pose2};
 
@@ -28,8 +32,30 @@ fn main() -> anyhow::Result<()> {
         ..Params::default()
     };
     params.loop_closure.enabled = get(4, "true").parse()?;
+    let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f64>().ok());
+    if let Some(v) = env("CELL") {
+        params.cell_m = v;
+    }
+    if let Some(v) = env("NEIGH") {
+        params.cell_neighbours = v as u32;
+    }
+    if let Some(v) = env("CORR") {
+        params.max_correspondence_m = v;
+    }
+    if let Some(v) = env("ROBUST") {
+        params.robust_sigma = v;
+    }
+    if let Some(v) = env("PRIOR_M") {
+        params.prior_std_m = v;
+    }
+    if let Some(v) = env("PRIOR_DEG") {
+        params.prior_std_deg = v;
+    }
+    if let Some(v) = env("MAPSTD") {
+        params.map_std_m = v;
+    }
     params.loop_closure.local_map_m = get(5, "0").parse()?;
-    params.covariance_weighting = get(6, "false").parse()?;
+    let _unused_covariance_weighting = get(6, "false");
     params.loop_closure.overlap_distance_m = get(7, "0").parse()?;
     params.loop_closure.min_inlier_ratio = get(8, "0.5").parse()?;
     params.loop_closure.search_radius_per_m = get(9, "0.03").parse()?;
@@ -89,11 +115,12 @@ fn main() -> anyhow::Result<()> {
                 );
             }
         }
-        if frame.index % 20 == 0 || out.loop_match.is_some() {
+        if std::env::var("ALL").is_ok() || frame.index % 20 == 0 || out.loop_match.is_some() {
             println!(
-                "frame {:3} err {:.2} m  icp {:?} assoc {}/{} inl {} overlap {:.2}",
+                "frame {:3} err {:.2} m yaw {:+.2}°  icp {:?} assoc {}/{} inl {} overlap {:.2}",
                 frame.index,
                 err,
+                (out.pose.yaw_rad - truth.yaw_rad).to_degrees(),
                 out.icp.status,
                 out.stats.associated,
                 out.stats.detections,

@@ -345,7 +345,7 @@ pub struct IcpResult {
 }
 
 impl IcpResult {
-    fn unchanged(initial: Pose2, status: IcpStatus) -> Self {
+    pub(crate) fn unchanged(initial: Pose2, status: IcpStatus) -> Self {
         IcpResult {
             pose: initial,
             status,
@@ -368,7 +368,7 @@ struct Limits {
 }
 
 impl Limits {
-    /// The early exits [`align`] and [`align_weighted`] share (scan matching off, no finite
+    /// The early exits of [`align`] (scan matching off, no finite
     /// scan point, no map or a non-finite start: the prediction is kept with the reason), else
     /// the thresholds.
     fn start(
@@ -589,258 +589,6 @@ pub fn align(
     result.correction_m = initial.distance_m(&pose);
     result.correction_rad = wrap_angle_rad(pose.yaw_rad - initial.yaw_rad).abs();
     if result.correction_m > params.max_correction_m
-        || result.correction_rad > params.max_correction_rad()
-    {
-        return IcpResult {
-            pose: initial,
-            status: IcpStatus::CorrectionRejected,
-            ..result
-        };
-    }
-    IcpResult { pose, ..result }
-}
-
-/// Matches `scan_agv_m` against `map` like [`align`], but weights each pair by the inverse
-/// variance of its residual under the radar's anisotropic error (the paper's ΔR along the beam,
-/// range × Δθ across it; Sec. III-B, eqs. for r_l and θ_l): `std[i] = [range std m, angle std
-/// rad]` of scan point i. The solve is Gauss–Newton on (x, y, yaw), linearised about the matched
-/// points' centroid; directions of the 3×3 normal matrix weaker than `degeneracy_ratio` of the
-/// strongest (a straight wall's along-line translation) are not updated, leaving them to the
-/// prediction. The same Cauchy kernel (on metres) and acceptance gates as [`align`] apply; a pair
-/// whose residual exceeds both `gate_sigma` standard deviations and the kernel scale is dropped.
-///
-/// For a point-to-line pair the variance is that of the residual along the line normal `n`,
-/// `σ_r² (n·u)² + (ρ σ_θ)² (n·v)² + σ_map²` (u the beam direction, v across it, ρ the range);
-/// for a point-to-point pair the residual is whitened by the 2×2 covariance.
-pub fn align_weighted(
-    map: &PointMap,
-    scan_agv_m: &[[f64; 2]],
-    std: &[[f64; 2]],
-    initial: Pose2,
-    params: &Params,
-) -> IcpResult {
-    let points: Vec<([f64; 2], [f64; 2])> = scan_agv_m
-        .iter()
-        .zip(std.iter().chain(std::iter::repeat(&[0.0, 0.0])))
-        .filter(|(p, _)| p[0].is_finite() && p[1].is_finite())
-        .map(|(p, s)| {
-            let floor = [
-                params.min_range_std_m,
-                params.min_angle_std_deg.to_radians(),
-            ];
-            let pick = |v: f64, f: f64| if v.is_finite() { v.max(f) } else { f };
-            (*p, [pick(s[0], floor[0]), pick(s[1], floor[1])])
-        })
-        .collect();
-    let Limits {
-        max_distance_m2,
-        tolerance_rad,
-        min_pairs,
-        robust_scale_m2,
-    } = match Limits::start(map, points.len(), initial, params) {
-        Ok(limits) => limits,
-        Err(kept) => return kept,
-    };
-    let map_var_m2 = params.map_std_m * params.map_std_m;
-    let gate2 = params.gate_sigma * params.gate_sigma;
-
-    struct Pair {
-        source: [f64; 2],
-        nearest: [f64; 2],
-        normal: Option<[f64; 2]>,
-        /// Covariance of the source point in the map frame: xx, xy, yy.
-        cov: [f64; 3],
-        residual_m2: f64,
-    }
-    let mut pose = initial;
-    let mut pairs: Vec<Pair> = Vec::with_capacity(points.len());
-    let mut residuals_m2 = Vec::with_capacity(points.len());
-    let mut result = IcpResult::unchanged(initial, IcpStatus::MaxIterations);
-    for iteration in 1..=params.max_iterations {
-        pairs.clear();
-        residuals_m2.clear();
-        let mut sum_m2 = 0.0;
-        for (point, s) in &points {
-            let in_map = pose.transform_point(*point);
-            let Some((index, distance_m2)) = map.nearest_index(&in_map) else {
-                continue;
-            };
-            if distance_m2 > max_distance_m2 {
-                continue;
-            }
-            let nearest = map.points_m[index];
-            let normal = match params.metric {
-                IcpMetric::PointToLine => map.normal(index),
-                IcpMetric::PointToPoint => None,
-            };
-            let residual_m2 = match normal {
-                Some(n) => {
-                    let d = (in_map[0] - nearest[0]) * n[0] + (in_map[1] - nearest[1]) * n[1];
-                    d * d
-                }
-                None => distance_m2,
-            };
-            // Beam direction in the map frame and the point's error ellipse along/across it.
-            let range_m = point[0].hypot(point[1]);
-            let bearing = pose.yaw_rad + point[1].atan2(point[0]);
-            let (sb, cb) = bearing.sin_cos();
-            let (va, vc) = (s[0] * s[0], (range_m * s[1]).powi(2));
-            let cov = [
-                va * cb * cb + vc * sb * sb,
-                (va - vc) * cb * sb,
-                va * sb * sb + vc * cb * cb,
-            ];
-            sum_m2 += residual_m2;
-            residuals_m2.push(residual_m2);
-            pairs.push(Pair {
-                source: in_map,
-                nearest,
-                normal,
-                cov,
-                residual_m2,
-            });
-        }
-        result.iterations = iteration;
-        result.correspondences = pairs.len();
-        if pairs.len() < min_pairs {
-            return IcpResult {
-                pose: initial,
-                status: IcpStatus::TooFewCorrespondences,
-                ..result
-            };
-        }
-        result.rms_m = (sum_m2 / pairs.len() as f64).sqrt();
-        let scale_m2 = if params.robust_scale_m > 0.0 {
-            let middle = residuals_m2.len() / 2;
-            let (_, median_m2, _) = residuals_m2.select_nth_unstable_by(middle, f64::total_cmp);
-            robust_scale_m2.max(MAD_TO_SIGMA * MAD_TO_SIGMA * *median_m2)
-        } else {
-            f64::INFINITY
-        };
-        // Linearise about the sources' centroid, which keeps rotation and translation apart.
-        let count = pairs.len() as f64;
-        let centre = pairs.iter().fold([0.0, 0.0], |c, p| {
-            [c[0] + p.source[0] / count, c[1] + p.source[1] / count]
-        });
-        let mut h = nalgebra::Matrix3::<f64>::zeros();
-        let mut g = nalgebra::Vector3::<f64>::zeros();
-        let mut used = 0usize;
-        let mut spread_m2 = 0.0;
-        for pair in &pairs {
-            let kernel = if scale_m2.is_finite() {
-                1.0 / (1.0 + pair.residual_m2 / scale_m2)
-            } else {
-                1.0
-            };
-            let lever = [pair.source[0] - centre[0], pair.source[1] - centre[1]];
-            // d(source)/d(dx, dy, dθ) = [I | perp(lever)].
-            let perp = [-lever[1], lever[0]];
-            match pair.normal {
-                Some(n) => {
-                    let variance = n[0] * n[0] * pair.cov[0]
-                        + 2.0 * n[0] * n[1] * pair.cov[1]
-                        + n[1] * n[1] * pair.cov[2]
-                        + map_var_m2;
-                    if pair.residual_m2 > gate2 * variance && pair.residual_m2 > scale_m2 {
-                        continue;
-                    }
-                    let r = (pair.source[0] - pair.nearest[0]) * n[0]
-                        + (pair.source[1] - pair.nearest[1]) * n[1];
-                    let j = nalgebra::Vector3::new(n[0], n[1], n[0] * perp[0] + n[1] * perp[1]);
-                    let w = kernel / variance;
-                    h += j * j.transpose() * w;
-                    g += j * (w * r);
-                }
-                None => {
-                    let c = nalgebra::Matrix2::new(
-                        pair.cov[0] + map_var_m2,
-                        pair.cov[1],
-                        pair.cov[1],
-                        pair.cov[2] + map_var_m2,
-                    );
-                    let Some(info) = c.try_inverse() else {
-                        continue;
-                    };
-                    let r = nalgebra::Vector2::new(
-                        pair.source[0] - pair.nearest[0],
-                        pair.source[1] - pair.nearest[1],
-                    );
-                    let mahalanobis2 = (r.transpose() * info * r)[0];
-                    if mahalanobis2 > gate2 && pair.residual_m2 > scale_m2 {
-                        continue;
-                    }
-                    let j = nalgebra::Matrix2x3::new(1.0, 0.0, perp[0], 0.0, 1.0, perp[1]);
-                    let w = info * kernel;
-                    h += j.transpose() * w * j;
-                    g += j.transpose() * w * r;
-                }
-            }
-            spread_m2 += lever[0] * lever[0] + lever[1] * lever[1];
-            used += 1;
-        }
-        if used < min_pairs {
-            return IcpResult {
-                pose: initial,
-                status: IcpStatus::TooFewCorrespondences,
-                ..result
-            };
-        }
-        // Scale the rotation to metres at the points' RMS lever arm so that eigenvalues compare.
-        let lever_m = (spread_m2 / used as f64).sqrt().max(1e-3);
-        let s = nalgebra::Matrix3::from_diagonal(&nalgebra::Vector3::new(1.0, 1.0, 1.0 / lever_m));
-        let hs = s * h * s;
-        let gs = s * g;
-        let eigen = nalgebra::SymmetricEigen::new(hs);
-        let largest = eigen.eigenvalues.amax();
-        if !(largest.is_finite() && largest > 0.0) {
-            return IcpResult {
-                pose: initial,
-                status: IcpStatus::CorrectionRejected,
-                ..result
-            };
-        }
-        let mut step_scaled = nalgebra::Vector3::zeros();
-        let mut degenerate = false;
-        for k in 0..3 {
-            let value = eigen.eigenvalues[k];
-            let vector = eigen.eigenvectors.column(k);
-            if value <= params.degeneracy_ratio.max(1e-12) * largest {
-                degenerate = true;
-                continue;
-            }
-            step_scaled -= vector * (vector.dot(&gs) / value);
-        }
-        let step = s * step_scaled;
-        let (dx, dy, dtheta) = (step[0], step[1], step[2]);
-        if !(dx.is_finite() && dy.is_finite() && dtheta.is_finite()) {
-            return IcpResult {
-                pose: initial,
-                status: IcpStatus::CorrectionRejected,
-                ..result
-            };
-        }
-        result.degenerate = degenerate;
-        // Rotate by dθ about the centroid, then shift by (dx, dy).
-        let (sin, cos) = dtheta.sin_cos();
-        let rotated = [
-            cos * centre[0] - sin * centre[1],
-            sin * centre[0] + cos * centre[1],
-        ];
-        let motion = Pose2::new(
-            centre[0] + dx - rotated[0],
-            centre[1] + dy - rotated[1],
-            dtheta,
-        );
-        pose = motion.compose(&pose);
-        if dx.hypot(dy) < params.convergence_translation_m && dtheta.abs() < tolerance_rad {
-            result.status = IcpStatus::Converged;
-            break;
-        }
-    }
-    result.correction_m = initial.distance_m(&pose);
-    result.correction_rad = wrap_angle_rad(pose.yaw_rad - initial.yaw_rad).abs();
-    if !pose.is_finite()
-        || result.correction_m > params.max_correction_m
         || result.correction_rad > params.max_correction_rad()
     {
         return IcpResult {
@@ -1087,7 +835,13 @@ mod tests {
         );
         let scan = scan_from(&truth, &world);
         let initial = Pose2::new(truth.x_m + 0.25, truth.y_m - 0.2, truth.yaw_rad + 0.04);
-        let robust = align(&map, &scan, initial, &Params::default());
+        // The gate this test was designed with (tracking's default is tighter since it moved
+        // to the scan matcher).
+        let params = Params {
+            max_correspondence_m: 1.0,
+            ..Params::default()
+        };
+        let robust = align(&map, &scan, initial, &params);
         assert!(robust.status.is_accepted(), "{robust:?}");
         let robust_error_m = robust.pose.distance_m(&truth);
         assert!(robust_error_m < 0.05, "{robust:?}");
@@ -1104,7 +858,7 @@ mod tests {
             initial,
             &Params {
                 robust_scale_m: 100.0,
-                ..Params::default()
+                ..params
             },
         );
         let plain_error_m = plain.pose.distance_m(&truth);
@@ -1314,98 +1068,5 @@ mod tests {
             assert_eq!(x.to_bits(), y.to_bits());
         }
         assert_eq!(a.iterations, b.iterations);
-    }
-
-    #[test]
-    fn weighted_recovers_a_known_offset() {
-        let points = l_and_box();
-        let map = map_of(&points);
-        let truth = Pose2::new(2.0, 1.0, 0.2);
-        let scan = scan_from(&truth, &points);
-        let std = vec![[0.03, 1f64.to_radians()]; scan.len()];
-        for initial in [
-            Pose2::new(2.3, 1.0, 0.25),
-            Pose2::new(1.8, 1.2, 0.15),
-            Pose2::new(2.0, 0.8, 0.2),
-        ] {
-            let result = align_weighted(&map, &scan, &std, initial, &Params::default());
-            assert!(result.status.is_accepted(), "{result:?}");
-            assert!(result.pose.distance_m(&truth) < 0.01, "{result:?}");
-            assert!(
-                result.pose.rotation_to_rad(&truth).to_degrees() < 0.1,
-                "{result:?}"
-            );
-        }
-    }
-
-    #[test]
-    fn weighting_trusts_range_over_angle() {
-        // A wall straight ahead (along the beams of the points in front) and one far to the side
-        // whose points were measured with a large angle error: the side wall's cross-range scatter
-        // is down-weighted, so the solution follows the accurate in-range wall.
-        let front = segment([10.0, -3.0], [10.0, 3.0], 0.1);
-        let side = segment([0.0, 12.0], [12.0, 12.0], 0.1);
-        let mut map_points = front.clone();
-        map_points.extend(side.iter().copied());
-        let params = Params::default();
-        let map = map_for(&map_points, &params);
-        let truth = Pose2::IDENTITY;
-        let mut rng = ChaCha8Rng::seed_from_u64(5);
-        let mut scan = Vec::new();
-        let mut std = Vec::new();
-        for p in &front {
-            scan.push(*p);
-            std.push([0.02, 0.2f64.to_radians()]);
-        }
-        for p in &side {
-            // Far points with a 3° angle error applied: metres of cross-range error.
-            let (r, a) = (
-                p[0].hypot(p[1]),
-                p[1].atan2(p[0]) + rng.random_range(-3.0..3.0f64).to_radians(),
-            );
-            scan.push([r * a.cos(), r * a.sin()]);
-            std.push([0.02, 3f64.to_radians()]);
-        }
-        let initial = Pose2::new(0.2, 0.2, 0.0);
-        let weighted = align_weighted(&map, &scan, &std, initial, &params);
-        let equal = align_weighted(
-            &map,
-            &scan,
-            &vec![[0.05, 0.05]; scan.len()],
-            initial,
-            &params,
-        );
-        assert!(weighted.pose.is_finite() && equal.pose.is_finite());
-        assert!(
-            (weighted.pose.x_m - truth.x_m).abs() <= (equal.pose.x_m - truth.x_m).abs() + 1e-3,
-            "weighted {weighted:?} equal {equal:?}"
-        );
-        assert!((weighted.pose.x_m - truth.x_m).abs() < 0.03, "{weighted:?}");
-    }
-
-    #[test]
-    fn weighted_never_gives_nan_on_degenerate_input() {
-        let wall = segment([-10.0, 2.0], [10.0, 2.0], 0.1);
-        let map = map_of(&wall);
-        let scan = scan_from(&Pose2::IDENTITY, &wall[50..150]);
-        let std = vec![[0.0, f64::NAN]; scan.len()];
-        let result = align_weighted(
-            &map,
-            &scan,
-            &std,
-            Pose2::new(0.25, 0.2, 0.02),
-            &Params::default(),
-        );
-        assert_finite(&result);
-        assert!(result.degenerate, "{result:?}");
-        assert!((result.pose.y_m).abs() < 0.01, "{result:?}");
-        let result = align_weighted(
-            &map,
-            &[[1.0, 1.0]; 20],
-            &[],
-            Pose2::IDENTITY,
-            &Params::default(),
-        );
-        assert_finite(&result);
     }
 }

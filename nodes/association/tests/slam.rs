@@ -3,7 +3,7 @@
 //! generated here from the ground truth.
 
 use nrslam_association::{
-    detection_to_agv_m, Association, AssociationError, IcpMetric, IcpStatus, Params, Pose2,
+    detection_to_agv_m, Association, AssociationError, IcpStatus, Params, Pose2,
 };
 use std::f64::consts::PI;
 
@@ -245,28 +245,29 @@ fn max(values: &[f64]) -> f64 {
 }
 
 #[test]
-fn noise_free_inputs_give_the_true_pose() {
-    // Every scatterer visible in every frame, exact measurements and odometry: each scan point
-    // has its exact twin in the first keyframe, so ICP must not move the pose.
+fn noise_free_inputs_stay_within_the_cell_bias() {
+    // Every scatterer visible in every frame, exact measurements and odometry. Scan matching
+    // summarises the map in 0.5 m cells, so even a scan that has an exact twin in the map settles
+    // where the cell means put it, not exactly on the truth: on these outlines sampled every
+    // 0.1 m the error stays under 3 cm over 30 m (2.6 cm when measured), and does not grow.
+    // (On outlines sampled every 0.5 m, a cell holds one or two points and the error reaches
+    // 15 cm: cell statistics need a dense map, which keyframes of a radar's outlines give.)
     let frames = simulate(&Scenario {
         sensor: OMNISCIENT,
-        ..Scenario::new(300, NOISE_FREE, Some(outline_points(0.5)), 1)
+        ..Scenario::new(300, NOISE_FREE, Some(outline_points(0.1)), 1)
     });
-    for metric in [IcpMetric::PointToLine, IcpMetric::PointToPoint] {
-        let result = run(
-            &frames,
-            Params {
-                metric,
-                ..Params::default()
-            },
-        );
-        let errors = position_errors(&frames, &result.poses);
-        assert!(max(&errors) < 1e-9, "{metric:?}: {}", max(&errors));
-        for (frame, pose) in frames.iter().zip(&result.poses) {
-            assert!(frame.truth.rotation_to_rad(pose) < 1e-9);
-        }
-        assert!(result.statuses[1..].iter().all(|s| s.is_accepted()));
+    let result = run(&frames, Params::default());
+    let errors = position_errors(&frames, &result.poses);
+    assert!(max(&errors) < 0.04, "max error {} m", max(&errors));
+    assert!(
+        max(&errors[200..]) < 0.04,
+        "late error {} m",
+        max(&errors[200..])
+    );
+    for (frame, pose) in frames.iter().zip(&result.poses) {
+        assert!(frame.truth.rotation_to_rad(pose).to_degrees() < 0.5);
     }
+    assert!(result.statuses[1..].iter().all(|s| s.is_accepted()));
 }
 
 #[test]
@@ -286,7 +287,7 @@ fn dead_reckoning_with_noise_free_odometry_is_the_truth() {
 #[test]
 fn noise_free_odometry_with_a_limited_field_of_view_stays_on_the_truth() {
     // New scatterers enter the field of view unmapped and pair with mapped neighbours; the
-    // resulting pull must stay small.
+    // resulting pull, with the cell bias (see above), must stay small: 3.5 cm when measured.
     let frames = simulate(&Scenario::new(
         300,
         NOISE_FREE,
@@ -295,7 +296,7 @@ fn noise_free_odometry_with_a_limited_field_of_view_stays_on_the_truth() {
     ));
     let result = run(&frames, Params::default());
     let errors = position_errors(&frames, &result.poses);
-    assert!(max(&errors) < 0.02, "max error {} m", max(&errors));
+    assert!(max(&errors) < 0.05, "max error {} m", max(&errors));
 }
 
 fn drifting_noise() -> Noise {
@@ -320,25 +321,11 @@ fn scan_matching_bounds_the_odometry_drift() {
         },
     );
     let dr_errors = position_errors(&frames, &dead_reckoning.poses);
-    for metric in [IcpMetric::PointToLine, IcpMetric::PointToPoint] {
-        let slam = run(
-            &frames,
-            Params {
-                metric,
-                ..Params::default()
-            },
-        );
-        let errors = position_errors(&frames, &slam.poses);
-        let mean = errors.iter().sum::<f64>() / errors.len() as f64;
-        eprintln!(
-            "{metric:?}: SLAM max {:.3} m mean {mean:.3} m; dead reckoning max {:.3} m",
-            max(&errors),
-            max(&dr_errors)
-        );
-        assert!(max(&dr_errors) > 1.0, "the scenario must drift");
-        assert!(max(&errors) < 0.3, "{metric:?}: max {} m", max(&errors));
-        assert!(max(&errors) < max(&dr_errors) / 4.0);
-    }
+    let slam = run(&frames, Params::default());
+    let errors = position_errors(&frames, &slam.poses);
+    assert!(max(&dr_errors) > 1.0, "the scenario must drift");
+    assert!(max(&errors) < 0.3, "max {} m", max(&errors));
+    assert!(max(&errors) < max(&dr_errors) / 4.0);
 }
 
 #[test]

@@ -1,0 +1,664 @@
+//! Radar-aware scan matching: each detection, with its own error ellipse, against a map of local
+//! Gaussians (a point-to-distribution normal-distributions transform).
+//!
+//! The map ([`DistributionMap`]) bins map points into square cells of `cell_m` and keeps, per
+//! cell, the mean and covariance of the points in it: along a target's outline a cell is a thin
+//! ellipse along the surface, whatever direction the radar blurred the individual detections in
+//! (Biber and Straßer, "The Normal Distributions Transform: A New Approach to Laser Scan
+//! Matching", IROS 2003). Averaging many viewpoints' detections into a cell also averages out the
+//! grid quantisation of a radar whose detections sit on range and angle bins.
+//!
+//! A scan point `p` (AGV frame) measured at range ρ with errors σ_R along the beam and ρ·σ_θ
+//! across it (the paper's ΔR and Δθ, or half a resolution cell over √3 for a radar without
+//! refinement) has the covariance `C_p = R_b diag(σ_R², ρ²σ_θ²) R_bᵀ` (R_b the beam direction).
+//! Against the nearest cell mean μ with covariance Σ, its residual `d = T(x)·p − μ` has covariance
+//! `S = Σ + R C_p Rᵀ + σ_map² I`, and the pose `x = (x, y, ψ)` minimises
+//! `Σ ρ(dᵀ S⁻¹ d) + ρ((x − x̂)ᵀ P⁻¹ (x − x̂))` by Gauss–Newton (iteratively reweighted), with a
+//! Cauchy kernel ρ on each pair's squared Mahalanobis distance and on a prior `P` around the
+//! odometry prediction `x̂`: the prior holds the directions the scan observes poorly (one straight
+//! wall's length; a side-looking radar's heading against its along-track position), and mostly
+//! gives way when the odometry has slipped far beyond its model. So a far point's
+//! coarse cross-range position moves the pose little, and its fine range much: the radar is
+//! weighted as it measures.
+//!
+//! Deterministic: cells are kept in a `BTreeMap`, so the tree over their means is built in the
+//! same order on every run.
+
+use std::collections::BTreeMap;
+use std::num::NonZero;
+
+use kiddo::{ImmutableKdTree, SquaredEuclidean};
+use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
+
+use crate::icp::{IcpResult, IcpStatus};
+use crate::pose::{wrap_angle_rad, Pose2};
+
+/// Running sums of the points that fell in one cell.
+#[derive(Debug, Clone, Copy, Default)]
+struct CellSums {
+    count: u32,
+    sum: [f64; 2],
+    /// Σ x², Σ xy, Σ y².
+    sum_sq: [f64; 3],
+}
+
+/// One cell's Gaussian.
+#[derive(Debug, Clone, Copy)]
+struct CellGaussian {
+    mean_m: [f64; 2],
+    /// Covariance, regularised (see [`DistributionMap::floor_m`]).
+    cov_m2: Matrix2<f64>,
+}
+
+/// The map as local Gaussians: points binned into cells of `cell_m`, each cell with at least
+/// `min_points` points summarised by its mean and covariance, and a k-d tree over the means.
+#[derive(Clone)]
+pub struct DistributionMap {
+    cell_m: f64,
+    min_points: u32,
+    floor_m: f64,
+    sums: BTreeMap<(i64, i64), CellSums>,
+    cells: Vec<CellGaussian>,
+    tree: Option<ImmutableKdTree<f64, 2>>,
+    points: usize,
+}
+
+impl std::fmt::Debug for DistributionMap {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("DistributionMap")
+            .field("cell_m", &self.cell_m)
+            .field("cells", &self.cells.len())
+            .field("points", &self.points)
+            .finish()
+    }
+}
+
+impl DistributionMap {
+    /// An empty map with cells of `cell_m` (> 0), Gaussians from cells of at least `min_points`
+    /// (≥ 1) points, and covariance eigenvalues floored at `floor_m`² (a one-point cell, or the
+    /// thickness of a perfectly thin wall, still has a finite error).
+    pub fn new(cell_m: f64, min_points: u32, floor_m: f64) -> Self {
+        DistributionMap {
+            cell_m: if cell_m.is_finite() && cell_m > 0.0 {
+                cell_m
+            } else {
+                1.0
+            },
+            min_points: min_points.max(1),
+            floor_m: if floor_m.is_finite() && floor_m > 0.0 {
+                floor_m
+            } else {
+                1e-3
+            },
+            sums: BTreeMap::new(),
+            cells: Vec::new(),
+            tree: None,
+            points: 0,
+        }
+    }
+
+    /// Adds map-frame points (metres) and rebuilds the cells' Gaussians and the tree. Non-finite
+    /// points, and points beyond ±1e9 m (whose cell index would not be meaningful), are skipped.
+    pub fn extend(&mut self, points_m: &[[f64; 2]]) {
+        let before = self.points;
+        for p in points_m {
+            if !(p[0].is_finite() && p[1].is_finite() && p[0].abs() < 1e9 && p[1].abs() < 1e9) {
+                continue;
+            }
+            let key = (
+                (p[0] / self.cell_m).floor() as i64,
+                (p[1] / self.cell_m).floor() as i64,
+            );
+            let sums = self.sums.entry(key).or_default();
+            sums.count = sums.count.saturating_add(1);
+            sums.sum[0] += p[0];
+            sums.sum[1] += p[1];
+            sums.sum_sq[0] += p[0] * p[0];
+            sums.sum_sq[1] += p[0] * p[1];
+            sums.sum_sq[2] += p[1] * p[1];
+            self.points += 1;
+        }
+        if self.points != before {
+            self.rebuild();
+        }
+    }
+
+    fn rebuild(&mut self) {
+        let floor2 = self.floor_m * self.floor_m;
+        self.cells = self
+            .sums
+            .values()
+            .filter(|s| s.count >= self.min_points)
+            .map(|s| {
+                let n = f64::from(s.count);
+                let mean = [s.sum[0] / n, s.sum[1] / n];
+                // Centred about the mean; tiny negative variances from rounding clamp to 0.
+                let xx = (s.sum_sq[0] / n - mean[0] * mean[0]).max(0.0);
+                let xy = s.sum_sq[1] / n - mean[0] * mean[1];
+                let yy = (s.sum_sq[2] / n - mean[1] * mean[1]).max(0.0);
+                let cov = Matrix2::new(xx, xy, xy, yy);
+                CellGaussian {
+                    mean_m: mean,
+                    cov_m2: floor_eigenvalues(cov, floor2),
+                }
+            })
+            .collect();
+        let means: Vec<[f64; 2]> = self.cells.iter().map(|c| c.mean_m).collect();
+        self.tree = (!means.is_empty()).then(|| ImmutableKdTree::new_from_slice(&means));
+    }
+
+    /// Points added so far.
+    pub fn point_count(&self) -> usize {
+        self.points
+    }
+
+    /// Cells with a Gaussian.
+    pub fn len(&self) -> usize {
+        self.cells.len()
+    }
+
+    /// True when no cell has a Gaussian yet.
+    pub fn is_empty(&self) -> bool {
+        self.cells.is_empty()
+    }
+
+    /// The cell means, map frame, metres.
+    pub fn means_m(&self) -> impl Iterator<Item = [f64; 2]> + '_ {
+        self.cells.iter().map(|c| c.mean_m)
+    }
+
+    /// The `k` nearest cell Gaussians to `query_m` within `max_m`, nearest first.
+    fn nearest(&self, query_m: &[f64; 2], k: usize, max_m: f64) -> Vec<&CellGaussian> {
+        let Some(tree) = self.tree.as_ref() else {
+            return Vec::new();
+        };
+        let Some(k) = NonZero::new(k) else {
+            return Vec::new();
+        };
+        tree.nearest_n::<SquaredEuclidean>(query_m, k)
+            .into_iter()
+            .filter(|n| n.distance <= max_m * max_m)
+            .filter_map(|n| usize::try_from(n.item).ok())
+            .filter_map(|i| self.cells.get(i))
+            .collect()
+    }
+}
+
+/// `cov` with its eigenvalues raised to at least `floor2`. (Raising a line-like cell's
+/// along-line variance too, to make it point-to-line, was measured and not kept: 5G keyframe
+/// RMSE over 20 hall seeds, open loop, 0.84 m without it against 1.14 m with it.)
+fn floor_eigenvalues(cov: Matrix2<f64>, floor2: f64) -> Matrix2<f64> {
+    let eigen = nalgebra::SymmetricEigen::new(cov);
+    let values = eigen.eigenvalues.map(|v| v.max(floor2));
+    let v = eigen.eigenvectors;
+    v * Matrix2::from_diagonal(&values) * v.transpose()
+}
+
+/// A scan point with its measurement error, AGV frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RadarPoint {
+    /// Position in the AGV frame, metres.
+    pub position_m: [f64; 2],
+    /// Error std along the beam, metres.
+    pub range_std_m: f64,
+    /// Error std of the angle of arrival, radians.
+    pub angle_std_rad: f64,
+}
+
+impl RadarPoint {
+    /// Covariance in the AGV frame, m²: `σ_R²` along the beam, `(ρ σ_θ)²` across it.
+    fn covariance_m2(&self) -> Matrix2<f64> {
+        let [x, y] = self.position_m;
+        let range_m = x.hypot(y);
+        let (u, v) = if range_m > 0.0 {
+            ([x / range_m, y / range_m], [-y / range_m, x / range_m])
+        } else {
+            ([1.0, 0.0], [0.0, 1.0])
+        };
+        let along = self.range_std_m * self.range_std_m;
+        let across = (range_m * self.angle_std_rad).powi(2);
+        Matrix2::new(
+            along * u[0] * u[0] + across * v[0] * v[0],
+            along * u[0] * u[1] + across * v[0] * v[1],
+            along * u[0] * u[1] + across * v[0] * v[1],
+            along * u[1] * u[1] + across * v[1] * v[1],
+        )
+    }
+}
+
+/// Settings of [`match_scan`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MatchSettings {
+    /// A scan point pairs with cell means within this distance, metres.
+    pub max_correspondence_m: f64,
+    /// Cell Gaussians each scan point is scored against (the nearest ones).
+    pub neighbours: usize,
+    /// Std of the map's own error, added isotropically to every pair's covariance, metres.
+    pub map_std_m: f64,
+    /// Cauchy scale on the Mahalanobis distance: a pair this many σ off counts half.
+    pub robust_sigma: f64,
+    /// Prior std of the position around the prediction, metres.
+    pub prior_std_m: f64,
+    /// Prior std of the heading around the prediction, radians.
+    pub prior_std_rad: f64,
+    /// Gauss–Newton iterations at most.
+    pub max_iterations: u32,
+    /// Converged when a step moves the position less than this, metres…
+    pub tolerance_m: f64,
+    /// …and the heading less than this, radians.
+    pub tolerance_rad: f64,
+    /// Fewest pairs for a solve.
+    pub min_correspondences: usize,
+    /// A correction farther than this from the prediction is refused, metres.
+    pub max_correction_m: f64,
+    /// A correction turning more than this from the prediction is refused, radians.
+    pub max_correction_rad: f64,
+}
+
+/// One scored pair of the last iteration.
+struct Pair {
+    residual: Vector2<f64>,
+    info: Matrix2<f64>,
+    lever: Vector2<f64>,
+}
+
+/// Matches `scan` against `map` from the `initial` pose (the prediction) by Gauss–Newton on the
+/// point-to-distribution cost (module docs). Returns the corrected pose, or `initial` with the
+/// reason it was kept. Non-finite points are ignored; no input yields a non-finite pose.
+pub fn match_scan(
+    map: &DistributionMap,
+    scan: &[RadarPoint],
+    initial: Pose2,
+    settings: &MatchSettings,
+) -> IcpResult {
+    let points: Vec<(RadarPoint, Matrix2<f64>)> = scan
+        .iter()
+        .filter(|p| {
+            p.position_m.iter().all(|v| v.is_finite())
+                && p.range_std_m.is_finite()
+                && p.angle_std_rad.is_finite()
+        })
+        .map(|p| (*p, p.covariance_m2()))
+        .collect();
+    let unchanged = |status| IcpResult {
+        pose: initial,
+        status,
+        iterations: 0,
+        correspondences: 0,
+        rms_m: 0.0,
+        degenerate: false,
+        correction_m: 0.0,
+        correction_rad: 0.0,
+    };
+    if points.is_empty() {
+        return unchanged(IcpStatus::EmptyScan);
+    }
+    if map.is_empty() || !initial.is_finite() {
+        return unchanged(IcpStatus::EmptyMap);
+    }
+    let map_var = settings.map_std_m * settings.map_std_m;
+    let robust2 = settings.robust_sigma * settings.robust_sigma;
+    let prior_info = Matrix3::from_diagonal(&Vector3::new(
+        1.0 / settings.prior_std_m.powi(2),
+        1.0 / settings.prior_std_m.powi(2),
+        1.0 / settings.prior_std_rad.powi(2),
+    ));
+    let mut pose = initial;
+    let mut result = unchanged(IcpStatus::MaxIterations);
+    let mut pairs: Vec<Pair> = Vec::with_capacity(points.len() * settings.neighbours);
+    for iteration in 1..=settings.max_iterations {
+        pairs.clear();
+        let (sin, cos) = pose.yaw_rad.sin_cos();
+        let rotation = Matrix2::new(cos, -sin, sin, cos);
+        let mut sum_m2 = 0.0;
+        let mut paired_points = 0usize;
+        for (point, cov) in &points {
+            let in_map = pose.transform_point(point.position_m);
+            let cells = map.nearest(&in_map, settings.neighbours, settings.max_correspondence_m);
+            if cells.is_empty() {
+                continue;
+            }
+            paired_points += 1;
+            let cov_map = rotation * cov * rotation.transpose();
+            for cell in cells {
+                let residual = Vector2::new(in_map[0] - cell.mean_m[0], in_map[1] - cell.mean_m[1]);
+                let s = cell.cov_m2 + cov_map + Matrix2::identity() * map_var;
+                let Some(info) = s.try_inverse() else {
+                    continue;
+                };
+                sum_m2 += residual.norm_squared();
+                pairs.push(Pair {
+                    residual,
+                    info,
+                    lever: Vector2::new(in_map[0] - pose.x_m, in_map[1] - pose.y_m),
+                });
+            }
+        }
+        result.iterations = iteration;
+        result.correspondences = paired_points;
+        if paired_points < settings.min_correspondences {
+            return IcpResult {
+                status: IcpStatus::TooFewCorrespondences,
+                ..result
+            };
+        }
+        result.rms_m = (sum_m2 / pairs.len().max(1) as f64).sqrt();
+        // Gauss–Newton: d(T p)/d(x, y, ψ) = [I | perp(R p)], perp(v) = (−v_y, v_x).
+        let offset = Vector3::new(
+            pose.x_m - initial.x_m,
+            pose.y_m - initial.y_m,
+            wrap_angle_rad(pose.yaw_rad - initial.yaw_rad),
+        );
+        // The prior is robust too (Cauchy): odometry that slipped far beyond its error model
+        // (many σ from where the scan fits) mostly gives way instead of dragging the scan off
+        // the map. Measured on the hall, 20 seeds open loop: a Geman–McClure prior, which gives
+        // way entirely, doubled the 5G keyframe RMSE (0.84 → 1.69 m); a plain Gaussian one is
+        // level with Cauchy for 5G and 5° and 13 % better at 1°, but never lets go of a slip.
+        let prior_m2 = (offset.transpose() * prior_info * offset)[0];
+        let prior_weight = 1.0 / (1.0 + prior_m2 / robust2);
+        let mut h = prior_info * prior_weight;
+        let mut g = prior_info * offset * prior_weight;
+        for pair in &pairs {
+            let m2 = (pair.residual.transpose() * pair.info * pair.residual)[0];
+            let weight = 1.0 / (1.0 + m2 / robust2);
+            let j = nalgebra::Matrix2x3::new(1.0, 0.0, -pair.lever[1], 0.0, 1.0, pair.lever[0]);
+            let w_info = pair.info * weight;
+            h += j.transpose() * w_info * j;
+            g += j.transpose() * w_info * pair.residual;
+        }
+        let Some(step) = h.cholesky().map(|c| c.solve(&(-g))) else {
+            return IcpResult {
+                status: IcpStatus::CorrectionRejected,
+                ..result
+            };
+        };
+        if !step.iter().all(|v| v.is_finite()) {
+            return IcpResult {
+                status: IcpStatus::CorrectionRejected,
+                ..result
+            };
+        }
+        pose = Pose2::new(
+            pose.x_m + step[0],
+            pose.y_m + step[1],
+            wrap_angle_rad(pose.yaw_rad + step[2]),
+        );
+        if step[0].hypot(step[1]) < settings.tolerance_m && step[2].abs() < settings.tolerance_rad {
+            result.status = IcpStatus::Converged;
+            break;
+        }
+    }
+    result.correction_m = initial.distance_m(&pose);
+    result.correction_rad = wrap_angle_rad(pose.yaw_rad - initial.yaw_rad).abs();
+    if result.correction_m > settings.max_correction_m
+        || result.correction_rad > settings.max_correction_rad
+    {
+        return IcpResult {
+            status: IcpStatus::CorrectionRejected,
+            ..result
+        };
+    }
+    IcpResult { pose, ..result }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    fn segment(a: [f64; 2], b: [f64; 2], step_m: f64) -> Vec<[f64; 2]> {
+        let length_m = (b[0] - a[0]).hypot(b[1] - a[1]);
+        let n = (length_m / step_m).ceil().max(1.0) as usize;
+        (0..=n)
+            .map(|i| {
+                let t = i as f64 / n as f64;
+                [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]
+            })
+            .collect()
+    }
+
+    /// Two boxes and a circle, sampled every 5 cm: a map with corners, walls and a curve.
+    fn outlines() -> Vec<[f64; 2]> {
+        let mut points = Vec::new();
+        for (a, b) in [
+            ([2.0, 3.0], [6.0, 3.0]),
+            ([6.0, 3.0], [6.0, 5.0]),
+            ([6.0, 5.0], [2.0, 5.0]),
+            ([2.0, 5.0], [2.0, 3.0]),
+            ([-4.0, 6.0], [-1.0, 6.0]),
+            ([-1.0, 6.0], [-1.0, 8.0]),
+        ] {
+            points.extend(segment(a, b, 0.05));
+        }
+        points.extend((0..120).map(|i| {
+            let a = f64::from(i) * std::f64::consts::TAU / 120.0;
+            [9.0 + 1.5 * a.cos(), 9.0 + 1.5 * a.sin()]
+        }));
+        points
+    }
+
+    fn map_of(points: &[[f64; 2]]) -> DistributionMap {
+        let mut map = DistributionMap::new(0.5, 3, 0.02);
+        map.extend(points);
+        map
+    }
+
+    /// The world points as the radar at `agv` sees them, with the given errors.
+    fn scan_from(agv: &Pose2, world: &[[f64; 2]], std: [f64; 2]) -> Vec<RadarPoint> {
+        let inverse = agv.inverse();
+        world
+            .iter()
+            .map(|p| RadarPoint {
+                position_m: inverse.transform_point(*p),
+                range_std_m: std[0],
+                angle_std_rad: std[1],
+            })
+            .collect()
+    }
+
+    fn settings() -> MatchSettings {
+        MatchSettings {
+            max_correspondence_m: 1.0,
+            neighbours: 4,
+            map_std_m: 0.05,
+            robust_sigma: 3.0,
+            prior_std_m: 1.0,
+            prior_std_rad: 10f64.to_radians(),
+            max_iterations: 50,
+            tolerance_m: 1e-5,
+            tolerance_rad: 1e-6,
+            min_correspondences: 8,
+            max_correction_m: 1.0,
+            max_correction_rad: 20f64.to_radians(),
+        }
+    }
+
+    #[test]
+    fn recovers_a_known_offset() {
+        let world = outlines();
+        let map = map_of(&world);
+        let truth = Pose2::new(1.0, -1.0, 0.3);
+        let scan = scan_from(&truth, &world[..world.len() * 2 / 3], [0.02, 0.002]);
+        for offset in [
+            Pose2::new(0.3, 0.0, 0.0),
+            Pose2::new(-0.2, 0.25, 0.03),
+            Pose2::new(0.0, -0.2, -0.05),
+        ] {
+            let result = match_scan(&map, &scan, truth.compose(&offset), &settings());
+            assert_eq!(result.status, IcpStatus::Converged, "{result:?}");
+            assert!(result.pose.distance_m(&truth) < 0.02, "{result:?}");
+            assert!(
+                result.pose.rotation_to_rad(&truth).to_degrees() < 0.2,
+                "{result:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn weighting_trusts_range_over_angle() {
+        // A wall ahead, along the beams, measured finely in range; a wall far to the side whose
+        // points carry a 3° angle error (metres across the beam). Declared honestly, the side
+        // wall's scatter moves the pose little; declared as fine as the front, it drags it.
+        let front = segment([10.0, -3.0], [10.0, 3.0], 0.1);
+        let side = segment([0.0, 12.0], [12.0, 12.0], 0.1);
+        let mut world = front.clone();
+        world.extend(side.iter().copied());
+        let map = map_of(&world);
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let mut honest = scan_from(&Pose2::IDENTITY, &front, [0.02, 0.2f64.to_radians()]);
+        for p in &side {
+            let (r, a) = (
+                p[0].hypot(p[1]),
+                p[1].atan2(p[0]) + rng.random_range(-3.0..3.0f64).to_radians(),
+            );
+            honest.push(RadarPoint {
+                position_m: [r * a.cos(), r * a.sin()],
+                range_std_m: 0.02,
+                angle_std_rad: 3f64.to_radians(),
+            });
+        }
+        let mut understated = honest.clone();
+        for p in &mut understated {
+            p.angle_std_rad = 0.2f64.to_radians();
+        }
+        let initial = Pose2::new(0.2, 0.2, 0.0);
+        let weighted = match_scan(&map, &honest, initial, &settings());
+        let equal = match_scan(&map, &understated, initial, &settings());
+        assert!(weighted.pose.is_finite() && equal.pose.is_finite());
+        assert!(weighted.pose.x_m.abs() < 0.03, "{weighted:?}");
+        assert!(
+            weighted.pose.x_m.abs() + weighted.pose.yaw_rad.abs() * 10.0
+                < equal.pose.x_m.abs() + equal.pose.yaw_rad.abs() * 10.0,
+            "weighted {weighted:?} equal {equal:?}"
+        );
+    }
+
+    #[test]
+    fn the_prior_holds_what_a_straight_wall_cannot_observe() {
+        // One long wall: across it the scan decides, along it the prediction stands.
+        let wall = segment([-10.0, 2.0], [10.0, 2.0], 0.05);
+        let map = map_of(&wall);
+        let scan = scan_from(&Pose2::IDENTITY, &wall[100..300], [0.02, 0.002]);
+        let initial = Pose2::new(0.25, 0.2, 0.0);
+        let result = match_scan(&map, &scan, initial, &settings());
+        assert!(result.status.is_accepted(), "{result:?}");
+        assert!(result.pose.y_m.abs() < 0.01, "{result:?}");
+        assert!((result.pose.x_m - 0.25).abs() < 0.05, "{result:?}");
+    }
+
+    #[test]
+    fn odometry_that_slipped_gives_way_to_the_scan() {
+        // A tight prior (1 cm) on a prediction 0.2 m off: twenty of its σ, so the robust prior
+        // yields and the scan decides.
+        let world = outlines();
+        let map = map_of(&world);
+        let truth = Pose2::new(0.5, 0.5, 0.1);
+        let scan = scan_from(&truth, &world, [0.02, 0.002]);
+        let tight = MatchSettings {
+            prior_std_m: 0.01,
+            prior_std_rad: 0.1f64.to_radians(),
+            ..settings()
+        };
+        let initial = truth.compose(&Pose2::new(0.2, 0.0, 0.0));
+        let result = match_scan(&map, &scan, initial, &tight);
+        assert!(result.pose.distance_m(&truth) < 0.03, "{result:?}");
+    }
+
+    #[test]
+    fn without_map_or_scan_the_prediction_stands() {
+        let initial = Pose2::new(1.0, 2.0, 0.3);
+        let world = outlines();
+        let scan = scan_from(&initial, &world, [0.02, 0.01]);
+        let empty = DistributionMap::new(0.5, 3, 0.02);
+        let result = match_scan(&empty, &scan, initial, &settings());
+        assert_eq!((result.pose, result.status), (initial, IcpStatus::EmptyMap));
+        let result = match_scan(&map_of(&world), &[], initial, &settings());
+        assert_eq!(
+            (result.pose, result.status),
+            (initial, IcpStatus::EmptyScan)
+        );
+        // Points far from every cell: too few correspondences.
+        let far = scan_from(&initial, &[[500.0, 500.0]; 20], [0.02, 0.01]);
+        let result = match_scan(&map_of(&world), &far, initial, &settings());
+        assert_eq!(
+            (result.pose, result.status),
+            (initial, IcpStatus::TooFewCorrespondences)
+        );
+    }
+
+    #[test]
+    fn bad_numbers_never_give_nan() {
+        let world = outlines();
+        let mut map = map_of(&world);
+        // Non-finite and absurd map points are skipped.
+        map.extend(&[[f64::NAN, 0.0], [f64::INFINITY, 1.0], [1e300, 1e300]]);
+        assert_eq!(map.point_count(), world.len());
+        let truth = Pose2::new(0.3, 0.1, 0.05);
+        let mut scan = scan_from(&truth, &world, [0.0, 0.0]);
+        scan.push(RadarPoint {
+            position_m: [f64::NAN, 1.0],
+            range_std_m: 0.02,
+            angle_std_rad: 0.01,
+        });
+        scan.push(RadarPoint {
+            position_m: [1.0, 1.0],
+            range_std_m: f64::INFINITY,
+            angle_std_rad: 0.01,
+        });
+        // Zero declared errors and coincident points: the covariance floors keep it solvable.
+        scan.extend(std::iter::repeat_n(scan[0], 30));
+        let result = match_scan(&map, &scan, truth, &settings());
+        assert!(result.pose.is_finite(), "{result:?}");
+        assert!(result.pose.distance_m(&truth) < 0.05, "{result:?}");
+        let result = match_scan(&map, &scan, Pose2::new(f64::NAN, 0.0, 0.0), &settings());
+        assert_eq!(result.status, IcpStatus::EmptyMap);
+    }
+
+    #[test]
+    fn a_correction_beyond_the_gate_is_refused() {
+        let world = outlines();
+        let map = map_of(&world);
+        let truth = Pose2::new(0.0, 0.0, 0.0);
+        let scan = scan_from(&truth, &world, [0.02, 0.002]);
+        let gated = MatchSettings {
+            max_correction_m: 0.05,
+            ..settings()
+        };
+        let initial = Pose2::new(0.3, 0.0, 0.0);
+        let result = match_scan(&map, &scan, initial, &gated);
+        assert_eq!(result.status, IcpStatus::CorrectionRejected, "{result:?}");
+        assert_eq!(result.pose, initial);
+    }
+
+    #[test]
+    fn matching_is_deterministic() {
+        let world = outlines();
+        let scan = scan_from(&Pose2::new(0.2, 0.1, 0.02), &world, [0.02, 0.01]);
+        let a = match_scan(&map_of(&world), &scan, Pose2::IDENTITY, &settings());
+        let b = match_scan(&map_of(&world), &scan, Pose2::IDENTITY, &settings());
+        assert_eq!(a, b);
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        /// From any start within 0.25 m and 3° of the truth, a noise-free scan of the outlines is
+        /// matched to within 2 cm and 0.2°.
+        #[test]
+        fn converges_from_nearby_starts(
+            dx in -0.25f64..0.25, dy in -0.25f64..0.25, dyaw_deg in -3.0f64..3.0,
+            x in -2.0f64..2.0, y in -2.0f64..2.0, yaw in -3.1f64..3.1,
+        ) {
+            let world = outlines();
+            let map = map_of(&world);
+            let truth = Pose2::new(x, y, yaw);
+            let scan = scan_from(&truth, &world, [0.02, 0.002]);
+            let start = truth.compose(&Pose2::new(dx, dy, dyaw_deg.to_radians()));
+            let result = match_scan(&map, &scan, start, &settings());
+            prop_assert!(result.status.is_accepted(), "{:?}", result);
+            prop_assert!(result.pose.distance_m(&truth) < 0.02, "{:?}", result);
+            prop_assert!(result.pose.rotation_to_rad(&truth).to_degrees() < 0.2, "{:?}", result);
+        }
+    }
+}
