@@ -10,7 +10,7 @@
 //!
 //! The scan matcher's parameters come from the environment where set: `CELL` (`cell_m`), `NEIGH`
 //! (`cell_neighbours`), `CORR` (`max_correspondence_m`), `ROBUST` (`robust_sigma`), `PRIOR_M`,
-//! `PRIOR_DEG` (the prior's floors) and `MAPSTD` (`map_std_m`); `ALL=1` prints every frame.
+//! `PRIOR_DEG` (the prior's floors) and `MAPSTD` (`map_std_m`); `ALL=1` prints every frame; `SCENE=FILE` replaces the hall.
 
 use nrslam_association::{detection_to_agv_m, Association, Params, Pose2};
 
@@ -21,11 +21,14 @@ fn main() -> anyhow::Result<()> {
         .init();
     let args: Vec<String> = std::env::args().collect();
     let get = |i: usize, d: &str| args.get(i).cloned().unwrap_or_else(|| d.to_owned());
-    let radar = nrslam_radar::Params {
+    let mut radar = nrslam_radar::Params {
         range_std_m: get(1, "0").parse()?,
         angle_std_deg: get(2, "1").parse()?,
         ..nrslam_radar::Params::default()
     };
+    if let Ok(scene) = std::env::var("SCENE") {
+        radar.scene = scene.into();
+    }
     let seed: u64 = get(3, "1").parse()?;
     let mut params = Params {
         robust_scale_m: 0.5,

@@ -139,11 +139,14 @@ impl Reporter {
             .iter()
             .map(|m| m.position_error_m * m.position_error_m)
             .collect();
+        let rms = |values: &[f64]| {
+            (!values.is_empty()).then(|| (values.iter().sum::<f64>() / values.len() as f64).sqrt())
+        };
         Summary {
             etgospa: last.map(|m| m.etgospa),
             gospa: last.map(|m| m.gospa),
-            pose_rmse_m: (!squared.is_empty())
-                .then(|| (squared.iter().sum::<f64>() / squared.len() as f64).sqrt()),
+            pose_rmse_m: rms(&squared),
+            second_half_pose_rmse_m: rms(&squared[squared.len() / 2..]),
             final_position_error_m: last.map(|m| m.position_error_m),
             keyframe_rmse_m: self.keyframe_rmse_m(),
             frames: self.frames,
@@ -229,6 +232,9 @@ pub struct Summary {
     pub gospa: Option<f64>,
     /// Root mean square of the per-step AGV position error (m).
     pub pose_rmse_m: Option<f64>,
+    /// The same over the second half of the steps (m): on a run of two laps, the second lap,
+    /// where loops closed on the first should keep the pose the user gets on the map.
+    pub second_half_pose_rmse_m: Option<f64>,
     /// Position error at the last step (m).
     pub final_position_error_m: Option<f64>,
     /// RMSE of the final keyframe trajectory, every loop closure applied (m); see

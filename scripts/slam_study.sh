@@ -1,0 +1,77 @@
+#!/bin/bash
+# The back end against the pose oracle, on the paper's hall and on random scenes: every
+# condition runs twice on the same seeds, once through SLAM (launch/paper-ideal.toml,
+# launch/paper-5g.toml, loop closure on) and once mapped at the true poses
+# (launch/true-poses.toml, same detections), so the ratio of their final ET-GOPSA is what the
+# back end costs. Then the table (scripts/slam_study_table.py). docs/slam.md is written around it.
+#
+#   scripts/slam_study.sh OUT [HALL_SEEDS] [SCENES] [SCENE_SEEDS] [LAPS]
+#
+# Defaults: 40 hall seeds, 20 random scenes (`nrslam scene --random --seed K`) × 2 seeds, 2 laps.
+# Conditions: CONDITIONS (default "a1 r01a1 a5 5g 5gi": ΔR 0/Δθ 1°, ΔR 0.1 m/Δθ 1°, ΔR 0/Δθ 5°,
+# 5G spectral without refinement, 5G with interpolation). JOBS runs in parallel (default: nproc).
+# Needs the release binary (cargo build --release) or NRSLAM pointing at one.
+set -euo pipefail
+out=${1:?usage: scripts/slam_study.sh OUT [HALL_SEEDS] [SCENES] [SCENE_SEEDS] [LAPS]}
+hall_seeds=${2:-40}
+scenes=${3:-20}
+scene_seeds=${4:-2}
+laps=${5:-2}
+bin=${NRSLAM:-target/release/nrslam}
+jobs=${JOBS:-$(nproc)}
+conditions=${CONDITIONS:-a1 r01a1 a5 5g 5gi}
+mkdir -p "$out/runs" "$out/scenes"
+
+args_of() { # condition -> "SLAM_LAUNCH ORACLE_ARGS ... | launch arguments"
+  case $1 in
+    a1) echo "launch/paper-ideal.toml|range_std_m:=0 angle_std_deg:=1|fidelity:=ideal range_std_m:=0 angle_std_deg:=1" ;;
+    r01a1) echo "launch/paper-ideal.toml|range_std_m:=0.1 angle_std_deg:=1|fidelity:=ideal range_std_m:=0.1 angle_std_deg:=1" ;;
+    a5) echo "launch/paper-ideal.toml|range_std_m:=0 angle_std_deg:=5|fidelity:=ideal range_std_m:=0 angle_std_deg:=5" ;;
+    r01a5) echo "launch/paper-ideal.toml|range_std_m:=0.1 angle_std_deg:=5|fidelity:=ideal range_std_m:=0.1 angle_std_deg:=5" ;;
+    5g) echo "launch/paper-5g.toml||fidelity:=spectral" ;;
+    5gi) echo "launch/paper-5g.toml|refinement:=interpolation|fidelity:=spectral refinement:=interpolation" ;;
+    *) echo "unknown condition $1" >&2; exit 2 ;;
+  esac
+}
+
+# One line per run: NAME SCENE_ARG SEED LAUNCH ARGS...
+plan="$out/plan.txt"
+: > "$plan"
+for k in $(seq 1 "$scenes"); do
+  "$bin" scene --random --seed "$k" --laps "$laps" --out "$out/scenes/s$k.toml" >/dev/null
+done
+for c in $conditions; do
+  IFS='|' read -r slam_launch slam_args oracle_args <<< "$(args_of "$c")"
+  for s in $(seq 1 "$hall_seeds"); do
+    echo "${c}_slam_hall_$s - $s $slam_launch $slam_args" >> "$plan"
+    echo "${c}_oracle_hall_$s - $s launch/true-poses.toml $oracle_args" >> "$plan"
+  done
+  for k in $(seq 1 "$scenes"); do
+    for s in $(seq 1 "$scene_seeds"); do
+      echo "${c}_slam_s${k}_$s scene:=$out/scenes/s$k.toml $s $slam_launch $slam_args" >> "$plan"
+      echo "${c}_oracle_s${k}_$s scene:=$out/scenes/s$k.toml $s launch/true-poses.toml $oracle_args" >> "$plan"
+    done
+  done
+done
+
+run_one() { # NAME SCENE_ARG SEED LAUNCH ARGS...
+  local name=$1 scene=$2 seed=$3 launch=$4; shift 4
+  [ -f "$out/runs/$name.json" ] && return 0   # resumable
+  local extra=()
+  [ "$scene" != "-" ] && extra+=("$scene")
+  local dir
+  dir=$(mktemp -d)
+  if "$bin" launch "$launch" "$@" "${extra[@]}" --seed "$seed" --out "$dir" >/dev/null 2>"$dir/stderr"; then
+    cp "$dir/summary.json" "$out/runs/$name.json"
+  else
+    echo "run $name failed: $(tail -1 "$dir/stderr")" >&2
+  fi
+  rm -rf "$dir"
+}
+export -f run_one
+export bin out
+total=$(wc -l < "$plan")
+echo "$total runs, $jobs at a time" >&2
+# shellcheck disable=SC2016
+xargs -P "$jobs" -L 1 bash -c 'run_one "$@"' _ < "$plan"
+python3 "$(dirname "$0")/slam_study_table.py" "$out/runs"
