@@ -187,6 +187,10 @@ pub struct LoopClosureParams {
     /// Blur of the correlative search's likelihood grid, metres: a query point this far from
     /// the nearest submap point scores exp(−1/2) ≈ 0.61 of one on it (nothing beyond 3σ).
     pub search_sigma_m: f64,
+    /// The ICP refinement of a loop match pairs a query point with submap points up to this far,
+    /// metres (tracking's `max_correspondence_m` is tighter: it corrects one frame's odometry,
+    /// this a lap's drift).
+    pub refine_correspondence_m: f64,
 }
 
 impl Default for LoopClosureParams {
@@ -221,6 +225,7 @@ impl Default for LoopClosureParams {
             max_iterations: 20,
             local_map_m: 0.0,
             search_sigma_m: 0.25,
+            refine_correspondence_m: 1.0,
         }
     }
 }
@@ -339,6 +344,12 @@ impl LoopClosureParams {
             self.search_sigma_m,
             0.001,
             10.0,
+        )?;
+        InvalidParam::check_range(
+            "loop_closure.refine_correspondence_m",
+            self.refine_correspondence_m,
+            0.01,
+            100.0,
         )?;
         let counts = [
             (

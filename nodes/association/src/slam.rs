@@ -516,6 +516,12 @@ impl Association {
         candidates.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let query_from = current.saturating_sub(lc.query_keyframes as usize - 1);
         let query = self.cloud(query_from..=current, current);
+        // The loop's ICP refinement pairs points across a larger gap than tracking does: after a
+        // lap the drift is metres, not centimetres.
+        let refine_params = Params {
+            max_correspondence_m: lc.refine_correspondence_m,
+            ..self.params.clone()
+        };
         let mut tried: Vec<usize> = Vec::new();
         for &(_, j, radius_m) in &candidates {
             if tried.len() >= lc.max_candidates as usize {
@@ -540,7 +546,7 @@ impl Association {
             );
             let submap = self.cloud(j.saturating_sub(w)..=last_old.max(j), j);
             let predicted = self.records[j].pose.between(&here);
-            match match_loop(&query, &submap, predicted, radius_m, &lc, &self.params) {
+            match match_loop(&query, &submap, predicted, radius_m, &lc, &refine_params) {
                 Ok(found) => {
                     let found = LoopMatch {
                         candidate: j,
