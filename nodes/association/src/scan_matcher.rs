@@ -175,9 +175,9 @@ impl DistributionMap {
         let Some(k) = NonZero::new(k) else {
             return Vec::new();
         };
-        tree.nearest_n::<SquaredEuclidean>(query_m, k)
+        // The radius prunes the tree walk: most scan points have few cells within it.
+        tree.nearest_n_within::<SquaredEuclidean>(query_m, max_m * max_m, k, true)
             .into_iter()
-            .filter(|n| n.distance <= max_m * max_m)
             .filter_map(|n| usize::try_from(n.item).ok())
             .filter_map(|i| self.cells.get(i))
             .collect()
