@@ -37,19 +37,21 @@ args_of() { # condition -> "SLAM_LAUNCH ORACLE_ARGS ... | launch arguments"
 # One line per run: NAME SCENE_ARG SEED LAUNCH ARGS...
 plan="$out/plan.txt"
 : > "$plan"
+# xargs -L continues a line that ends in a blank, so no line may.
+line() { printf '%s\n' "$(echo "$1" | sed 's/[[:space:]]*$//')" >> "$plan"; }
 for k in $(seq 1 "$scenes"); do
   "$bin" scene --random --seed "$k" --laps "$laps" --out "$out/scenes/s$k.toml" >/dev/null
 done
 for c in $conditions; do
   IFS='|' read -r slam_launch slam_args oracle_args <<< "$(args_of "$c")"
   for s in $(seq 1 "$hall_seeds"); do
-    echo "${c}_slam_hall_$s - $s $slam_launch $slam_args" >> "$plan"
-    echo "${c}_oracle_hall_$s - $s launch/true-poses.toml $oracle_args" >> "$plan"
+    line "${c}_slam_hall_$s - $s $slam_launch $slam_args"
+    line "${c}_oracle_hall_$s - $s launch/true-poses.toml $oracle_args"
   done
   for k in $(seq 1 "$scenes"); do
     for s in $(seq 1 "$scene_seeds"); do
-      echo "${c}_slam_s${k}_$s scene:=$out/scenes/s$k.toml $s $slam_launch $slam_args" >> "$plan"
-      echo "${c}_oracle_s${k}_$s scene:=$out/scenes/s$k.toml $s launch/true-poses.toml $oracle_args" >> "$plan"
+      line "${c}_slam_s${k}_$s scene:=$out/scenes/s$k.toml $s $slam_launch $slam_args"
+      line "${c}_oracle_s${k}_$s scene:=$out/scenes/s$k.toml $s launch/true-poses.toml $oracle_args"
     done
   done
 done
