@@ -11,22 +11,32 @@
 //! current keyframe's frame) against a *submap* (the candidate and its neighbours, in the
 //! candidate's frame):
 //!
-//! 1. **Correlative search.** The submap is rasterised into a binary grid (cells within one cell
-//!    of a submap point are "hit"), and every rigid motion on a grid of translations
-//!    (± radius, `search_step_m`) and rotations (± `max_search_rotation_deg`, `search_step_deg`)
-//!    around the predicted relative pose is scored by the fraction of query points landing on hit
-//!    cells, times a Gaussian prior on the offset from the prediction (σ = radius / 2). This needs
-//!    no initial guess closer than the radius, unlike ICP. The best score and the best score at
-//!    least `ambiguity_distance_m` away from it are kept.
+//! 1. **Correlative search.** The submap is rasterised on cells of `search_step_m`
+//!    ([`crate::correlative::ProbabilityGrid`]): by default into a binary grid (cells within one
+//!    cell of a submap point's are "hit", worth 1), or, with `search_sigma_m` > 0, into a
+//!    likelihood field (`exp(-d²/2σ²)` of the distance to the nearest submap point). The rigid
+//!    motions on a lattice of translations (within the radius, `search_step_m` apart) and
+//!    rotations (± `max_search_rotation_deg`, `search_step_deg` apart) around the predicted
+//!    relative pose are scored by the mean grid value at the moved query points (the fraction on
+//!    hit cells), times a Gaussian prior on the offset from the prediction (σ = radius / 2). This
+//!    needs no initial guess closer than the radius, unlike ICP. The best motion is found by
+//!    branch and bound ([`crate::correlative::search_with`], after Hess et al., "Real-Time Loop
+//!    Closure in 2D LIDAR SLAM"), which returns exactly what scoring every motion would, at a
+//!    fraction of the cost; a second search that leaves out the disc of `ambiguity_distance_m`
+//!    around it finds the best score elsewhere ([`crate::correlative::runner_up`]).
 //! 2. **Refinement.** Point-to-line ICP from the best motion ([`crate::icp::align`]).
 //! 3. **Verification.** The loop is accepted only when enough query points have a submap point
 //!    within `inlier_distance_m` (`min_inlier_ratio`), and the search peak is unambiguous (the
 //!    runner-up scores at most `max_ambiguity` of the best): the hall's targets stand on a
 //!    regular grid, and a query shifted by one station pitch can look much like the right one.
 //!
-//! Everything is deterministic: candidates are ordered by distance then id, the search visits
-//! motions in a fixed order and keeps the first of equal scores.
+//! Everything is deterministic: candidates are ordered by distance then id, and the search breaks
+//! ties between equal scores by the smallest (rotation, x, y) step.
 
+use crate::correlative::{
+    runner_up, search_with, suggested_depth, Kernel, MultiResolutionGrid, ProbabilityGrid,
+    SearchOptions, SearchWindow,
+};
 use crate::icp::{align, IcpStatus, PointMap};
 use crate::params::{LoopClosureParams, Params};
 use crate::pose::Pose2;
@@ -41,9 +51,12 @@ pub struct LoopMatch {
     pub relative: Pose2,
     /// Fraction of query points within `inlier_distance_m` of the submap after refinement.
     pub inlier_ratio: f64,
-    /// Best correlative score (fraction of query points on hit cells).
+    /// Best correlative score: the mean grid value at the query points moved by the search's
+    /// best motion, without the prior (with the default binary grid, the fraction of query
+    /// points on hit cells).
     pub score: f64,
-    /// Best score at least `ambiguity_distance_m` away from the best motion.
+    /// Best score at least `ambiguity_distance_m` away from the best motion, in the same units
+    /// (`score` times the ratio of the two motions' prior-weighted scores).
     pub runner_up: f64,
 }
 
@@ -70,74 +83,6 @@ pub enum LoopRejection {
     },
 }
 
-/// Binary raster of a point set, for O(1) correlative scoring.
-struct HitGrid {
-    origin: [f64; 2],
-    cell_m: f64,
-    width: usize,
-    height: usize,
-    hits: Vec<bool>,
-}
-
-impl HitGrid {
-    fn new(points_m: &[[f64; 2]], cell_m: f64, margin_m: f64) -> Option<Self> {
-        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-        for p in points_m {
-            for a in 0..2 {
-                lo[a] = lo[a].min(p[a]);
-                hi[a] = hi[a].max(p[a]);
-            }
-        }
-        if !(lo[0].is_finite() && hi[0].is_finite() && lo[1].is_finite() && hi[1].is_finite()) {
-            return None;
-        }
-        let origin = [lo[0] - margin_m, lo[1] - margin_m];
-        let width = ((hi[0] - lo[0] + 2.0 * margin_m) / cell_m).ceil() as usize + 1;
-        let height = ((hi[1] - lo[1] + 2.0 * margin_m) / cell_m).ceil() as usize + 1;
-        // A runaway extent (points kilometres apart) is not a submap worth searching.
-        if width.saturating_mul(height) > 4_000_000 {
-            return None;
-        }
-        let mut grid = HitGrid {
-            origin,
-            cell_m,
-            width,
-            height,
-            hits: vec![false; width * height],
-        };
-        for p in points_m {
-            let (c, r) = grid.cell(p)?;
-            // Dilate by one cell: a query point within about a cell of a submap point scores.
-            for dr in -1i64..=1 {
-                for dc in -1i64..=1 {
-                    let (cc, rr) = (c as i64 + dc, r as i64 + dr);
-                    if cc >= 0 && rr >= 0 && (cc as usize) < width && (rr as usize) < height {
-                        grid.hits[rr as usize * width + cc as usize] = true;
-                    }
-                }
-            }
-        }
-        Some(grid)
-    }
-
-    fn cell(&self, p: &[f64; 2]) -> Option<(usize, usize)> {
-        let u = (p[0] - self.origin[0]) / self.cell_m;
-        let v = (p[1] - self.origin[1]) / self.cell_m;
-        (u >= 0.0 && v >= 0.0 && u < self.width as f64 && v < self.height as f64)
-            .then_some((u as usize, v as usize))
-    }
-
-    /// Whether integer cell (column, row) is a hit; cells outside the grid are not.
-    #[inline]
-    fn hit_cell(&self, column: i64, row: i64) -> bool {
-        column >= 0
-            && row >= 0
-            && (column as usize) < self.width
-            && (row as usize) < self.height
-            && self.hits[row as usize * self.width + column as usize]
-    }
-}
-
 /// Matches `query_m` (points in the query keyframe's frame) against `submap_m` (points in the
 /// candidate keyframe's frame), starting from the predicted relative pose `predicted` and
 /// searching translations within `radius_m`.
@@ -153,74 +98,70 @@ pub fn match_loop(
     if query_m.len() < min_points || submap_m.len() < min_points {
         return Err(LoopRejection::TooFewPoints);
     }
+    // Non-finite points say nothing about the place; the search refuses them.
+    let finite = |p: &&[f64; 2]| p[0].is_finite() && p[1].is_finite();
+    let query_m: Vec<[f64; 2]> = query_m.iter().filter(finite).copied().collect();
+    let submap_m: Vec<[f64; 2]> = submap_m.iter().filter(finite).copied().collect();
+    if query_m.len() < min_points || submap_m.len() < min_points {
+        return Err(LoopRejection::TooFewPoints);
+    }
     // At most ~400 query points for the search: a deterministic stride keeps the cost bounded.
     let stride = query_m.len().div_ceil(400).max(1);
     let sample: Vec<[f64; 2]> = query_m.iter().step_by(stride).copied().collect();
     let step_m = loop_params.search_step_m;
-    let grid =
-        HitGrid::new(submap_m, step_m, radius_m + 25.0).ok_or(LoopRejection::TooFewPoints)?;
+    // A grid that cannot be built (a runaway extent: points kilometres apart) is not a submap
+    // worth searching.
+    let kernel = if loop_params.search_sigma_m > 0.0 {
+        Kernel::Gaussian {
+            sigma_m: loop_params.search_sigma_m,
+        }
+    } else {
+        Kernel::Hit { cells: 1 }
+    };
+    let grid = ProbabilityGrid::with_kernel(&submap_m, step_m, kernel)
+        .map_err(|_| LoopRejection::TooFewPoints)?;
+    let grids = MultiResolutionGrid::new(grid, suggested_depth(radius_m, step_m))
+        .map_err(|_| LoopRejection::TooFewPoints)?;
 
     let steps_t = (radius_m / step_m).ceil() as i64;
     let step_rad = loop_params.search_step_deg.to_radians();
     let steps_r = (loop_params.max_search_rotation_deg / loop_params.search_step_deg).ceil() as i64;
-    // Every motion searched with its score: the fraction of query points on hit cells, times a
-    // Gaussian prior on the offset from the prediction (σ = half the radius). The prior matters
-    // in halls like ours whose targets repeat on a grid: a query shifted by one station pitch
-    // can cover as many hit cells as the right one, but is farther from where odometry says the
-    // AGV is.
-    let sigma_m = 0.5 * radius_m.max(step_m);
-    let mut candidates: Vec<(f64, usize, Pose2)> = Vec::new();
-    // The grid's cells are one search step wide, so a translation by (ix, iy) steps moves every
-    // query point by exactly (ix, iy) cells: each rotated point's cell at the prediction is
-    // computed once per rotation and the translations are integer offsets of it.
-    debug_assert_eq!(grid.cell_m, step_m);
-    let base = [
-        predicted.x_m - grid.origin[0],
-        predicted.y_m - grid.origin[1],
-    ];
-    let mut cells: Vec<(i64, i64)> = vec![(0, 0); sample.len()];
-    for ir in -steps_r..=steps_r {
-        let yaw = predicted.yaw_rad + ir as f64 * step_rad;
-        let (s, c) = yaw.sin_cos();
-        for (cell, p) in cells.iter_mut().zip(&sample) {
-            let x = c * p[0] - s * p[1] + base[0];
-            let y = s * p[0] + c * p[1] + base[1];
-            *cell = ((x / step_m).floor() as i64, (y / step_m).floor() as i64);
-        }
-        for ix in -steps_t..=steps_t {
-            let tx = predicted.x_m + ix as f64 * step_m;
-            for iy in -steps_t..=steps_t {
-                let ty = predicted.y_m + iy as f64 * step_m;
-                if (ix * ix + iy * iy) as f64 * step_m * step_m > radius_m * radius_m {
-                    continue;
-                }
-                let count = cells
-                    .iter()
-                    .filter(|(column, row)| grid.hit_cell(column + ix, row + iy))
-                    .count();
-                let offset2_m2 = (ix * ix + iy * iy) as f64 * step_m * step_m;
-                let weighted = count as f64 * (-0.5 * offset2_m2 / (sigma_m * sigma_m)).exp();
-                candidates.push((weighted, count, Pose2::new(tx, ty, yaw)));
-            }
-        }
-    }
-    // Highest weighted score first; ties keep search order (stable sort).
-    candidates.sort_by(|a, b| b.0.total_cmp(&a.0));
-    let Some(&(best_weighted, best_count, best)) = candidates.first() else {
-        return Err(LoopRejection::TooFewPoints);
+    let window = SearchWindow {
+        linear_m: radius_m,
+        angular_rad: loop_params.max_search_rotation_deg.to_radians(),
     };
-    let runner_weighted = candidates
-        .iter()
-        .find(|(_, _, m)| m.distance_m(&best) >= loop_params.ambiguity_distance_m)
-        .map_or(0.0, |c| c.0);
-    let total = sample.len() as f64;
-    let score = best_count as f64 / total;
-    // The runner-up in the same (prior-weighted) units as the best, as a fraction of points.
-    let runner_up = if best_weighted > 0.0 {
-        score * runner_weighted / best_weighted
+    // The prior on the offset from the prediction (σ = half the radius) matters in halls like
+    // ours whose targets repeat on a grid: a query shifted by one station pitch can fit as well
+    // as the right one, but is farther from where odometry says the AGV is.
+    let options = SearchOptions {
+        angular_step_rad: Some(step_rad),
+        prior_sigma_m: Some(0.5 * radius_m.max(step_m)),
+        exclude: None,
+    };
+    let best = search_with(&grids, &sample, predicted, &window, &options, 0.0)
+        .ok()
+        .flatten()
+        .ok_or(LoopRejection::TooFewPoints)?;
+    let runner = runner_up(
+        &grids,
+        &sample,
+        predicted,
+        &window,
+        &options,
+        &best,
+        loop_params.ambiguity_distance_m,
+    )
+    .ok()
+    .flatten()
+    .map_or(0.0, |m| m.score);
+    let score = best.mean_value;
+    // The runner-up in the same (prior-weighted) units as the best, as a mean grid value.
+    let runner_up = if best.score > 0.0 {
+        score * runner / best.score
     } else {
         0.0
     };
+    let best = best.pose;
 
     // A peak on the window's edge (outermost ring of translations or of rotations) is a
     // truncated slope, not a verified maximum.
@@ -241,8 +182,8 @@ pub fn match_loop(
         ..icp_params.clone()
     };
     let mut map = PointMap::for_params(&refine);
-    map.extend(submap_m);
-    let icp = align(&map, query_m, best, &refine);
+    map.extend(&submap_m);
+    let icp = align(&map, &query_m, best, &refine);
     if !matches!(icp.status, IcpStatus::Converged | IcpStatus::MaxIterations) {
         return Err(LoopRejection::IcpFailed);
     }
@@ -253,7 +194,7 @@ pub fn match_loop(
     let inlier_m2 = loop_params.inlier_distance_m * loop_params.inlier_distance_m;
     let overlap_m2 = loop_params.overlap_distance_m * loop_params.overlap_distance_m;
     let (mut inliers, mut overlapping) = (0usize, 0usize);
-    for p in query_m {
+    for p in &query_m {
         let d2 = map
             .nearest(&relative.transform_point(*p))
             .map_or(f64::INFINITY, |(_, d2)| d2);
@@ -336,6 +277,22 @@ mod tests {
         assert!(found.relative.distance_m(&truth) < 0.05, "{found:?}");
         assert!(found.relative.rotation_to_rad(&truth) < 0.5f64.to_radians());
         assert!(found.inlier_ratio > 0.95);
+        // The likelihood-field raster finds it too.
+        let blurred = LoopClosureParams {
+            search_sigma_m: 0.2,
+            ..LoopClosureParams::default()
+        };
+        let found = match_loop(
+            &seen_from(&query, &points),
+            &seen_from(&candidate, &points),
+            predicted,
+            4.0,
+            &blurred,
+            &Params::default(),
+        )
+        .unwrap();
+        assert!(found.relative.distance_m(&truth) < 0.05, "{found:?}");
+        assert!(found.score > 0.8 && found.score < 1.0, "{found:?}");
     }
 
     #[test]
@@ -413,6 +370,39 @@ mod tests {
             matches!(result, Err(LoopRejection::Ambiguous { .. })),
             "{result:?}"
         );
+    }
+
+    #[test]
+    fn non_finite_points_are_ignored() {
+        let points = scene();
+        let candidate = Pose2::new(0.0, 0.0, 0.3);
+        let query = Pose2::new(1.0, 0.5, 0.35);
+        let truth = candidate.between(&query);
+        let mut query_m = seen_from(&query, &points);
+        let mut submap_m = seen_from(&candidate, &points);
+        query_m.insert(3, [f64::NAN, 1.0]);
+        submap_m.push([0.0, f64::INFINITY]);
+        let found = match_loop(
+            &query_m,
+            &submap_m,
+            truth.compose(&Pose2::new(0.7, -0.4, 3f64.to_radians())),
+            3.0,
+            &LoopClosureParams::default(),
+            &Params::default(),
+        )
+        .unwrap();
+        assert!(found.relative.distance_m(&truth) < 0.05, "{found:?}");
+        assert!(found.inlier_ratio > 0.95 && found.score > 0.8, "{found:?}");
+        // Nothing but non-finite points is too few.
+        let result = match_loop(
+            &[[f64::NAN, 0.0]; 50],
+            &submap_m,
+            truth,
+            3.0,
+            &LoopClosureParams::default(),
+            &Params::default(),
+        );
+        assert_eq!(result, Err(LoopRejection::TooFewPoints));
     }
 
     #[test]

@@ -184,8 +184,10 @@ pub struct LoopClosureParams {
     /// closure then corrects the whole chain at once. After it the whole (corrected) map is
     /// used. 0 uses the whole map throughout.
     pub local_map_m: f64,
-    /// Blur of the correlative search's likelihood grid, metres: a query point this far from
-    /// the nearest submap point scores exp(−1/2) ≈ 0.61 of one on it (nothing beyond 3σ).
+    /// Raster of the correlative search, metres. 0: binary, a query point scores 1 within a
+    /// cell of a submap point's cell and 0 elsewhere. > 0: a likelihood field of this blur σ, a
+    /// query point scoring exp(−d²/2σ²) at distance d from the nearest submap point (0 beyond
+    /// 3σ). Scores, and so `max_ambiguity`, mean different things in the two.
     pub search_sigma_m: f64,
     /// The ICP refinement of a loop match pairs a query point with submap points up to this far,
     /// metres (tracking's `max_correspondence_m` is tighter: it corrects one frame's odometry,
@@ -224,7 +226,7 @@ impl Default for LoopClosureParams {
             loop_std_deg: 2.0,
             max_iterations: 20,
             local_map_m: 0.0,
-            search_sigma_m: 0.25,
+            search_sigma_m: 0.0,
             refine_correspondence_m: 1.0,
         }
     }
@@ -342,7 +344,7 @@ impl LoopClosureParams {
         InvalidParam::check_range(
             "loop_closure.search_sigma_m",
             self.search_sigma_m,
-            0.001,
+            0.0,
             10.0,
         )?;
         InvalidParam::check_range(
