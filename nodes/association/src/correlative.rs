@@ -423,9 +423,9 @@ impl MultiResolutionGrid {
 /// cells of `cell_m`: the coarsest blocks span a quarter to a half of the window's width.
 /// Coarser blocks bound too loosely to prune (a block metres wide nearly always holds a map point
 /// somewhere), finer ones leave more roots to score; every depth gives the same result. Measured
-/// in `benches/correlative.rs` (group `depth`): at ±6 m, the fastest depths were 4–5 on 0.25 m
-/// cells and 5 on 0.1 m cells with Hess et al.'s angular step, within 30 % of one another from 3
-/// to 7 with loop closure's prior and 1° step.
+/// in `benches/correlative.rs` (group `depth`): at ±6 m with Hess et al.'s angular step, depth 5
+/// was fastest on 0.25 m cells (4: +10 %) and on 0.1 m cells (4: +2×, 6: +30 %); with loop
+/// closure's hit raster, prior and 1° steps on 0.25 m cells, 3 and 7 were (4: +20 %, 5: +2×).
 pub fn suggested_depth(linear_m: f64, cell_m: f64) -> u32 {
     let width = 2.0 * (linear_m / cell_m).ceil() + 1.0;
     if !(width.is_finite() && width >= 1.0) {
