@@ -57,16 +57,36 @@ fn main() -> anyhow::Result<()> {
     if let Some(v) = env("MAPSTD") {
         params.map_std_m = v;
     }
-    params.loop_closure.local_map_m = get(5, "0").parse()?;
-    let _unused_covariance_weighting = get(6, "false");
-    params.loop_closure.overlap_distance_m = get(7, "0").parse()?;
-    params.loop_closure.min_inlier_ratio = get(8, "0.5").parse()?;
-    params.loop_closure.search_radius_per_m = get(9, "0.03").parse()?;
-    params.loop_closure.max_search_radius_m = get(10, "6").parse()?;
-    params.loop_closure.loop_std_deg = get(11, "2").parse()?;
-    params.loop_closure.query_keyframes = get(12, "10").parse()?;
-    params.loop_closure.submap_keyframes = get(13, "10").parse()?;
-    params.loop_closure.max_ambiguity = get(14, "0.85").parse()?;
+    // Positional overrides apply only where given: the shipped defaults otherwise.
+    let lc = &mut params.loop_closure;
+    let opt = |i: usize| args.get(i).and_then(|v| v.parse::<f64>().ok());
+    if let Some(v) = opt(5) {
+        lc.local_map_m = v;
+    }
+    if let Some(v) = opt(7) {
+        lc.overlap_distance_m = v;
+    }
+    if let Some(v) = opt(8) {
+        lc.min_inlier_ratio = v;
+    }
+    if let Some(v) = opt(9) {
+        lc.search_radius_per_m = v;
+    }
+    if let Some(v) = opt(10) {
+        lc.max_search_radius_m = v;
+    }
+    if let Some(v) = opt(11) {
+        lc.loop_std_deg = v;
+    }
+    if let Some(v) = opt(12) {
+        lc.query_keyframes = v as u32;
+    }
+    if let Some(v) = opt(13) {
+        lc.submap_keyframes = v as u32;
+    }
+    if let Some(v) = opt(14) {
+        lc.max_ambiguity = v;
+    }
     let ctx = nrslam_runtime::NodeContext::for_tests(seed);
     let mut sim = nrslam_radar::Simulator::from_params(
         &radar,
@@ -104,7 +124,29 @@ fn main() -> anyhow::Result<()> {
             online_at_keyframe.push(err);
             if let Some(m) = out.loop_match {
                 let j = m.candidate;
-                let true_rel = truths[j].between(&truth);
+                let true_rel = truths[j].between(&truths[m.query]);
+                if std::env::var("DISTORT").is_ok() {
+                    // How far the query's and the submap's keyframes are from their true
+                    // placement relative to the keyframe they are expressed in.
+                    let records = slam.keyframe_records();
+                    let spread = |from: usize, to: usize, frame: usize| {
+                        (from..=to.min(records.len() - 1))
+                            .map(|k| {
+                                let est = records[frame].pose.between(&records[k].pose);
+                                let tru = truths[frame].between(&truths[k]);
+                                format!(
+                                    "{:.2}/{:.1}",
+                                    est.distance_m(&tru),
+                                    est.rotation_to_rad(&tru).to_degrees()
+                                )
+                            })
+                            .collect::<Vec<_>>()
+                            .join(" ")
+                    };
+                    let cur = records.len() - 1;
+                    println!("  query  {}", spread(cur.saturating_sub(9), cur, m.query));
+                    println!("  submap {}", spread(j.saturating_sub(10), j + 10, j));
+                }
                 println!(
                     "frame {:3} kf {:3} LOOP with kf {:3}: relative error {:.2} m {:.2}°, inliers {:.2}, score {:.2}/{:.2}",
                     frame.index,

@@ -71,12 +71,10 @@ def main(root):
                 if isinstance(slam[k].get("second_half_pose_rmse_m"), (int, float))
             ]
             loops = [slam[k].get("loop_closures", 0) for k in keys]
-            bad_edges = [
-                slam[k]["loop_edges_off_m"] for k in keys if "loop_edges_off_m" in slam[k]
-            ]
+            scored = [slam[k]["loop_edges_scored"] for k in keys if "loop_edges_scored" in slam[k]]
             bad = (
-                str(sum(sum(1 for e in edges if e > 0.5) for edges in bad_edges))
-                if bad_edges
+                f"{sum(slam[k].get('loop_edges_wrong', 0) for k in keys)} of {sum(scored)}"
+                if scored
                 else "n/a"
             )
             print(

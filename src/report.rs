@@ -27,6 +27,9 @@ type StampKey = (i32, u32);
 /// A planar position (x_m, y_m).
 type PositionM = (f64, f64);
 
+/// Loop edges off by more than this against the truth count as wrong (m).
+pub const LOOP_EDGE_WRONG_M: f64 = 0.5;
+
 /// Collected run.
 #[derive(Debug, Default)]
 pub struct Reporter {
@@ -52,8 +55,8 @@ pub struct Reporter {
     pub true_path: Vec<(f64, f64)>,
     /// SLAM path (x_m, y_m).
     pub slam_path: Vec<(f64, f64)>,
-    /// True position (x_m, y_m) by stamp (sec, nanosec), to score keyframes.
-    pub true_by_stamp: BTreeMap<StampKey, PositionM>,
+    /// True pose (x_m, y_m, yaw_rad) by stamp (sec, nanosec), to score keyframes and loops.
+    pub true_by_stamp: BTreeMap<StampKey, (f64, f64, f64)>,
     /// Each keyframe's stamp and the position it was first published at, by id.
     pub keyframes_by_id: BTreeMap<u32, (StampKey, PositionM)>,
     /// Latest `/slam/keyframe_poses`: every keyframe after the last loop closure.
@@ -86,10 +89,10 @@ impl Reporter {
             (topics::SEGMENTS, Message::Segments(s)) => self.segments = Some(s.clone()),
             (topics::GROUND_TRUTH_TARGETS, Message::TargetSet(t)) => self.targets = Some(t.clone()),
             (topics::GROUND_TRUTH_POSE, Message::PoseStamped(p)) => {
-                let at = (p.pose.position.x, p.pose.position.y);
-                self.true_path.push(at);
+                let (x_m, y_m, yaw_rad) = p.pose.planar();
+                self.true_path.push((x_m, y_m));
                 let stamp = (p.header.stamp.sec, p.header.stamp.nanosec);
-                self.true_by_stamp.insert(stamp, at);
+                self.true_by_stamp.insert(stamp, (x_m, y_m, yaw_rad));
             }
             (topics::SLAM_POSE, Message::PoseStamped(p)) => {
                 self.slam_path.push((p.pose.position.x, p.pose.position.y))
@@ -126,6 +129,86 @@ impl Reporter {
         (!squared.is_empty()).then(|| (squared.iter().sum::<f64>() / squared.len() as f64).sqrt())
     }
 
+    /// The position error (m) of every loop edge in the latest `/slam/keyframe_poses` whose
+    /// two keyframes have a true pose at their stamps: the distance between the measured pose of
+    /// the newer keyframe in the older one's frame and the true one.
+    pub fn loop_edge_errors_m(&self) -> Vec<f64> {
+        self.scored_loop_edges().iter().map(|e| e.error_m).collect()
+    }
+
+    /// Every loop edge of the latest `/slam/keyframe_poses` with both keyframes' true poses.
+    pub fn scored_loop_edges(&self) -> Vec<ScoredLoopEdge> {
+        let Some(k) = &self.keyframe_poses else {
+            return Vec::new();
+        };
+        let true_pose = |id: &u32| {
+            let (stamp, _) = self.keyframes_by_id.get(id)?;
+            self.true_by_stamp.get(stamp).copied()
+        };
+        k.loop_from_ids
+            .iter()
+            .zip(&k.loop_to_ids)
+            .zip(&k.loop_relatives)
+            .filter_map(|((from, to), measured)| {
+                let (a, b) = (true_pose(from)?, true_pose(to)?);
+                // The true pose of `to` in the frame of `from`.
+                let (sin, cos) = a.2.sin_cos();
+                let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+                let truth = (cos * dx + sin * dy, -sin * dx + cos * dy);
+                let (x_m, y_m, yaw_rad) = measured.planar();
+                let error_m = (x_m - truth.0).hypot(y_m - truth.1);
+                let true_yaw_rad = b.2 - a.2;
+                let error_rad = (yaw_rad - true_yaw_rad)
+                    .sin()
+                    .atan2((yaw_rad - true_yaw_rad).cos());
+                error_m.is_finite().then_some(ScoredLoopEdge {
+                    from: *from,
+                    to: *to,
+                    measured: (x_m, y_m, yaw_rad),
+                    truth: (truth.0, truth.1, true_yaw_rad),
+                    error_m,
+                    error_rad: error_rad.abs(),
+                })
+            })
+            .collect()
+    }
+
+    /// Writes `loops.csv`: one row per scored loop edge, measured against true.
+    pub fn write_loops_csv(&self, path: &Path) -> Result<()> {
+        let mut writer = csv::Writer::from_path(path)
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        writer.write_record([
+            "from_keyframe",
+            "to_keyframe",
+            "measured_x_m",
+            "measured_y_m",
+            "measured_yaw_rad",
+            "true_x_m",
+            "true_y_m",
+            "true_yaw_rad",
+            "error_m",
+            "error_rad",
+        ])?;
+        for e in self.scored_loop_edges() {
+            writer.write_record([
+                e.from.to_string(),
+                e.to.to_string(),
+                e.measured.0.to_string(),
+                e.measured.1.to_string(),
+                e.measured.2.to_string(),
+                e.truth.0.to_string(),
+                e.truth.1.to_string(),
+                e.truth.2.to_string(),
+                e.error_m.to_string(),
+                e.error_rad.to_string(),
+            ])?;
+        }
+        writer
+            .flush()
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        Ok(())
+    }
+
     /// The summary of the run.
     pub fn summary(
         &self,
@@ -142,6 +225,7 @@ impl Reporter {
         let rms = |values: &[f64]| {
             (!values.is_empty()).then(|| (values.iter().sum::<f64>() / values.len() as f64).sqrt())
         };
+        let loop_errors_m = self.loop_edge_errors_m();
         Summary {
             etgospa: last.map(|m| m.etgospa),
             gospa: last.map(|m| m.gospa),
@@ -153,6 +237,12 @@ impl Reporter {
             metric_steps: self.metrics.len() as u64,
             keyframes: self.keyframes,
             loop_closures: self.loop_closures,
+            loop_edges_scored: loop_errors_m.len() as u64,
+            loop_edges_wrong: loop_errors_m
+                .iter()
+                .filter(|&&e| e > LOOP_EDGE_WRONG_M)
+                .count() as u64,
+            max_loop_edge_error_m: loop_errors_m.iter().copied().reduce(f64::max),
             mean_inlier_ratio: (self.association_frames > 0)
                 .then(|| self.inlier_ratio_sum / self.association_frames as f64),
             estimated_targets: last.map(|m| m.estimated_targets),
@@ -217,10 +307,28 @@ impl Reporter {
         std::fs::write(dir.join("summary.json"), json)
             .with_context(|| format!("cannot write {}", dir.join("summary.json").display()))?;
         self.write_metrics_csv(&dir.join("metrics.csv"))?;
+        self.write_loops_csv(&dir.join("loops.csv"))?;
         crate::plot::map_png(&dir.join("map.png"), self)?;
         crate::plot::segments_png(&dir.join("segments.png"), self)?;
         Ok(())
     }
+}
+
+/// One loop edge of the back end's pose graph beside the truth.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ScoredLoopEdge {
+    /// Older keyframe id.
+    pub from: u32,
+    /// Newer keyframe id.
+    pub to: u32,
+    /// Measured pose of `to` in the frame of `from` (x m, y m, yaw rad).
+    pub measured: (f64, f64, f64),
+    /// The true one.
+    pub truth: (f64, f64, f64),
+    /// Distance between the measured and true positions, metres.
+    pub error_m: f64,
+    /// Heading difference, radians (absolute, wrapped to [0, π]).
+    pub error_rad: f64,
 }
 
 /// `summary.json`: the same for a seed whatever the mode (no wall time in it).
@@ -248,6 +356,13 @@ pub struct Summary {
     pub keyframes: u64,
     /// Loop closures accepted by the back end (0 if it reports none).
     pub loop_closures: u64,
+    /// Loop edges of the final pose graph scored against the truth
+    /// ([`Reporter::loop_edge_errors_m`]).
+    pub loop_edges_scored: u64,
+    /// Of those, edges off by more than [`LOOP_EDGE_WRONG_M`] (0.5 m): wrong loops.
+    pub loop_edges_wrong: u64,
+    /// The largest loop-edge position error (m); `None` without a scored edge.
+    pub max_loop_edge_error_m: Option<f64>,
     /// Mean over frames of the association inlier ratio (`/slam/association_stats`).
     pub mean_inlier_ratio: Option<f64>,
     /// Clusters in the final map.
@@ -276,6 +391,7 @@ fn toml_to_json(value: &toml::Value) -> serde_json::Value {
 mod tests {
     use super::*;
     use nrslam_msgs::{Header, Keyframe, Point, Pose, PoseStamped, Time};
+    use std::f64::consts::FRAC_PI_2;
 
     fn header(seconds: f64) -> Header {
         Header {
@@ -329,10 +445,56 @@ mod tests {
                 revision,
                 ids: vec![0, 1],
                 poses: vec![pose(0.0, 0.0), pose(second_x, 0.0)],
+                ..KeyframePoses::default()
             };
             r.take(topics::KEYFRAME_POSES, &Message::KeyframePoses(corrected));
         }
         assert_eq!(r.keyframe_rmse_m(), Some(0.0));
+    }
+
+    #[test]
+    fn loop_edges_are_scored_in_the_older_keyframes_true_frame() {
+        let mut r = Reporter::default();
+        // Keyframe 0 truly at (1, 1) facing +y; keyframe 1 truly at (1, 4): 3 m ahead of it.
+        for (id, t, (x, y, yaw)) in [(0, 1.0, (1.0, 1.0, FRAC_PI_2)), (1, 2.0, (1.0, 4.0, 0.0))] {
+            let truth = PoseStamped {
+                header: header(t),
+                pose: Pose::from_planar(x, y, yaw),
+            };
+            r.take(topics::GROUND_TRUTH_POSE, &Message::PoseStamped(truth));
+            let keyframe = Keyframe {
+                header: header(t),
+                id,
+                ..Keyframe::default()
+            };
+            r.take(topics::KEYFRAME, &Message::Keyframe(keyframe));
+        }
+        // One right loop, one 0.6 m off sideways, one naming a keyframe never seen (not scored),
+        // and an excess relative pose without ids (ignored).
+        let poses = KeyframePoses {
+            header: header(2.0),
+            loop_from_ids: vec![0, 0, 0],
+            loop_to_ids: vec![1, 1, 7],
+            loop_relatives: vec![
+                Pose::from_planar(3.0, 0.0, -FRAC_PI_2),
+                Pose::from_planar(3.0, 0.6, -FRAC_PI_2),
+                Pose::from_planar(0.0, 0.0, 0.0),
+                Pose::from_planar(9.0, 9.0, 0.0),
+            ],
+            ..KeyframePoses::default()
+        };
+        r.take(topics::KEYFRAME_POSES, &Message::KeyframePoses(poses));
+        let errors = r.loop_edge_errors_m();
+        assert_eq!(errors.len(), 2, "{errors:?}");
+        assert!(
+            errors[0] < 1e-9 && (errors[1] - 0.6).abs() < 1e-9,
+            "{errors:?}"
+        );
+        let summary = r.summary(&BTreeMap::new(), 1, "x.toml");
+        assert_eq!(
+            (summary.loop_edges_scored, summary.loop_edges_wrong),
+            (2, 1)
+        );
     }
 
     #[test]

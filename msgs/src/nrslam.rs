@@ -59,6 +59,13 @@ pub struct KeyframePoses {
     pub ids: Vec<u32>,
     /// SLAM pose of each keyframe in `ids`, map frame.
     pub poses: Vec<Pose>,
+    /// The pose graph's loop edges, oldest first: the older keyframe of each loop.
+    pub loop_from_ids: Vec<u32>,
+    /// The newer keyframe of each loop (the revisit), same order.
+    pub loop_to_ids: Vec<u32>,
+    /// What each loop measured: the pose of its newer keyframe in its older keyframe's frame
+    /// (planar, m and rad). A reader should zip the three loop arrays and ignore any excess.
+    pub loop_relatives: Vec<Pose>,
 }
 
 /// What data association did with one radar frame (`/slam/association_stats`).

@@ -113,7 +113,11 @@ proptest! {
     #[test]
     fn keyframe_poses_and_association_stats(header in header(), revision in any::<u32>(), poses in proptest::collection::vec(pose(), 0..20), values in proptest::collection::vec(finite(), 5), counts in proptest::array::uniform4(any::<u32>()), flags in proptest::array::uniform2(any::<bool>()), status in "[a-z_]{0,24}", keyframe_id in any::<i32>()) {
         let ids = (0..poses.len() as u32).collect();
-        round_trip(Message::KeyframePoses(KeyframePoses { header: header.clone(), revision, ids, poses }))?;
+        let loops = poses.len() / 2;
+        let loop_from_ids = (0..loops as u32).collect();
+        let loop_to_ids = (0..loops as u32).map(|k| k + 10).collect();
+        let loop_relatives = poses[..loops].to_vec();
+        round_trip(Message::KeyframePoses(KeyframePoses { header: header.clone(), revision, ids, poses, loop_from_ids, loop_to_ids, loop_relatives }))?;
         round_trip(Message::AssociationStats(AssociationStats {
             header,
             detections: counts[0], associated: counts[1], inliers: counts[2],

@@ -66,4 +66,5 @@ pub use pose::{wrap_angle_rad, Pose2};
 pub use pose_graph::{Edge, EdgeKind, OptimiserSettings, PoseGraph};
 pub use slam::{
     detection_to_agv_m, Association, AssociationError, FrameOutcome, FrameStats, KeyframeRecord,
+    LoopEdge,
 };

@@ -47,6 +47,9 @@ pub struct LoopMatch {
     /// Index (id) of the old keyframe the query matched; set by the caller, 0 from
     /// [`match_loop`].
     pub candidate: usize,
+    /// Index (id) of the query keyframe whose pose `relative` measures; set by the caller, 0
+    /// from [`match_loop`].
+    pub query: usize,
     /// Measured relative pose (query keyframe in candidate keyframe's frame).
     pub relative: Pose2,
     /// Fraction of query points within `inlier_distance_m` of the submap after refinement.
@@ -219,6 +222,7 @@ pub fn match_loop(
     }
     Ok(LoopMatch {
         candidate: 0,
+        query: 0,
         relative,
         inlier_ratio,
         score,

@@ -114,6 +114,7 @@ impl AssociationNode {
                 },
             );
             let records = self.slam.keyframe_records();
+            let loops = self.slam.loop_edges();
             outbox.publish(
                 KEYFRAME_POSES,
                 KeyframePoses {
@@ -123,6 +124,15 @@ impl AssociationNode {
                     poses: records
                         .iter()
                         .map(|r| Pose::from_planar(r.pose.x_m, r.pose.y_m, r.pose.yaw_rad))
+                        .collect(),
+                    loop_from_ids: loops.iter().map(|e| records[e.from].id).collect(),
+                    loop_to_ids: loops.iter().map(|e| records[e.to].id).collect(),
+                    loop_relatives: loops
+                        .iter()
+                        .map(|e| {
+                            let r = e.relative;
+                            Pose::from_planar(r.x_m, r.y_m, r.yaw_rad)
+                        })
                         .collect(),
                 },
             );

@@ -193,6 +193,27 @@ pub struct LoopClosureParams {
     /// metres (tracking's `max_correspondence_m` is tighter: it corrects one frame's odometry,
     /// this a lap's drift).
     pub refine_correspondence_m: f64,
+    /// A verified match is accepted at once when it agrees with the pose graph's current
+    /// estimate of the same relative pose within this, metres (and `agreement_deg`): it
+    /// confirms what the graph already holds. Otherwise it waits for a second match it agrees
+    /// with (`pair_m`), or a score of `standalone_score`.
+    pub agreement_m: f64,
+    /// See `agreement_m`, degrees.
+    pub agreement_deg: f64,
+    /// Two matches confirm each other when the cycle they close with the tracked motion between
+    /// their keyframes (old and new) is off by at most this, metres, plus `pair_per_m` per metre
+    /// of that motion, and by at most `pair_deg`. A wrong match in a repetitive layout is off
+    /// by a pitch or a few degrees, and two wrong ones rarely agree.
+    pub pair_m: f64,
+    /// See `pair_m`, metres per metre.
+    pub pair_per_m: f64,
+    /// See `pair_m`, degrees.
+    pub pair_deg: f64,
+    /// A match whose correlative score is at least this is accepted alone (1 disables it: every
+    /// loop that changes the graph needs a second one).
+    pub standalone_score: f64,
+    /// A match that waits for confirmation is dropped after this many keyframes.
+    pub pending_keyframes: u32,
 }
 
 impl Default for LoopClosureParams {
@@ -228,6 +249,13 @@ impl Default for LoopClosureParams {
             local_map_m: 0.0,
             search_sigma_m: 0.0,
             refine_correspondence_m: 1.0,
+            agreement_m: 0.3,
+            agreement_deg: 2.0,
+            pair_m: 0.3,
+            pair_per_m: 0.02,
+            pair_deg: 1.5,
+            standalone_score: 0.95,
+            pending_keyframes: 20,
         }
     }
 }
@@ -353,7 +381,24 @@ impl LoopClosureParams {
             0.01,
             100.0,
         )?;
+        InvalidParam::check_range("loop_closure.agreement_m", self.agreement_m, 0.0, 1e3)?;
+        InvalidParam::check_range("loop_closure.agreement_deg", self.agreement_deg, 0.0, 180.0)?;
+        InvalidParam::check_range("loop_closure.pair_m", self.pair_m, 0.0, 1e3)?;
+        InvalidParam::check_range("loop_closure.pair_per_m", self.pair_per_m, 0.0, 1.0)?;
+        InvalidParam::check_range("loop_closure.pair_deg", self.pair_deg, 0.0, 180.0)?;
+        InvalidParam::check_range(
+            "loop_closure.standalone_score",
+            self.standalone_score,
+            0.0,
+            1.0,
+        )?;
         let counts = [
+            (
+                "loop_closure.pending_keyframes",
+                self.pending_keyframes,
+                0,
+                1_000_000,
+            ),
             (
                 "loop_closure.submap_keyframes",
                 self.submap_keyframes,

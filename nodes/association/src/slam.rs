@@ -117,6 +117,18 @@ pub struct KeyframeRecord {
     pub travelled_m: f64,
 }
 
+/// A loop edge: the measured pose of keyframe `to` in the frame of the older keyframe `from`
+/// (indices into [`Association::keyframe_records`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LoopEdge {
+    /// The older keyframe.
+    pub from: usize,
+    /// The newer keyframe (the revisit).
+    pub to: usize,
+    /// Pose of `to` in the frame of `from`.
+    pub relative: Pose2,
+}
+
 /// The association state: SLAM pose, last odometry, keyframe map, pose graph.
 #[derive(Debug)]
 pub struct Association {
@@ -145,6 +157,10 @@ pub struct Association {
     travelled_at_closure_m: Option<f64>,
     /// First keyframe of the local map while tracking locally.
     local_from: usize,
+    /// Loop edges in the pose graph, in the order they were accepted.
+    loop_edges: Vec<LoopEdge>,
+    /// Verified matches that wait for a second one to confirm them.
+    pending: Vec<LoopEdge>,
 }
 
 impl Association {
@@ -173,6 +189,8 @@ impl Association {
             cooldown: 0,
             travelled_at_closure_m: None,
             local_from: 0,
+            loop_edges: Vec::new(),
+            pending: Vec::new(),
         })
     }
 
@@ -496,6 +514,8 @@ impl Association {
     fn close_loop(&mut self) -> Option<LoopMatch> {
         let lc = self.params.loop_closure.clone();
         let current = self.records.len().checked_sub(1)?;
+        let keep = lc.pending_keyframes as usize;
+        self.pending.retain(|p| current - p.to <= keep);
         let here = self.records[current].pose;
         let travelled_now = self.records[current].travelled_m;
         let mut candidates: Vec<(f64, usize, f64)> = self.records[..current]
@@ -515,7 +535,12 @@ impl Association {
             .collect();
         candidates.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let query_from = current.saturating_sub(lc.query_keyframes as usize - 1);
-        let query = self.cloud(query_from..=current, current);
+        // The query is expressed in its middle keyframe's frame, and the loop edge measures that
+        // keyframe: the tracking error within the query (chiefly heading) then reaches the edge
+        // over half the query's length instead of all of it.
+        let anchor = (query_from + current) / 2;
+        let query = self.cloud(query_from..=current, anchor);
+        let anchor_pose = self.records[anchor].pose;
         // The loop's ICP refinement pairs points across a larger gap than tracking does: after a
         // lap the drift is metres, not centimetres.
         let refine_params = Params {
@@ -545,16 +570,42 @@ impl Association {
                     .unwrap_or(j),
             );
             let submap = self.cloud(j.saturating_sub(w)..=last_old.max(j), j);
-            let predicted = self.records[j].pose.between(&here);
+            let predicted = self.records[j].pose.between(&anchor_pose);
             match match_loop(&query, &submap, predicted, radius_m, &lc, &refine_params) {
                 Ok(found) => {
                     let found = LoopMatch {
                         candidate: j,
+                        query: anchor,
                         ..found
                     };
-                    tracing::debug!(candidate = j, current, ?found, ?predicted, "loop accepted");
-                    self.apply_loop(j, current, found);
-                    return Some(found);
+                    let edge = LoopEdge {
+                        from: j,
+                        to: anchor,
+                        relative: found.relative,
+                    };
+                    let (confirmed, why) = if found.score >= lc.standalone_score {
+                        (Some(Vec::new()), "score")
+                    } else if self.agrees_with_graph(&edge) {
+                        (Some(Vec::new()), "agrees with the graph")
+                    } else {
+                        let pair = self.pending.iter().rev().find(|p| self.confirm(p, &edge));
+                        (pair.map(|p| vec![*p]), "confirmed by a pending match")
+                    };
+                    if let Some(mut edges) = confirmed {
+                        tracing::debug!(
+                            candidate = j,
+                            anchor,
+                            ?found,
+                            ?predicted,
+                            why,
+                            "loop accepted"
+                        );
+                        edges.push(edge);
+                        self.apply_loop(&edges);
+                        return Some(found);
+                    }
+                    tracing::debug!(candidate = j, anchor, ?found, ?predicted, "loop pending");
+                    self.pending.push(edge);
                 }
                 Err(reason) => {
                     tracing::debug!(candidate = j, current, ?reason, "loop rejected");
@@ -564,16 +615,59 @@ impl Association {
         None
     }
 
-    fn apply_loop(&mut self, from: usize, to: usize, found: LoopMatch) {
+    /// The match agrees with the graph's current estimate of the same relative pose, and that
+    /// estimate is itself held by a recent loop (before it, the estimate is the drift the loop
+    /// is there to measure, and a match pulled towards it would confirm the drift).
+    fn agrees_with_graph(&self, edge: &LoopEdge) -> bool {
+        let lc = &self.params.loop_closure;
+        let anchored = self
+            .loop_edges
+            .last()
+            .is_some_and(|last| edge.to - last.to <= lc.pending_keyframes as usize);
+        if !anchored {
+            return false;
+        }
+        let estimate = self.records[edge.from]
+            .pose
+            .between(&self.records[edge.to].pose);
+        estimate.distance_m(&edge.relative) <= lc.agreement_m
+            && estimate.rotation_to_rad(&edge.relative) <= lc.agreement_deg.to_radians()
+    }
+
+    /// Two matches `a` and `b` confirm each other: the cycle old `a.from` → new `a.to` (match
+    /// `a`) → new `b.to` (tracked) → old `b.from` (match `b`, inverted) → old `a.from` (tracked)
+    /// closes within `pair_m` (+ `pair_per_m` per metre tracked) and `pair_deg`.
+    fn confirm(&self, a: &LoopEdge, b: &LoopEdge) -> bool {
+        let lc = &self.params.loop_closure;
+        // Queries that share keyframes share their points, and with them the same wrong fit:
+        // only disjoint ones are independent evidence.
+        if a.to.abs_diff(b.to) < lc.query_keyframes as usize {
+            return false;
+        }
+        let pose = |i: usize| self.records[i].pose;
+        let old = pose(a.from).between(&pose(b.from));
+        let new = pose(a.to).between(&pose(b.to));
+        let via_a = a.relative.compose(&new);
+        let via_b = old.compose(&b.relative);
+        let tracked_m = old.x_m.hypot(old.y_m) + new.x_m.hypot(new.y_m);
+        via_a.distance_m(&via_b) <= lc.pair_m + lc.pair_per_m * tracked_m
+            && via_a.rotation_to_rad(&via_b) <= lc.pair_deg.to_radians()
+    }
+
+    fn apply_loop(&mut self, edges: &[LoopEdge]) {
         let lc = self.params.loop_closure.clone();
-        self.graph.add_edge(Edge::with_std(
-            from,
-            to,
-            found.relative,
-            lc.loop_std_m,
-            lc.loop_std_deg.to_radians(),
-            EdgeKind::Loop,
-        ));
+        for edge in edges {
+            self.graph.add_edge(Edge::with_std(
+                edge.from,
+                edge.to,
+                edge.relative,
+                lc.loop_std_m,
+                lc.loop_std_deg.to_radians(),
+                EdgeKind::Loop,
+            ));
+            self.loop_edges.push(*edge);
+        }
+        self.pending.clear();
         let settings = OptimiserSettings {
             max_iterations: lc.max_iterations,
             ..OptimiserSettings::default()
@@ -635,6 +729,11 @@ impl Association {
     /// The keyframes with their current poses.
     pub fn keyframe_records(&self) -> &[KeyframeRecord] {
         &self.records
+    }
+
+    /// The loop edges in the pose graph, in the order they were accepted.
+    pub fn loop_edges(&self) -> &[LoopEdge] {
+        &self.loop_edges
     }
 
     /// Loop closures accepted so far.

@@ -306,6 +306,7 @@ mod tests {
             revision,
             ids: (0..xs.len() as u32).collect(),
             poses: xs.iter().map(|&x| Pose::from_planar(x, 0.5, 0.0)).collect(),
+            ..KeyframePoses::default()
         })
     }
 
