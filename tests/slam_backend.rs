@@ -142,18 +142,19 @@ fn loop_closure_closes_the_lap_and_modes_agree() {
 
 #[test]
 fn loop_closure_corrects_the_5g_trajectory() {
-    // The 5G spectral chain drifts to a keyframe RMSE of 1.28 m over the lap on seed 3; its loop
-    // verifier counts an inlier within 1 m (the array's resolution across the beam), so the
-    // return to the start is recognised and the keyframe trajectory behind it is corrected
-    // (0.21 m when measured).
+    // The 5G spectral chain drifts over the lap; its loop verifier counts an inlier within 1 m
+    // (the array's resolution across the beam), so the return to the start is recognised and
+    // the keyframe trajectory behind it is corrected (seed 1: keyframe RMSE 0.19 m with loop
+    // closure when measured). Seed 3, which this test used, closes no loop since loops need
+    // confirmation (docs/slam.md): its revisit offers no second consistent match.
     let dir = temp();
     let (open, closed) = (dir.path().join("open"), dir.path().join("closed"));
     launch(
         "launch/paper-5g.toml",
         &open,
-        &["--seed", "3", "loop_closure:=false"],
+        &["--seed", "1", "loop_closure:=false"],
     );
-    launch("launch/paper-5g.toml", &closed, &["--seed", "3"]);
+    launch("launch/paper-5g.toml", &closed, &["--seed", "1"]);
     let (o, c) = (summary(&open), summary(&closed));
     assert_eq!(o["loop_closures"], 0);
     assert!(c["loop_closures"].as_u64().unwrap() >= 1, "{c}");

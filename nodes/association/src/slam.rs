@@ -640,8 +640,12 @@ impl Association {
     fn confirm(&self, a: &LoopEdge, b: &LoopEdge) -> bool {
         let lc = &self.params.loop_closure;
         // Queries that share keyframes share their points, and with them the same wrong fit:
-        // only disjoint ones are independent evidence.
-        if a.to.abs_diff(b.to) < lc.query_keyframes as usize {
+        // only disjoint ones are independent evidence. The exception, the same query against
+        // two old places a submap apart, is what lets a single lap close its loop: its revisit
+        // is its last few keyframes, too few for a second, disjoint query.
+        let same_query_elsewhere =
+            a.to == b.to && a.from.abs_diff(b.from) >= lc.submap_keyframes as usize;
+        if a.to.abs_diff(b.to) < lc.query_keyframes as usize && !same_query_elsewhere {
             return false;
         }
         let pose = |i: usize| self.records[i].pose;
