@@ -158,9 +158,7 @@ impl Reporter {
                 let (x_m, y_m, yaw_rad) = measured.planar();
                 let error_m = (x_m - truth.0).hypot(y_m - truth.1);
                 let true_yaw_rad = b.2 - a.2;
-                let error_rad = (yaw_rad - true_yaw_rad)
-                    .sin()
-                    .atan2((yaw_rad - true_yaw_rad).cos());
+                let error_rad = nrslam_association::wrap_angle_rad(yaw_rad - true_yaw_rad);
                 error_m.is_finite().then_some(ScoredLoopEdge {
                     from: *from,
                     to: *to,
