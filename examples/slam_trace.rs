@@ -10,7 +10,11 @@
 //!
 //! The scan matcher's parameters come from the environment where set: `CELL` (`cell_m`), `NEIGH`
 //! (`cell_neighbours`), `CORR` (`max_correspondence_m`), `ROBUST` (`robust_sigma`), `PRIOR_M`,
-//! `PRIOR_DEG` (the prior's floors) and `MAPSTD` (`map_std_m`); `ALL=1` prints every frame; `SCENE=FILE` replaces the hall.
+//! `PRIOR_DEG` (the prior's floors) and `MAPSTD` (`map_std_m`); `ALL=1` prints every frame; `SCENE=FILE` replaces the hall; `DISTORT=1` prints
+//! how far each loop's query and submap keyframes are from their true placement; `TRUECLOUD=1`
+//! re-matches each loop's query and submap built at the true poses, from the true relative pose
+//! (is a wrong loop the clouds' fault or the data's?), and `DUMP=DIR` writes those clouds as
+//! `DIR/cloud_OLD_NEW.csv` (`s` submap, `q` query at the truth, `m` query where it matched).
 
 use nrslam_association::{detection_to_agv_m, Association, Params, Pose2};
 
@@ -146,6 +150,64 @@ fn main() -> anyhow::Result<()> {
                     let cur = records.len() - 1;
                     println!("  query  {}", spread(cur.saturating_sub(9), cur, m.query));
                     println!("  submap {}", spread(j.saturating_sub(10), j + 10, j));
+                }
+                if std::env::var("TRUECLOUD").is_ok() {
+                    let records = slam.keyframe_records();
+                    let cur = records.len() - 1;
+                    let cloud = |from: usize, to: usize, frame: usize, truth: bool| {
+                        let mut pts = Vec::new();
+                        for k in from..=to.min(cur) {
+                            let pose_of =
+                                |i: usize| if truth { truths[i] } else { records[i].pose };
+                            let rel = pose_of(frame).between(&pose_of(k));
+                            pts.extend(
+                                records[k]
+                                    .scan_agv_m
+                                    .iter()
+                                    .map(|p| rel.transform_point(*p)),
+                            );
+                        }
+                        pts
+                    };
+                    let lc = slam.params().loop_closure.clone();
+                    let refine = Params {
+                        max_correspondence_m: lc.refine_correspondence_m,
+                        ..slam.params().clone()
+                    };
+                    for truth in [true, false] {
+                        let q = cloud(cur.saturating_sub(9), cur, m.query, truth);
+                        let sm = cloud(j.saturating_sub(10), j + 10, j, truth);
+                        let r =
+                            nrslam_association::match_loop(&q, &sm, true_rel, 2.0, &lc, &refine);
+                        if truth {
+                            if let Ok(dir) = std::env::var("DUMP") {
+                                use std::io::Write as _;
+                                let mut f = std::fs::File::create(format!(
+                                    "{dir}/cloud_{j}_{}.csv",
+                                    m.query
+                                ))?;
+                                for p in &sm {
+                                    writeln!(f, "s,{},{}", p[0], p[1])?;
+                                }
+                                for p in &q {
+                                    let t = true_rel.transform_point(*p);
+                                    writeln!(f, "q,{},{}", t[0], t[1])?;
+                                }
+                                if let Ok(found) = &r {
+                                    for p in &q {
+                                        let t = found.relative.transform_point(*p);
+                                        writeln!(f, "m,{},{}", t[0], t[1])?;
+                                    }
+                                }
+                                let a = true_rel;
+                                writeln!(f, "a,{},{}", a.x_m, a.y_m)?;
+                            }
+                        }
+                        match r {
+                            Ok(f) => println!("  clouds from {}: from true prediction error {:.2} m {:.2}° score {:.2}", if truth {"truth"} else {"estimate"}, f.relative.distance_m(&true_rel), f.relative.rotation_to_rad(&true_rel).to_degrees(), f.score),
+                            Err(e) => println!("  clouds from {}: {e:?}", if truth {"truth"} else {"estimate"}),
+                        }
+                    }
                 }
                 println!(
                     "frame {:3} kf {:3} LOOP with kf {:3}: relative error {:.2} m {:.2}°, inliers {:.2}, score {:.2}/{:.2}",

@@ -61,6 +61,20 @@ pub struct LoopMatch {
     /// Best score at least `ambiguity_distance_m` away from the best motion, in the same units
     /// (`score` times the ratio of the two motions' prior-weighted scores).
     pub runner_up: f64,
+    /// Point-to-line information per inlier pair over (x m, y m, yaw rad), translation in the
+    /// candidate's frame, heading about the query keyframe: what the match pins down, direction
+    /// by direction (see [`LoopMatch::constraint`]).
+    pub information: [[f64; 3]; 3],
+}
+
+impl LoopMatch {
+    /// The smallest eigenvalue of [`LoopMatch::information`]: 0 when the query can slide along
+    /// a straight edge, 0.5 with edges in every direction.
+    pub fn constraint(&self) -> f64 {
+        symmetric_eigen_2x2(&translation_marginal(&self.information))
+            .1
+            .max(0.0)
+    }
 }
 
 /// Why a candidate was not accepted (for logs and tests).
@@ -214,6 +228,7 @@ pub fn match_loop(
         return Err(LoopRejection::TooFewPoints);
     }
     let inlier_ratio = inliers as f64 / overlapping as f64;
+    let information = match_information(&map, &query_m, &relative, inlier_m2);
     if runner_up > loop_params.max_ambiguity * score {
         return Err(LoopRejection::Ambiguous { score, runner_up });
     }
@@ -227,7 +242,75 @@ pub fn match_loop(
         inlier_ratio,
         score,
         runner_up,
+        information,
     })
+}
+
+/// How well the inlier pairs pin the query down, direction by direction: the point-to-line
+/// information of the match over (x m, y m, yaw rad) — translation in the candidate's frame,
+/// heading about the query's origin (the anchor keyframe) — per inlier pair. A pair whose
+/// submap point has the unit normal n contributes J Jᵀ with J = (n, n × (moved point − t)):
+/// pairs on normals spread over all directions pin every direction down, and pairs on one
+/// straight edge leave the slide along it free (Zhang, Kaess and Singh, "On degeneracy of
+/// optimization-based state estimation problems", ICRA 2016). Zero when no pair has a normal.
+fn match_information(
+    map: &PointMap,
+    query_m: &[[f64; 2]],
+    relative: &Pose2,
+    inlier_m2: f64,
+) -> [[f64; 3]; 3] {
+    let mut h = [[0.0f64; 3]; 3];
+    let mut pairs = 0usize;
+    for p in query_m {
+        let moved = relative.transform_point(*p);
+        let Some((index, d2)) = map.nearest_index(&moved) else {
+            continue;
+        };
+        if d2 > inlier_m2 {
+            continue;
+        }
+        let Some(n) = map.normal(index) else {
+            continue;
+        };
+        // d(R p + t)/dθ is R p turned by 90°, with R p = moved − t.
+        let rp = [moved[0] - relative.x_m, moved[1] - relative.y_m];
+        let j = [n[0], n[1], n[1] * rp[0] - n[0] * rp[1]];
+        for (a, row) in h.iter_mut().enumerate() {
+            for (b, cell) in row.iter_mut().enumerate() {
+                *cell += j[a] * j[b];
+            }
+        }
+        pairs += 1;
+    }
+    if pairs > 0 {
+        for cell in h.iter_mut().flatten() {
+            *cell /= pairs as f64;
+        }
+    }
+    h
+}
+
+/// The translation block of `information` once the heading is free (its Schur complement).
+pub fn translation_marginal(information: &[[f64; 3]; 3]) -> [[f64; 2]; 2] {
+    let h = information;
+    if h[2][2] <= 0.0 {
+        return [[h[0][0], h[0][1]], [h[1][0], h[1][1]]];
+    }
+    let m = |a: usize, b: usize| h[a][b] - h[a][2] * h[2][b] / h[2][2];
+    [[m(0, 0), m(0, 1)], [m(1, 0), m(1, 1)]]
+}
+
+/// Eigenvalues (largest first) and the unit eigenvector of the largest of a symmetric 2×2 matrix.
+pub fn symmetric_eigen_2x2(m: &[[f64; 2]; 2]) -> (f64, f64, [f64; 2]) {
+    let (xx, xy, yy) = (m[0][0], 0.5 * (m[0][1] + m[1][0]), m[1][1]);
+    let half_trace = 0.5 * (xx + yy);
+    let root = (0.25 * (xx - yy) * (xx - yy) + xy * xy).sqrt();
+    let angle = 0.5 * (2.0 * xy).atan2(xx - yy);
+    (
+        half_trace + root,
+        half_trace - root,
+        [angle.cos(), angle.sin()],
+    )
 }
 
 #[cfg(test)]
@@ -260,6 +343,50 @@ mod tests {
     fn seen_from(pose: &Pose2, points: &[[f64; 2]]) -> Vec<[f64; 2]> {
         let inv = pose.inverse();
         points.iter().map(|p| inv.transform_point(*p)).collect()
+    }
+
+    #[test]
+    fn a_straight_edge_leaves_the_slide_along_it_free_and_boxes_pin_everything() {
+        let params = Params::default();
+        let line: Vec<[f64; 2]> = (0..100).map(|i| [f64::from(i) * 0.1, 5.0]).collect();
+        let mut map = PointMap::for_params(&params);
+        map.extend(&line);
+        let along_line = match_information(&map, &line, &Pose2::new(0.0, 0.0, 0.0), 0.25);
+        let marginal = translation_marginal(&along_line);
+        // Normals are ±y: all the information is across the line (a quarter of it is left once
+        // the heading, which also moves points across the line, is free: 1 − E[x]²/E[x²]).
+        assert!(marginal[1][1] > 0.2, "{marginal:?}");
+        assert!(marginal[0][0].abs() < 1e-6, "{marginal:?}");
+
+        let boxes = scene();
+        let mut map = PointMap::for_params(&params);
+        map.extend(&boxes);
+        let found = LoopMatch {
+            candidate: 0,
+            query: 0,
+            relative: Pose2::new(0.0, 0.0, 0.0),
+            inlier_ratio: 1.0,
+            score: 1.0,
+            runner_up: 0.0,
+            information: match_information(&map, &boxes, &Pose2::new(0.0, 0.0, 0.0), 0.25),
+        };
+        assert!(found.constraint() > 0.08, "{found:?}");
+        let straight = LoopMatch {
+            information: along_line,
+            ..found
+        };
+        assert!(straight.constraint() < 1e-6, "{straight:?}");
+    }
+
+    #[test]
+    fn eigen_2x2_returns_the_largest_first_with_its_axis() {
+        let (largest, smallest, axis) = symmetric_eigen_2x2(&[[1.0, 1.0], [1.0, 1.0]]);
+        assert!((largest - 2.0).abs() < 1e-12 && smallest.abs() < 1e-12);
+        let diagonal = std::f64::consts::FRAC_1_SQRT_2;
+        assert!((axis[0].abs() - diagonal).abs() < 1e-12 && (axis[0] - axis[1]).abs() < 1e-12);
+        let (largest, smallest, axis) = symmetric_eigen_2x2(&[[0.1, 0.0], [0.0, 3.0]]);
+        assert!((largest - 3.0).abs() < 1e-12 && (smallest - 0.1).abs() < 1e-12);
+        assert!(axis[0].abs() < 1e-12 && (axis[1].abs() - 1.0).abs() < 1e-12);
     }
 
     #[test]

@@ -172,8 +172,13 @@ pub struct LoopClosureParams {
     pub odometry_min_std_m: f64,
     /// Floor of an odometry edge's heading std, degrees.
     pub odometry_min_std_deg: f64,
-    /// Std of a loop edge's translation, metres.
+    /// Std of a loop edge's translation along the direction its match pins down best, metres.
     pub loop_std_m: f64,
+    /// Cap of a loop edge's translation std along the direction its match pins down worst,
+    /// metres. That std is `loop_std_m` × √(best / worst information), so a match along one
+    /// straight edge, free to slide along it, hardly moves the graph that way; equal to
+    /// `loop_std_m`, every loop edge is isotropic.
+    pub loop_max_std_m: f64,
     /// Std of a loop edge's heading, degrees.
     pub loop_std_deg: f64,
     /// Levenberg–Marquardt iterations per optimisation.
@@ -244,6 +249,7 @@ impl Default for LoopClosureParams {
             odometry_min_std_m: 0.02,
             odometry_min_std_deg: 0.2,
             loop_std_m: 0.3,
+            loop_max_std_m: 3.0,
             loop_std_deg: 2.0,
             max_iterations: 20,
             local_map_m: 0.0,
@@ -263,7 +269,7 @@ impl Default for LoopClosureParams {
 impl LoopClosureParams {
     /// Checks every field; the error names the first offending field (as `loop_closure.NAME`).
     pub fn validate(&self) -> Result<(), InvalidParam> {
-        let ranges: [(&'static str, f64, f64, f64); 21] = [
+        let ranges: [(&'static str, f64, f64, f64); 22] = [
             (
                 "loop_closure.overlap_distance_m",
                 self.overlap_distance_m,
@@ -364,6 +370,12 @@ impl LoopClosureParams {
                 90.0,
             ),
             ("loop_closure.loop_std_m", self.loop_std_m, 1e-6, 100.0),
+            (
+                "loop_closure.loop_max_std_m",
+                self.loop_max_std_m,
+                1e-6,
+                1e4,
+            ),
             ("loop_closure.loop_std_deg", self.loop_std_deg, 1e-6, 90.0),
         ];
         for (field, value, min, max) in ranges {

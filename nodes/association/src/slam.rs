@@ -38,8 +38,8 @@ use nrslam_runtime::InvalidParam;
 
 use crate::icp::{IcpResult, PointMap};
 use crate::keyframe::KeyframeSelector;
-use crate::loop_closure::{match_loop, LoopMatch};
-use crate::params::Params;
+use crate::loop_closure::{match_loop, symmetric_eigen_2x2, translation_marginal, LoopMatch};
+use crate::params::{LoopClosureParams, Params};
 use crate::pose::Pose2;
 use crate::pose_graph::{Edge, EdgeKind, OptimiserSettings, PoseGraph};
 use crate::scan_matcher::{match_scan, DistributionMap, RadarPoint};
@@ -127,6 +127,9 @@ pub struct LoopEdge {
     pub to: usize,
     /// Pose of `to` in the frame of `from`.
     pub relative: Pose2,
+    /// What the match pins down, direction by direction ([`LoopMatch::information`], in the
+    /// frame of `from`); all zero when unknown (the edge is then isotropic).
+    pub information: [[f64; 3]; 3],
 }
 
 /// The association state: SLAM pose, last odometry, keyframe map, pose graph.
@@ -582,6 +585,7 @@ impl Association {
                         from: j,
                         to: anchor,
                         relative: found.relative,
+                        information: found.information,
                     };
                     let (confirmed, why) = if found.score >= lc.standalone_score {
                         (Some(Vec::new()), "score")
@@ -661,12 +665,11 @@ impl Association {
     fn apply_loop(&mut self, edges: &[LoopEdge]) {
         let lc = self.params.loop_closure.clone();
         for edge in edges {
-            self.graph.add_edge(Edge::with_std(
+            self.graph.add_edge(Edge::with_information(
                 edge.from,
                 edge.to,
                 edge.relative,
-                lc.loop_std_m,
-                lc.loop_std_deg.to_radians(),
+                loop_information(edge, &lc),
                 EdgeKind::Loop,
             ));
             self.loop_edges.push(*edge);
@@ -756,11 +759,76 @@ impl Association {
     }
 }
 
+/// The information of a loop edge over (x m, y m, yaw rad) in the frame of its measurement
+/// (as [`crate::pose_graph`] whitens the error): the match's own point-to-line information,
+/// scaled so that the direction it pins down best has the std `loop_std_m`, plus a floor of
+/// `loop_max_std_m` (and 30°) on every axis. A match along a straight edge then moves the graph
+/// across the edge, where it is right, and hardly along it, where it can slide and turn. Without
+/// the match's information the edge is isotropic (`loop_std_m`, `loop_std_deg`).
+fn loop_information(edge: &LoopEdge, lc: &LoopClosureParams) -> nalgebra::Matrix3<f64> {
+    let strongest = symmetric_eigen_2x2(&translation_marginal(&edge.information)).0;
+    let isotropic = || {
+        let (it, ir) = (
+            1.0 / lc.loop_std_m.powi(2),
+            1.0 / lc.loop_std_deg.to_radians().powi(2),
+        );
+        nalgebra::Matrix3::from_diagonal(&nalgebra::Vector3::new(it, it, ir))
+    };
+    if !(strongest.is_finite() && strongest > 0.0) {
+        return isotropic();
+    }
+    let scale = 1.0 / (lc.loop_std_m.powi(2) * strongest);
+    let from_frame = nalgebra::Matrix3::from_fn(|a, b| scale * edge.information[a][b]);
+    // The error's translation is in the measurement's frame: e = R_zᵀ δ for a shift δ in the
+    // frame of `from`.
+    let (sin, cos) = edge.relative.yaw_rad.sin_cos();
+    let rotate = nalgebra::Matrix3::new(cos, -sin, 0.0, sin, cos, 0.0, 0.0, 0.0, 1.0);
+    let floor_m = 1.0 / lc.loop_max_std_m.max(lc.loop_std_m).powi(2);
+    let floor_rad = 1.0 / 30f64.to_radians().powi(2);
+    let information = rotate.transpose() * from_frame * rotate
+        + nalgebra::Matrix3::from_diagonal(&nalgebra::Vector3::new(floor_m, floor_m, floor_rad));
+    if information.iter().all(|v| v.is_finite()) {
+        0.5 * (information + information.transpose())
+    } else {
+        isotropic()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     /// A 4 m box of points around the origin, every 0.2 m, seen from `agv`.
+    #[test]
+    fn a_loop_edge_is_weak_only_where_its_match_can_slide() {
+        let lc = LoopClosureParams::default();
+        // A match along a straight edge in x (of the old keyframe's frame), measured from an
+        // old keyframe turned by 90°: in the measurement's frame the free slide is along y.
+        let mut information = [[0.0; 3]; 3];
+        information[1][1] = 0.5;
+        information[2][2] = 50.0;
+        let edge = LoopEdge {
+            from: 0,
+            to: 1,
+            relative: Pose2::new(3.0, 4.0, std::f64::consts::FRAC_PI_2),
+            information,
+        };
+        let omega = loop_information(&edge, &lc);
+        let across = 1.0 / lc.loop_std_m.powi(2);
+        assert!((omega[(0, 0)] - across).abs() < 0.05 * across, "{omega}");
+        let along_std_m = 1.0 / omega[(1, 1)].sqrt();
+        assert!(along_std_m > 0.9 * lc.loop_max_std_m, "{omega}");
+        // Without the match's information the edge is isotropic.
+        let plain = loop_information(
+            &LoopEdge {
+                information: [[0.0; 3]; 3],
+                ..edge
+            },
+            &lc,
+        );
+        assert!((plain[(0, 0)] - across).abs() < 1e-9 && (plain[(1, 1)] - across).abs() < 1e-9);
+    }
+
     fn scan_from(agv: &Pose2) -> Vec<[f64; 2]> {
         let inverse = agv.inverse();
         (0..80)
