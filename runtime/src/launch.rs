@@ -26,6 +26,12 @@
 //! A string that is exactly `$(var NAME)` becomes the argument's typed value; `$(var NAME)` inside a
 //! longer string is replaced by its text. Every error names the file, the field and what is allowed.
 //!
+//! An argument's own (string) value may name other arguments (`out = "runs/$(var label)"`); they
+//! are expanded first, each once. A cycle (`a = "$(var b)"`, `b = "$(var a)"`) is refused as
+//! `argument a: substitution cycle: a -> b -> a`, and the expansion is bounded in depth
+//! ([`MAX_SUBSTITUTION_DEPTH`]) and in length ([`MAX_SUBSTITUTED_BYTES`]), so no launch file or
+//! `name:=value` can make it loop or blow up.
+//!
 //! Paths: a relative path in a node's parameters resolves against the launch file's folder, so
 //! the file works from any directory. An argument declared `path = true` is a file path typed by
 //! the user: a relative value given on the command line (`scene:=out/s1.toml`) is made absolute
@@ -209,52 +215,153 @@ fn typed_like(default: &toml::Value, text: &str) -> Option<toml::Value> {
     }
 }
 
+/// Deepest chain of arguments whose values name other arguments (`a` = "$(var b)", `b` =
+/// "$(var c)", ...) that is expanded.
+pub const MAX_SUBSTITUTION_DEPTH: usize = 32;
+
+/// Longest string a substitution may produce, in bytes: with references nested, each level can
+/// double the text (`a` = "$(var b)$(var b)"), so without a bound 32 levels would ask for 4 GiB.
+pub const MAX_SUBSTITUTED_BYTES: usize = 1 << 20;
+
+/// Why a `$(var ...)` could not be expanded.
+#[derive(Debug, Clone, PartialEq)]
+enum SubstitutionError {
+    Undeclared(String),
+    Unterminated(String),
+    /// The arguments of the cycle, the first repeated at the end.
+    Cycle(Vec<String>),
+    /// The chain that went past [`MAX_SUBSTITUTION_DEPTH`].
+    TooDeep(Vec<String>),
+    TooLong,
+}
+
+impl std::fmt::Display for SubstitutionError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Undeclared(name) => write!(f, "uses undeclared argument {name:?}"),
+            Self::Unterminated(text) => write!(f, "unterminated $(var ...) in {text:?}"),
+            Self::Cycle(chain) => write!(f, "substitution cycle: {}", chain.join(" -> ")),
+            Self::TooDeep(chain) => write!(
+                f,
+                "substitution nested deeper than {MAX_SUBSTITUTION_DEPTH} arguments: {} -> ...",
+                chain.join(" -> ")
+            ),
+            Self::TooLong => write!(
+                f,
+                "substitution makes a string longer than {MAX_SUBSTITUTED_BYTES} bytes"
+            ),
+        }
+    }
+}
+
+/// `text` with every `$(var NAME)` replaced by the text of `lookup(NAME)`, left to right; the
+/// replacements are not scanned again (they come already expanded).
+fn expand_text(
+    text: &str,
+    mut lookup: impl FnMut(&str) -> Result<toml::Value, SubstitutionError>,
+) -> Result<String, SubstitutionError> {
+    let mut out = String::with_capacity(text.len());
+    let mut rest = text;
+    while let Some(start) = rest.find("$(var ") {
+        out.push_str(&rest[..start]);
+        let after = &rest[start + 6..];
+        let end = after
+            .find(')')
+            .ok_or_else(|| SubstitutionError::Unterminated(text.to_owned()))?;
+        match lookup(after[..end].trim())? {
+            toml::Value::String(s) => out.push_str(&s),
+            other => out.push_str(&other.to_string()),
+        }
+        if out.len() > MAX_SUBSTITUTED_BYTES {
+            return Err(SubstitutionError::TooLong);
+        }
+        rest = &after[end + 1..];
+    }
+    out.push_str(rest);
+    if out.len() > MAX_SUBSTITUTED_BYTES {
+        return Err(SubstitutionError::TooLong);
+    }
+    Ok(out)
+}
+
+/// Every argument's value with the `$(var ...)` in string values expanded (an argument may name
+/// others, e.g. `out_dir` = "runs/$(var label)"). Each argument is expanded once (memoised), a
+/// cycle is reported with its arguments, and depth and length are bounded
+/// ([`MAX_SUBSTITUTION_DEPTH`], [`MAX_SUBSTITUTED_BYTES`]). `Err` names the argument.
+fn expand_arguments(
+    arguments: &BTreeMap<String, toml::Value>,
+) -> Result<BTreeMap<String, toml::Value>, (String, SubstitutionError)> {
+    fn expand(
+        name: &str,
+        arguments: &BTreeMap<String, toml::Value>,
+        done: &mut BTreeMap<String, toml::Value>,
+        stack: &mut Vec<String>,
+    ) -> Result<toml::Value, SubstitutionError> {
+        if let Some(value) = done.get(name) {
+            return Ok(value.clone());
+        }
+        if let Some(at) = stack.iter().position(|n| n == name) {
+            let mut chain = stack[at..].to_vec();
+            chain.push(name.to_owned());
+            return Err(SubstitutionError::Cycle(chain));
+        }
+        if stack.len() >= MAX_SUBSTITUTION_DEPTH {
+            return Err(SubstitutionError::TooDeep(stack.clone()));
+        }
+        let value = arguments
+            .get(name)
+            .ok_or_else(|| SubstitutionError::Undeclared(name.to_owned()))?;
+        let expanded = match value {
+            toml::Value::String(text) if text.contains("$(var ") => {
+                stack.push(name.to_owned());
+                let text = expand_text(text, |inner| expand(inner, arguments, done, stack));
+                stack.pop();
+                toml::Value::String(text?)
+            }
+            other => other.clone(),
+        };
+        done.insert(name.to_owned(), expanded.clone());
+        Ok(expanded)
+    }
+    let mut done = BTreeMap::new();
+    for name in arguments.keys() {
+        let mut stack = Vec::new();
+        expand(name, arguments, &mut done, &mut stack).map_err(|e| (name.clone(), e))?;
+    }
+    Ok(done)
+}
+
+/// Substitutes the (already expanded) `arguments` into a node parameter.
 fn substitute(
     value: &mut toml::Value,
     arguments: &BTreeMap<String, toml::Value>,
     path: &Path,
     node: &str,
 ) -> Result<(), LaunchError> {
+    let error = |e: SubstitutionError| LaunchError::Node {
+        path: path.to_owned(),
+        node: node.to_owned(),
+        problem: e.to_string(),
+    };
+    let lookup = |name: &str| {
+        arguments
+            .get(name)
+            .cloned()
+            .ok_or_else(|| SubstitutionError::Undeclared(name.to_owned()))
+    };
     match value {
         toml::Value::String(text) => {
             if let Some(name) = text
                 .strip_prefix("$(var ")
                 .and_then(|t| t.strip_suffix(')'))
             {
-                if !name.contains("$(") {
-                    *value =
-                        arguments
-                            .get(name.trim())
-                            .cloned()
-                            .ok_or_else(|| LaunchError::Node {
-                                path: path.to_owned(),
-                                node: node.to_owned(),
-                                problem: format!("uses undeclared argument {:?}", name.trim()),
-                            })?;
+                if !name.contains("$(") && !name.contains(')') {
+                    *value = lookup(name.trim()).map_err(error)?;
                     return Ok(());
                 }
             }
-            while let Some(start) = text.find("$(var ") {
-                let end = text[start..].find(')').map(|e| start + e).ok_or_else(|| {
-                    LaunchError::Node {
-                        path: path.to_owned(),
-                        node: node.to_owned(),
-                        problem: format!("unterminated $(var ...) in {text:?}"),
-                    }
-                })?;
-                let name = text[start + 6..end].trim().to_owned();
-                let replacement = match arguments.get(&name) {
-                    Some(toml::Value::String(s)) => s.clone(),
-                    Some(other) => other.to_string(),
-                    None => {
-                        return Err(LaunchError::Node {
-                            path: path.to_owned(),
-                            node: node.to_owned(),
-                            problem: format!("uses undeclared argument {name:?}"),
-                        })
-                    }
-                };
-                text.replace_range(start..=end, &replacement);
+            if text.contains("$(var ") {
+                *text = expand_text(text, lookup).map_err(error)?;
             }
             Ok(())
         }
@@ -413,6 +520,12 @@ impl Launch {
                 allowed.contains(&value)
             })
         });
+        let resolved =
+            expand_arguments(&resolved).map_err(|(name, problem)| LaunchError::Argument {
+                path: path.to_owned(),
+                name,
+                problem: problem.to_string(),
+            })?;
         for node in &mut nodes {
             let name = node.name.clone();
             for (_, value) in node.params.iter_mut() {
@@ -599,6 +712,122 @@ when = { fidelity = ["spectral", "waveform"] }
             .to_string();
         assert!(
             error.contains("node estimator") && error.contains("fidel"),
+            "{error}"
+        );
+    }
+
+    fn substitution(arguments: &[(&str, &str)], param: &str) -> Result<Launch, LaunchError> {
+        let mut text = String::new();
+        for (name, default) in arguments {
+            text.push_str(&format!("[arguments.{name}]\ndefault = {default:?}\n"));
+        }
+        text.push_str(&format!(
+            "[[node]]\nname = \"n\"\nkind = \"k\"\n[node.params]\nx = {param:?}\n"
+        ));
+        Launch::parse(Path::new("s.toml"), &text, &[])
+    }
+
+    #[test]
+    fn arguments_may_name_other_arguments() {
+        let launch = substitution(
+            &[
+                ("label", "b"),
+                ("out", "runs/$(var label)/x"),
+                ("n", "$(var out)"),
+            ],
+            "$(var n)-$(var label)",
+        )
+        .unwrap();
+        assert_eq!(launch.nodes[0].params["x"].as_str(), Some("runs/b/x-b"));
+        // The record keeps the values as typed.
+        assert_eq!(
+            launch.arguments["out"].as_str(),
+            Some("runs/$(var label)/x")
+        );
+        // A whole-value reference to a string argument that names another.
+        let launch = substitution(&[("a", "$(var b)"), ("b", "z")], "$(var a)").unwrap();
+        assert_eq!(launch.nodes[0].params["x"].as_str(), Some("z"));
+    }
+
+    #[test]
+    fn substitution_cycles_are_reported_with_their_arguments() {
+        let error = substitution(&[("a", "$(var b)"), ("b", "x$(var a)")], "$(var a)")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.starts_with("s.toml: argument a: ")
+                && error.contains("substitution cycle: a -> b -> a"),
+            "{error}"
+        );
+        let error = substitution(&[("a", "$(var a)")], "y")
+            .unwrap_err()
+            .to_string();
+        assert!(error.contains("substitution cycle: a -> a"), "{error}");
+        // A cycle entered through the command line is caught too.
+        let text = "[arguments.a]\ndefault = \"1\"\n[arguments.b]\ndefault = \"$(var a)\"\n\
+                    [[node]]\nname = \"n\"\nkind = \"k\"\n[node.params]\nx = \"$(var b)\"\n";
+        let error = Launch::parse(Path::new("s.toml"), text, &["a:=-$(var b)-".to_owned()])
+            .unwrap_err()
+            .to_string();
+        assert!(error.contains("substitution cycle: a -> b -> a"), "{error}");
+    }
+
+    #[test]
+    fn substitution_depth_and_length_are_bounded() {
+        // A chain longer than the depth bound.
+        let names: Vec<String> = (0..=MAX_SUBSTITUTION_DEPTH + 1)
+            .map(|i| format!("a{i:02}"))
+            .collect();
+        let defaults: Vec<String> = (0..names.len())
+            .map(|i| match names.get(i + 1) {
+                Some(next) => format!("$(var {next})"),
+                None => "end".to_owned(),
+            })
+            .collect();
+        let arguments: Vec<(&str, &str)> = names
+            .iter()
+            .zip(&defaults)
+            .map(|(n, d)| (n.as_str(), d.as_str()))
+            .collect();
+        let error = substitution(&arguments, "$(var a00)")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.contains(&format!("deeper than {MAX_SUBSTITUTION_DEPTH}")),
+            "{error}"
+        );
+        // A chain within the bound expands.
+        let short = &arguments[arguments.len() - MAX_SUBSTITUTION_DEPTH..];
+        let launch = substitution(short, &format!("$(var {})", short[0].0)).unwrap();
+        assert_eq!(launch.nodes[0].params["x"].as_str(), Some("end"));
+        // Doubling at each of 30 levels would make 2^30 copies: refused, quickly.
+        let names: Vec<String> = (0..30).map(|i| format!("d{i:02}")).collect();
+        let defaults: Vec<String> = (0..30)
+            .map(|i| match names.get(i + 1) {
+                Some(next) => format!("$(var {next})$(var {next})"),
+                None => "xxxxxxxx".to_owned(),
+            })
+            .collect();
+        let arguments: Vec<(&str, &str)> = names
+            .iter()
+            .zip(&defaults)
+            .map(|(n, d)| (n.as_str(), d.as_str()))
+            .collect();
+        let started = std::time::Instant::now();
+        let error = substitution(&arguments, "$(var d00)")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.contains(&format!("longer than {MAX_SUBSTITUTED_BYTES} bytes")),
+            "{error}"
+        );
+        assert!(started.elapsed().as_secs_f64() < 5.0);
+        // An unterminated reference in an argument's value names the argument.
+        let error = substitution(&[("a", "$(var b")], "y")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.contains("argument a") && error.contains("unterminated"),
             "{error}"
         );
     }
