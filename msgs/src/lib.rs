@@ -7,6 +7,9 @@
 //! under `msgs/msg/` (package `nrslam_msgs`). [`Message`] is the one enum the runtime moves around;
 //! [`cdr`] encodes and decodes it; [`topics`] says which topic carries which type with which QoS;
 //! [`schema`] gives each type's `ros2msg` text with its dependencies appended, as rosbag2 records it.
+//! A received message goes through [`Message::decode`] (the wire format, bounded: see [`cdr`])
+//! then [`Message::check_usable`] (the values: finite, sizes consistent), whose [`Unusable`]
+//! reason is a counter key.
 //!
 //! ```
 //! use nrslam_msgs::{Message, PoseStamped, Header, Pose, Time};
@@ -28,7 +31,9 @@ pub mod nrslam;
 pub mod ros;
 pub mod schema;
 pub mod topics;
+pub mod usable;
 
 pub use message::{Message, MessageError};
 pub use nrslam::*;
 pub use ros::*;
+pub use usable::Unusable;

@@ -3,6 +3,7 @@
 use crate::cdr::{self, CdrError};
 use crate::nrslam::*;
 use crate::ros::*;
+use crate::usable::{CheckUsable, Unusable};
 
 /// Why a message could not be decoded for a type name.
 #[derive(Debug, thiserror::Error)]
@@ -53,6 +54,15 @@ macro_rules! messages {
                 match self { $(Message::$variant(m) => cdr::encode(m),)* }
             }
 
+            /// Whether the values can be used by a node: numbers that are computed with are
+            /// finite, lengths match the dimensions that describe them, values lie in their
+            /// domain. Field-by-field rules in [`crate::usable`]; run it on
+            /// every message received, after [`Message::decode`] (which checks only the wire
+            /// format). O(message size), no allocation.
+            pub fn check_usable(&self) -> Result<(), Unusable> {
+                match self { $(Message::$variant(m) => m.check_usable(),)* }
+            }
+
             /// Decodes CDR bytes of the ROS 2 type `type_name`.
             pub fn decode(type_name: &str, bytes: &[u8]) -> Result<Message, MessageError> {
                 match type_name {
@@ -91,6 +101,329 @@ messages! {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn planar_pose() -> Pose {
+        Pose::from_planar(1.0, 2.0, 0.3)
+    }
+
+    fn detection() -> Detection {
+        Detection {
+            range_m: 4.0,
+            angle_rad: 0.2,
+            range_std_m: 0.1,
+            angle_std_rad: 0.01,
+            power_db: -20.0,
+        }
+    }
+
+    fn grid() -> OccupancyGrid {
+        OccupancyGrid {
+            header: Header::new(Time::from_seconds(1.0), "map"),
+            info: MapMetaData {
+                map_load_time: Time::from_seconds(1.0),
+                resolution: 0.1,
+                width: 3,
+                height: 2,
+                origin: planar_pose(),
+            },
+            data: vec![-1, 0, 100, 50, 0, 0],
+        }
+    }
+
+    /// One valid message of every catalogue type.
+    fn valid_messages() -> Vec<Message> {
+        let header = Header::new(Time::from_seconds(2.5), "map");
+        vec![
+            Message::Clock(Clock {
+                clock: Time::from_seconds(2.5),
+            }),
+            Message::Odometry(Odometry {
+                header: header.clone(),
+                pose: PoseWithCovariance {
+                    pose: planar_pose(),
+                    covariance: [f64::NAN; 36],
+                },
+                ..Default::default()
+            }),
+            Message::PoseStamped(PoseStamped {
+                header: header.clone(),
+                pose: planar_pose(),
+            }),
+            Message::OccupancyGrid(grid()),
+            Message::Detections(Detections {
+                header: header.clone(),
+                boresight_rad: 1.5,
+                detections: vec![
+                    detection(),
+                    Detection {
+                        power_db: f64::INFINITY,
+                        ..detection()
+                    },
+                ],
+            }),
+            Message::Keyframe(Keyframe {
+                header: header.clone(),
+                id: 3,
+                pose: planar_pose(),
+                boresight_rad: 1.5,
+                detections: vec![detection()],
+            }),
+            Message::Segments(Segments {
+                header: header.clone(),
+                eps_m: 0.3,
+                min_samples: 3,
+                cluster_count: 2,
+                points: vec![Point::planar(1.0, 1.0); 3],
+                labels: vec![0, 1, -1],
+            }),
+            Message::TargetSet(TargetSet {
+                header: header.clone(),
+                targets: vec![Target {
+                    id: 0,
+                    shape: "circle".into(),
+                    outline: vec![Point::planar(0.0, 1.0)],
+                    samples: vec![Point::planar(0.5, 1.0)],
+                }],
+            }),
+            Message::Metrics(Metrics {
+                header: header.clone(),
+                etgospa: f64::NAN,
+                ..Default::default()
+            }),
+            Message::RadarEcho(RadarEcho {
+                header: header.clone(),
+                boresight_rad: 1.5,
+                carrier_frequency_hz: 28e9,
+                subcarrier_spacing_hz: 120e3,
+                symbol_duration_s: 8.9e-6,
+                antenna_spacing_wavelengths: 0.5,
+                snr_db: 10.0,
+                antennas: 2,
+                symbols: 1,
+                subcarriers: 3,
+                received: vec![0.5; 12],
+                transmitted: vec![1.0; 6],
+            }),
+            Message::RadarSpectrum(RadarSpectrum {
+                header: header.clone(),
+                boresight_rad: 1.5,
+                range_bin_m: 0.12,
+                antenna_spacing_wavelengths: 0.5,
+                noise_power: 0.0,
+                range_bins: 2,
+                angle_bins: 4,
+                values: vec![0.25; 16],
+            }),
+            Message::KeyframePoses(KeyframePoses {
+                header: header.clone(),
+                revision: 1,
+                ids: vec![0, 1],
+                poses: vec![planar_pose(); 2],
+                loop_from_ids: vec![0],
+                loop_to_ids: vec![],
+                loop_relatives: vec![planar_pose()],
+            }),
+            Message::AssociationStats(AssociationStats {
+                header,
+                rms_residual_m: f64::INFINITY,
+                ..Default::default()
+            }),
+        ]
+    }
+
+    #[test]
+    fn valid_messages_of_every_type_are_usable() {
+        let messages = valid_messages();
+        let mut names: Vec<_> = messages.iter().map(Message::type_name).collect();
+        names.sort_unstable();
+        let mut all = Message::TYPE_NAMES.to_vec();
+        all.sort_unstable();
+        assert_eq!(names, all);
+        for message in &messages {
+            assert_eq!(message.check_usable(), Ok(()), "{}", message.type_name());
+        }
+    }
+
+    /// A boxed edit of the message of one variant, returning whether the message was of it.
+    macro_rules! spoil {
+        ($variant:ident, $m:ident => $body:block) => {
+            Box::new(move |message: &mut Message| {
+                if let Message::$variant($m) = message {
+                    $body
+                    true
+                } else {
+                    false
+                }
+            })
+        };
+    }
+
+    type Spoil = Box<dyn Fn(&mut Message) -> bool>;
+
+    /// Applies `spoil` to the valid message of its type and returns the verdict.
+    fn spoiled(spoil: impl Fn(&mut Message) -> bool) -> Result<(), Unusable> {
+        let mut hits = valid_messages()
+            .into_iter()
+            .filter_map(|mut m| spoil(&mut m).then_some(m));
+        let message = hits.next().expect("a message of the spoiled type");
+        message.check_usable()
+    }
+
+    #[test]
+    fn non_finite_numbers_that_are_computed_with_are_refused() {
+        let nan = f64::NAN;
+        let cases: Vec<(Spoil, &str)> = vec![
+            (
+                spoil!(PoseStamped, p => { p.pose.position.x = nan; }),
+                "pose.position",
+            ),
+            (
+                spoil!(PoseStamped, p => { p.pose.orientation.w = f64::INFINITY; }),
+                "pose.orientation",
+            ),
+            (
+                spoil!(Odometry, o => { o.twist.twist.angular.z = nan; }),
+                "twist.twist",
+            ),
+            (
+                spoil!(Odometry, o => { o.pose.covariance[35] = f64::INFINITY; }),
+                "pose.covariance",
+            ),
+            (
+                spoil!(Detections, d => { d.detections[1].angle_rad = nan; }),
+                "detections.angle_rad",
+            ),
+            (
+                spoil!(Detections, d => { d.detections[0].power_db = nan; }),
+                "detections.power_db",
+            ),
+            (
+                spoil!(Keyframe, k => { k.boresight_rad = f64::NEG_INFINITY; }),
+                "boresight_rad",
+            ),
+            (
+                spoil!(KeyframePoses, k => { k.loop_relatives[0].position.y = nan; }),
+                "loop_relatives.position",
+            ),
+            (spoil!(Segments, s => { s.points[2].z = nan; }), "points"),
+            (
+                spoil!(TargetSet, t => { t.targets[0].samples[0].x = nan; }),
+                "targets.samples",
+            ),
+            (
+                spoil!(RadarEcho, e => { e.received[11] = nan; }),
+                "received",
+            ),
+            (
+                spoil!(RadarSpectrum, s => { s.values[0] = f64::INFINITY; }),
+                "values",
+            ),
+            (
+                spoil!(OccupancyGrid, g => { g.info.origin.orientation.z = nan; }),
+                "info.origin.orientation",
+            ),
+        ];
+        for (spoil, field) in cases {
+            let verdict = spoiled(spoil);
+            assert_eq!(verdict, Err(Unusable::NonFinite(field)));
+            assert_eq!(verdict.unwrap_err().reason(), "non_finite");
+        }
+    }
+
+    #[test]
+    fn sizes_that_disagree_with_their_dimensions_are_refused() {
+        let cases: Vec<(Spoil, &str)> = vec![
+            (spoil!(OccupancyGrid, g => { g.data.pop(); }), "data"),
+            (
+                spoil!(OccupancyGrid, g => { g.info.width = u32::MAX; g.info.height = u32::MAX; }),
+                "data",
+            ),
+            (spoil!(RadarEcho, e => { e.antennas = 3; }), "received"),
+            (
+                spoil!(RadarEcho, e => { e.transmitted.push(0.0); }),
+                "transmitted",
+            ),
+            (
+                spoil!(RadarEcho, e => { e.antennas = u32::MAX; e.symbols = u32::MAX; e.subcarriers = u32::MAX; }),
+                "received",
+            ),
+            (spoil!(RadarSpectrum, s => { s.angle_bins = 8; }), "values"),
+            (spoil!(KeyframePoses, k => { k.ids.push(2); }), "poses"),
+            (spoil!(Segments, s => { s.labels.pop(); }), "labels"),
+        ];
+        for (spoil, field) in cases {
+            let verdict = spoiled(spoil);
+            assert_eq!(verdict, Err(Unusable::SizeMismatch(field)));
+            assert_eq!(verdict.unwrap_err().reason(), "size_mismatch");
+        }
+    }
+
+    #[test]
+    fn values_outside_their_domain_are_refused() {
+        let cases: Vec<(Spoil, &str)> = vec![
+            (spoil!(OccupancyGrid, g => { g.data[0] = 101; }), "data"),
+            (spoil!(OccupancyGrid, g => { g.data[0] = -2; }), "data"),
+            (
+                spoil!(OccupancyGrid, g => { g.info.resolution = 0.0; }),
+                "info.resolution",
+            ),
+            (
+                spoil!(Clock, c => { c.clock.nanosec = 1_000_000_000; }),
+                "clock.nanosec",
+            ),
+            (
+                spoil!(Metrics, x => { x.header.stamp.nanosec = u32::MAX; }),
+                "header.stamp.nanosec",
+            ),
+            (
+                spoil!(Detections, d => { d.detections[0].range_m = -0.5; }),
+                "detections.range_m",
+            ),
+            (
+                spoil!(Keyframe, k => { k.detections[0].range_std_m = -1.0; }),
+                "detections.range_std_m",
+            ),
+            (spoil!(Segments, s => { s.labels[0] = 2; }), "labels"),
+            (spoil!(Segments, s => { s.labels[0] = -2; }), "labels"),
+            (
+                spoil!(PoseStamped, p => { p.pose.orientation = Quaternion { x: 0.0, y: 0.0, z: 0.0, w: 0.0 }; }),
+                "pose.orientation",
+            ),
+            (
+                spoil!(RadarEcho, e => { e.carrier_frequency_hz = 0.0; }),
+                "carrier_frequency_hz",
+            ),
+            (
+                spoil!(RadarSpectrum, s => { s.noise_power = -1e-9; }),
+                "noise_power",
+            ),
+        ];
+        for (spoil, field) in cases {
+            let verdict = spoiled(spoil);
+            assert_eq!(verdict, Err(Unusable::OutOfRange(field)));
+            assert_eq!(verdict.unwrap_err().reason(), "out_of_range");
+        }
+    }
+
+    #[test]
+    fn reasons_are_short_distinct_keys() {
+        let all = [
+            Unusable::BadCdr,
+            Unusable::NonFinite("x"),
+            Unusable::SizeMismatch("x"),
+            Unusable::OutOfRange("x"),
+        ];
+        let keys: std::collections::BTreeSet<_> = all.iter().map(Unusable::reason).collect();
+        assert_eq!(keys.len(), all.len());
+        assert!(keys
+            .iter()
+            .all(|k| k.len() <= 16 && k.bytes().all(|b| b.is_ascii_lowercase() || b == b'_')));
+        assert_eq!(
+            Unusable::NonFinite("pose.position").field(),
+            Some("pose.position")
+        );
+        assert_eq!(Unusable::BadCdr.field(), None);
+    }
 
     #[test]
     fn every_type_has_a_schema() {

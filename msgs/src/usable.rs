@@ -1,0 +1,368 @@
+//! Whether a decoded message's values can be used: the receive path's check after
+//! [`crate::cdr::decode`], which checks only the wire format.
+//!
+//! A peer (or a corrupted bag) can send well-formed CDR whose numbers are NaN, whose grid data
+//! does not match its width × height, or whose radar frame is shorter than its dimensions say.
+//! Nodes index and compute with these values, so [`crate::Message::check_usable`] refuses them
+//! before a node sees them, with an [`Unusable`] reason small enough to count per topic.
+//!
+//! Field by field (every check is O(message size), no allocation):
+//! - every header stamp (and `Clock`, `MapMetaData::map_load_time`): `nanosec` < 10⁹ (ROS'
+//!   `builtin_interfaces/Time` range). A negative `sec` is accepted: [`crate::Time::as_nanos`]
+//!   clamps it to 0.
+//! - poses (`PoseStamped`, `Odometry`, `Keyframe`, `KeyframePoses`, grid origin): position and
+//!   orientation finite, orientation not the zero quaternion (it has no yaw).
+//! - `Odometry`: the twist finite. The two covariances may hold NaN (some ROS drivers mark an
+//!   unknown covariance so; no node of the graph reads them) but not ±∞, which no convention
+//!   uses (ROS marks unknown or unused dimensions with −1 or a large finite value).
+//! - `OccupancyGrid`: resolution finite and > 0; `width × height` must not overflow and must
+//!   equal `data.len()`; cells in −1..=100.
+//! - detections (`Detections`, `Keyframe`): boresight, range, angle and the two standard
+//!   deviations finite, range and deviations ≥ 0; `power_db` not NaN (±∞ are the ideal model's
+//!   1/r⁴ law at r = 0 or ∞, and nothing computes with it).
+//! - `KeyframePoses`: as many poses as ids; the three loop arrays may differ in length (the type
+//!   says a reader zips them and ignores any excess).
+//! - `Segments`: eps and points finite, one label per point, labels in −1..cluster_count.
+//! - `TargetSet`: outlines and samples finite.
+//! - `RadarEcho`: boresight, carrier, subcarrier spacing, symbol duration, antenna spacing and
+//!   SNR finite, the four physical ones > 0; `received.len() = 2·K·M·N`,
+//!   `transmitted.len() = 2·M·N` (no overflow); every sample finite.
+//! - `RadarSpectrum`: boresight, bin size (> 0), antenna spacing (> 0), noise power (≥ 0)
+//!   finite; `values.len() = 2·range_bins·angle_bins`; every value finite.
+//! - `Metrics` and `AssociationStats`: only the stamp. They are diagnostics that nodes record
+//!   and nothing computes with; refusing a NaN there would hide the producer's fault from the
+//!   report instead of showing it.
+
+use crate::nrslam::*;
+use crate::ros::*;
+
+/// Why a received message is not used. `Copy`, with a short [`Unusable::reason`] to use as a
+/// counter key; the `&'static str` names the field.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, thiserror::Error)]
+pub enum Unusable {
+    /// The bytes did not decode as the topic's type (for the receive path to count decode
+    /// failures under the same kind of key; [`crate::Message::check_usable`] never returns it).
+    #[error("the payload is not valid CDR for the topic's type")]
+    BadCdr,
+    /// A number that is computed with is NaN or infinite.
+    #[error("{0} is NaN or infinite")]
+    NonFinite(&'static str),
+    /// A length disagrees with the dimensions that describe it (or those overflow).
+    #[error("{0}: length does not match the stated dimensions")]
+    SizeMismatch(&'static str),
+    /// A finite value outside its domain (a negative range, a cell of 101 %, a label past the
+    /// cluster count, nanoseconds ≥ 10⁹).
+    #[error("{0} is out of its range")]
+    OutOfRange(&'static str),
+}
+
+impl Unusable {
+    /// Short, stable key for counters and logs: `bad_cdr`, `non_finite`, `size_mismatch`,
+    /// `out_of_range`.
+    pub fn reason(&self) -> &'static str {
+        match self {
+            Unusable::BadCdr => "bad_cdr",
+            Unusable::NonFinite(_) => "non_finite",
+            Unusable::SizeMismatch(_) => "size_mismatch",
+            Unusable::OutOfRange(_) => "out_of_range",
+        }
+    }
+
+    /// The field concerned, if the reason is about one.
+    pub fn field(&self) -> Option<&'static str> {
+        match self {
+            Unusable::BadCdr => None,
+            Unusable::NonFinite(f) | Unusable::SizeMismatch(f) | Unusable::OutOfRange(f) => Some(f),
+        }
+    }
+}
+
+type Check = Result<(), Unusable>;
+
+/// Implemented by every catalogue type; [`crate::Message::check_usable`] dispatches to it.
+pub(crate) trait CheckUsable {
+    fn check_usable(&self) -> Check;
+}
+
+fn finite(value: f64, field: &'static str) -> Check {
+    if value.is_finite() {
+        Ok(())
+    } else {
+        Err(Unusable::NonFinite(field))
+    }
+}
+
+fn all_finite(values: &[f64], field: &'static str) -> Check {
+    if values.iter().all(|v| v.is_finite()) {
+        Ok(())
+    } else {
+        Err(Unusable::NonFinite(field))
+    }
+}
+
+/// Finite and ≥ `min` (or > `min` when `strict`).
+fn at_least(value: f64, min: f64, strict: bool, field: &'static str) -> Check {
+    finite(value, field)?;
+    if value > min || (!strict && value == min) {
+        Ok(())
+    } else {
+        Err(Unusable::OutOfRange(field))
+    }
+}
+
+fn time(time: &Time, field: &'static str) -> Check {
+    if time.nanosec < 1_000_000_000 {
+        Ok(())
+    } else {
+        Err(Unusable::OutOfRange(field))
+    }
+}
+
+fn header(header: &Header) -> Check {
+    time(&header.stamp, "header.stamp.nanosec")
+}
+
+fn point(p: &Point, field: &'static str) -> Check {
+    all_finite(&[p.x, p.y, p.z], field)
+}
+
+fn pose(pose: &Pose, position: &'static str, orientation: &'static str) -> Check {
+    point(&pose.position, position)?;
+    let q = &pose.orientation;
+    all_finite(&[q.x, q.y, q.z, q.w], orientation)?;
+    if q.x == 0.0 && q.y == 0.0 && q.z == 0.0 && q.w == 0.0 {
+        return Err(Unusable::OutOfRange(orientation));
+    }
+    Ok(())
+}
+
+fn detections(boresight_rad: f64, detections: &[Detection]) -> Check {
+    finite(boresight_rad, "boresight_rad")?;
+    for d in detections {
+        at_least(d.range_m, 0.0, false, "detections.range_m")?;
+        finite(d.angle_rad, "detections.angle_rad")?;
+        at_least(d.range_std_m, 0.0, false, "detections.range_std_m")?;
+        at_least(d.angle_std_rad, 0.0, false, "detections.angle_std_rad")?;
+        if d.power_db.is_nan() {
+            return Err(Unusable::NonFinite("detections.power_db"));
+        }
+    }
+    Ok(())
+}
+
+/// `2 · Π dims` as a length, `None` on overflow.
+fn interleaved_len(dims: &[u32]) -> Option<usize> {
+    dims.iter()
+        .try_fold(2usize, |n, &d| n.checked_mul(usize::try_from(d).ok()?))
+}
+
+fn length(actual: usize, expected: Option<usize>, field: &'static str) -> Check {
+    if expected == Some(actual) {
+        Ok(())
+    } else {
+        Err(Unusable::SizeMismatch(field))
+    }
+}
+
+impl CheckUsable for Clock {
+    fn check_usable(&self) -> Check {
+        time(&self.clock, "clock.nanosec")
+    }
+}
+
+impl CheckUsable for PoseStamped {
+    fn check_usable(&self) -> Check {
+        header(&self.header)?;
+        pose(&self.pose, "pose.position", "pose.orientation")
+    }
+}
+
+impl CheckUsable for Odometry {
+    fn check_usable(&self) -> Check {
+        header(&self.header)?;
+        pose(
+            &self.pose.pose,
+            "pose.pose.position",
+            "pose.pose.orientation",
+        )?;
+        let t = &self.twist.twist;
+        all_finite(
+            &[
+                t.linear.x,
+                t.linear.y,
+                t.linear.z,
+                t.angular.x,
+                t.angular.y,
+                t.angular.z,
+            ],
+            "twist.twist",
+        )?;
+        if self.pose.covariance.iter().any(|v| v.is_infinite()) {
+            return Err(Unusable::NonFinite("pose.covariance"));
+        }
+        if self.twist.covariance.iter().any(|v| v.is_infinite()) {
+            return Err(Unusable::NonFinite("twist.covariance"));
+        }
+        Ok(())
+    }
+}
+
+impl CheckUsable for OccupancyGrid {
+    fn check_usable(&self) -> Check {
+        header(&self.header)?;
+        let info = &self.info;
+        time(&info.map_load_time, "info.map_load_time.nanosec")?;
+        at_least(f64::from(info.resolution), 0.0, true, "info.resolution")?;
+        pose(
+            &info.origin,
+            "info.origin.position",
+            "info.origin.orientation",
+        )?;
+        let cells = usize::try_from(info.width)
+            .ok()
+            .zip(usize::try_from(info.height).ok())
+            .and_then(|(w, h)| w.checked_mul(h));
+        length(self.data.len(), cells, "data")?;
+        if self.data.iter().all(|&c| (-1..=100).contains(&c)) {
+            Ok(())
+        } else {
+            Err(Unusable::OutOfRange("data"))
+        }
+    }
+}
+
+impl CheckUsable for Detections {
+    fn check_usable(&self) -> Check {
+        header(&self.header)?;
+        detections(self.boresight_rad, &self.detections)
+    }
+}
+
+impl CheckUsable for Keyframe {
+    fn check_usable(&self) -> Check {
+        header(&self.header)?;
+        pose(&self.pose, "pose.position", "pose.orientation")?;
+        detections(self.boresight_rad, &self.detections)
+    }
+}
+
+impl CheckUsable for KeyframePoses {
+    fn check_usable(&self) -> Check {
+        header(&self.header)?;
+        if self.ids.len() != self.poses.len() {
+            return Err(Unusable::SizeMismatch("poses"));
+        }
+        for p in &self.poses {
+            pose(p, "poses.position", "poses.orientation")?;
+        }
+        for p in &self.loop_relatives {
+            pose(p, "loop_relatives.position", "loop_relatives.orientation")?;
+        }
+        Ok(())
+    }
+}
+
+impl CheckUsable for Segments {
+    fn check_usable(&self) -> Check {
+        header(&self.header)?;
+        finite(self.eps_m, "eps_m")?;
+        for p in &self.points {
+            point(p, "points")?;
+        }
+        if self.labels.len() != self.points.len() {
+            return Err(Unusable::SizeMismatch("labels"));
+        }
+        let clusters = i64::from(self.cluster_count);
+        if self
+            .labels
+            .iter()
+            .all(|&l| l == -1 || (0..clusters).contains(&i64::from(l)))
+        {
+            Ok(())
+        } else {
+            Err(Unusable::OutOfRange("labels"))
+        }
+    }
+}
+
+impl CheckUsable for TargetSet {
+    fn check_usable(&self) -> Check {
+        header(&self.header)?;
+        for target in &self.targets {
+            for p in &target.outline {
+                point(p, "targets.outline")?;
+            }
+            for p in &target.samples {
+                point(p, "targets.samples")?;
+            }
+        }
+        Ok(())
+    }
+}
+
+impl CheckUsable for Metrics {
+    fn check_usable(&self) -> Check {
+        header(&self.header)
+    }
+}
+
+impl CheckUsable for AssociationStats {
+    fn check_usable(&self) -> Check {
+        header(&self.header)
+    }
+}
+
+impl CheckUsable for RadarEcho {
+    fn check_usable(&self) -> Check {
+        header(&self.header)?;
+        finite(self.boresight_rad, "boresight_rad")?;
+        at_least(self.carrier_frequency_hz, 0.0, true, "carrier_frequency_hz")?;
+        at_least(
+            self.subcarrier_spacing_hz,
+            0.0,
+            true,
+            "subcarrier_spacing_hz",
+        )?;
+        at_least(self.symbol_duration_s, 0.0, true, "symbol_duration_s")?;
+        at_least(
+            self.antenna_spacing_wavelengths,
+            0.0,
+            true,
+            "antenna_spacing_wavelengths",
+        )?;
+        finite(self.snr_db, "snr_db")?;
+        length(
+            self.received.len(),
+            interleaved_len(&[self.antennas, self.symbols, self.subcarriers]),
+            "received",
+        )?;
+        length(
+            self.transmitted.len(),
+            interleaved_len(&[self.symbols, self.subcarriers]),
+            "transmitted",
+        )?;
+        all_finite(&self.received, "received")?;
+        all_finite(&self.transmitted, "transmitted")
+    }
+}
+
+impl CheckUsable for RadarSpectrum {
+    fn check_usable(&self) -> Check {
+        header(&self.header)?;
+        finite(self.boresight_rad, "boresight_rad")?;
+        at_least(self.range_bin_m, 0.0, true, "range_bin_m")?;
+        at_least(
+            self.antenna_spacing_wavelengths,
+            0.0,
+            true,
+            "antenna_spacing_wavelengths",
+        )?;
+        at_least(self.noise_power, 0.0, false, "noise_power")?;
+        length(
+            self.values.len(),
+            interleaved_len(&[self.range_bins, self.angle_bins]),
+            "values",
+        )?;
+        all_finite(&self.values, "values")
+    }
+}
