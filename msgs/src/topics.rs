@@ -46,22 +46,31 @@ pub enum Durability {
     TransientLocal,
 }
 
-/// QoS of a topic, as ROS 2 names it. History is keep-all everywhere: nothing is dropped.
+/// QoS of a topic, as ROS 2 names it. Every topic of the graph is reliable: a node that falls
+/// behind slows its publisher down (back-pressure) instead of losing frames, so a graph gives the
+/// same result however its nodes are spread over processes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Qos {
     /// Reliability.
     pub reliability: Reliability,
     /// Durability.
     pub durability: Durability,
+    /// Messages a subscriber queues before its publisher is held back (ROS 2 history depth):
+    /// what bounds a receiver's memory.
+    pub depth: usize,
 }
 
 const STREAM: Qos = Qos {
     reliability: Reliability::Reliable,
     durability: Durability::Volatile,
+    depth: 64,
 };
+/// Streams of large messages (resource grids, spectra, occupancy grids): a shorter queue.
+const BULK: Qos = Qos { depth: 8, ..STREAM };
 const LATCHED: Qos = Qos {
     reliability: Reliability::Reliable,
     durability: Durability::TransientLocal,
+    depth: 1,
 };
 
 /// One catalogue entry.
@@ -94,13 +103,13 @@ pub const CATALOGUE: &[TopicSpec] = &[
     TopicSpec {
         name: ECHO,
         type_name: "nrslam_msgs/msg/RadarEcho",
-        qos: STREAM,
+        qos: BULK,
         description: "OFDM resource grids Y and X of one frame (waveform fidelity)",
     },
     TopicSpec {
         name: SPECTRUM,
         type_name: "nrslam_msgs/msg/RadarSpectrum",
-        qos: STREAM,
+        qos: BULK,
         description: "processed range x angle response of one frame (spectral fidelity)",
     },
     TopicSpec {
@@ -148,7 +157,7 @@ pub const CATALOGUE: &[TopicSpec] = &[
     TopicSpec {
         name: MAP,
         type_name: "nav_msgs/msg/OccupancyGrid",
-        qos: STREAM,
+        qos: BULK,
         description: "log-odds occupancy grid, one per keyframe",
     },
     TopicSpec {

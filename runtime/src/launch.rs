@@ -107,6 +107,24 @@ pub struct NodeDecl {
     /// `when = { fidelity = ["spectral", "waveform"] }` (as ROS 2 launch's `IfCondition`).
     #[serde(default)]
     pub when: std::collections::BTreeMap<String, Vec<String>>,
+    /// In a processes-mode launch: start the node's process again when it dies (ROS 2 launch's
+    /// `respawn`). Only for nodes with inputs: a source would start its stream over.
+    #[serde(default)]
+    pub respawn: bool,
+    /// Seconds to wait before a respawn, 0–3600.
+    #[serde(default = "default_respawn_delay_s")]
+    pub respawn_delay_s: f64,
+    /// Respawns allowed before a death stops the graph, 0–1000.
+    #[serde(default = "default_max_restarts")]
+    pub max_restarts: u32,
+}
+
+fn default_respawn_delay_s() -> f64 {
+    1.0
+}
+
+fn default_max_restarts() -> u32 {
+    3
 }
 
 #[derive(Debug, Deserialize)]
@@ -494,6 +512,18 @@ impl Launch {
             }
         }
         for node in &nodes {
+            if !(node.respawn_delay_s.is_finite() && (0.0..=3600.0).contains(&node.respawn_delay_s))
+                || node.max_restarts > 1000
+            {
+                return Err(LaunchError::Node {
+                    path: path.to_owned(),
+                    node: node.name.clone(),
+                    problem: format!(
+                        "respawn_delay_s = {} and max_restarts = {} (allowed: 0 to 3600 s, 0 to 1000)",
+                        node.respawn_delay_s, node.max_restarts
+                    ),
+                });
+            }
             for (argument, allowed) in &node.when {
                 if !arguments.contains_key(argument) {
                     return Err(LaunchError::Node {
@@ -830,6 +860,39 @@ when = { fidelity = ["spectral", "waveform"] }
             error.contains("argument a") && error.contains("unterminated"),
             "{error}"
         );
+    }
+
+    #[test]
+    fn respawn_is_declared_per_node_and_its_bounds_are_checked() {
+        let text = "[[node]]\nname=\"a\"\nkind=\"mapper\"\nrespawn = true\nrespawn_delay_s = 0.5\n";
+        let launch = Launch::parse(Path::new("f.toml"), text, &[]).unwrap();
+        let node = &launch.nodes[0];
+        assert!(node.respawn);
+        assert_eq!((node.respawn_delay_s, node.max_restarts), (0.5, 3));
+        let plain = Launch::parse(
+            Path::new("f.toml"),
+            "[[node]]\nname=\"a\"\nkind=\"b\"\n",
+            &[],
+        )
+        .unwrap();
+        assert!(!plain.nodes[0].respawn);
+        for bad in [
+            "respawn_delay_s = -1.0",
+            "respawn_delay_s = 1e19",
+            "max_restarts = 5000",
+        ] {
+            let error = Launch::parse(
+                Path::new("f.toml"),
+                &format!("[[node]]\nname=\"a\"\nkind=\"b\"\n{bad}\n"),
+                &[],
+            )
+            .unwrap_err()
+            .to_string();
+            assert!(
+                error.contains("node a") && error.contains("allowed: 0 to 3600 s"),
+                "{bad}: {error}"
+            );
+        }
     }
 
     #[test]

@@ -17,8 +17,10 @@ pub mod config;
 pub mod launch;
 pub mod merge;
 pub mod node;
+pub mod receive;
 pub mod rmw_zenoh;
 pub mod seed;
+pub mod supervisor;
 pub mod type_hash;
 
 pub use config::{parse_params, InvalidParam, ParamsError};

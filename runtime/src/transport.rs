@@ -13,6 +13,7 @@
 
 use crate::merge::Merger;
 use crate::node::{Node, NodeError, Outbox, Tick};
+use crate::receive::{Delivery, Drops, Inbox, InboxOptions, ReceiveError};
 use nrslam_msgs::{topics, Message};
 use std::collections::BTreeMap;
 use std::sync::mpsc;
@@ -68,6 +69,9 @@ pub enum TransportError {
     /// The node failed.
     #[error(transparent)]
     Node(#[from] NodeError),
+    /// Receiving stopped (the session closed, or an unusable sample under `fail`).
+    #[error(transparent)]
+    Receive(#[from] ReceiveError),
 }
 
 fn zerr(error: impl std::fmt::Display) -> TransportError {
@@ -364,7 +368,8 @@ impl Pacer {
     }
 }
 
-/// Runs `node` over zenoh until its inputs end (or, for a source, until it is done).
+/// Runs `node` over zenoh until its inputs end (or, for a source, until it is done), dropping
+/// and counting unusable input samples ([`run_node_with`] with the default [`InboxOptions`]).
 ///
 /// With `wait_for_start`, the node declares its readiness and a source waits for the launcher's
 /// start signal (at most `start_timeout`); without it a source starts at once.
@@ -372,15 +377,56 @@ pub fn run_node(
     session: &Session,
     namespace: &str,
     name: &str,
-    mut node: Box<dyn Node>,
+    node: Box<dyn Node>,
     wait_for_start: bool,
     start_timeout: Duration,
     rate: f64,
-) -> Result<(), TransportError> {
+) -> Result<Drops, TransportError> {
+    run_node_with(
+        session,
+        namespace,
+        name,
+        node,
+        NodeRun {
+            wait_for_start,
+            start_timeout,
+            rate,
+            inbox: InboxOptions::default(),
+        },
+    )
+}
+
+/// How [`run_node_with`] runs a node.
+#[derive(Debug, Clone, Copy)]
+pub struct NodeRun {
+    /// Declare readiness; a source waits for the launcher's start signal.
+    pub wait_for_start: bool,
+    /// How long a source waits for it.
+    pub start_timeout: Duration,
+    /// Real-time factor of a source (≤ 0: as fast as possible).
+    pub rate: f64,
+    /// What the receive path does with unusable samples and overload.
+    pub inbox: InboxOptions,
+}
+
+/// [`run_node`] with every option. Returns what the receive path dropped.
+pub fn run_node_with(
+    session: &Session,
+    namespace: &str,
+    name: &str,
+    mut node: Box<dyn Node>,
+    run: NodeRun,
+) -> Result<Drops, TransportError> {
+    let NodeRun {
+        wait_for_start,
+        start_timeout,
+        rate,
+        inbox: inbox_options,
+    } = run;
     let inputs = node.inputs();
     let outputs = node.outputs();
     let mut publisher = TopicPublisher::new(session, namespace, &outputs)?;
-    let (_subscribers, received) = subscribe(session, namespace, &inputs)?;
+    let mut inbox = Inbox::subscribe(session, namespace, &inputs, inbox_options)?;
     let (_start_subscriber, start) = if inputs.is_empty() && wait_for_start {
         let (sender, receiver) = mpsc::channel();
         let subscriber = session
@@ -430,13 +476,14 @@ pub fn run_node(
     } else {
         let mut merger = Merger::new(&inputs);
         while !merger.finished() {
-            let (topic, bytes) = received
-                .recv()
-                .map_err(|_| TransportError::Zenoh("session closed".into()))?;
-            if bytes.is_empty() {
-                let _ = merger.close(topic);
-            } else {
-                let _ = merger.push(topic, decode(topic, &bytes)?);
+            match inbox.recv_timeout(Duration::from_millis(500))? {
+                Some(Delivery::End { topic }) => {
+                    let _ = merger.close(topic);
+                }
+                Some(Delivery::Message { topic, message }) => {
+                    let _ = merger.push(topic, message);
+                }
+                None => {}
             }
             while let Some((topic, message)) = merger.pop_ready() {
                 node.on_message(topic, &message, &mut outbox)?;
@@ -449,7 +496,7 @@ pub fn run_node(
     for topic in outputs {
         publisher.end(topic)?;
     }
-    Ok(())
+    Ok(inbox.drops().clone())
 }
 
 fn outbox_latest_stamp(outbox: &Outbox) -> Option<f64> {

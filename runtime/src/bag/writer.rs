@@ -172,6 +172,7 @@ impl BagWriter {
                     offered_qos_profiles(&topics::Qos {
                         reliability: topics::Reliability::Reliable,
                         durability: topics::Durability::Volatile,
+                        depth: 64,
                     })
                 });
             let schema_id = mcap
