@@ -26,6 +26,24 @@ use thiserror::Error;
 /// solver can never meet an infinity or a NaN of its own making.
 pub const MAX_ABS_COST: f64 = 1e150;
 
+/// Most cells a dense cost matrix may have: 2^26 = 67 108 864 (512 MiB of f64). Both metrics
+/// build rows × columns matrices (target slots or truth points × estimates); past this they are
+/// refused with [`AssignmentError::TooLarge`] before anything is allocated, instead of asking
+/// the allocator for, say, the 320 GB of 200 000 × 200 000 points and aborting the process.
+/// A sparse assignment would lift the limit.
+pub const MAX_CELLS: usize = 1 << 26;
+
+/// Checks that a `rows` × `cols` dense matrix stays within [`MAX_CELLS`].
+///
+/// # Errors
+/// [`AssignmentError::TooLarge`] naming the sizes and the limit.
+pub fn check_size(rows: usize, cols: usize) -> Result<(), AssignmentError> {
+    match rows.checked_mul(cols) {
+        Some(cells) if cells <= MAX_CELLS => Ok(()),
+        _ => Err(AssignmentError::TooLarge { rows, cols }),
+    }
+}
+
 /// A cost matrix refused by [`CostMatrix::new`].
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum AssignmentError {
@@ -50,6 +68,18 @@ pub enum AssignmentError {
         col: usize,
         /// The entry.
         value: f64,
+    },
+    /// The matrix would have more than [`MAX_CELLS`] cells.
+    #[error(
+        "a dense assignment of {rows} × {cols} = {} cells is more than the limit of {MAX_CELLS} \
+         cells (512 MiB); score fewer points",
+        (*rows as u128) * (*cols as u128)
+    )]
+    TooLarge {
+        /// Rows requested.
+        rows: usize,
+        /// Columns requested.
+        cols: usize,
     },
     /// An entry's magnitude exceeds [`MAX_ABS_COST`].
     #[error(
@@ -78,9 +108,11 @@ impl CostMatrix {
     /// A `rows` × `cols` matrix from row-major `data`.
     ///
     /// # Errors
+    /// [`AssignmentError::TooLarge`] past [`MAX_CELLS`],
     /// [`AssignmentError::ShapeMismatch`] if `data.len() != rows * cols`,
     /// [`AssignmentError::NonFinite`] / [`AssignmentError::OutOfRange`] naming the first bad entry.
     pub fn new(rows: usize, cols: usize, data: Vec<f64>) -> Result<Self, AssignmentError> {
+        check_size(rows, cols)?;
         let expected = rows.saturating_mul(cols);
         if rows.checked_mul(cols) != Some(data.len()) {
             return Err(AssignmentError::ShapeMismatch {
@@ -111,6 +143,7 @@ impl CostMatrix {
         cols: usize,
         mut cost: impl FnMut(usize, usize) -> f64,
     ) -> Result<Self, AssignmentError> {
+        check_size(rows, cols)?;
         let mut data = Vec::with_capacity(rows.saturating_mul(cols));
         for r in 0..rows {
             for c in 0..cols {
@@ -502,6 +535,34 @@ mod tests {
     use rand_chacha::ChaCha8Rng;
 
     /// Minimum over all injective maps of the smaller side into the larger one.
+    #[test]
+    fn matrices_past_the_cell_limit_are_refused_before_allocating() {
+        assert!(check_size(MAX_CELLS, 1).is_ok());
+        assert!(check_size(1 << 13, 1 << 13).is_ok());
+        for (rows, cols) in [(200_000, 200_000), (MAX_CELLS + 1, 1), (usize::MAX, 2)] {
+            let error = check_size(rows, cols).unwrap_err();
+            assert_eq!(error, AssignmentError::TooLarge { rows, cols });
+            let message = error.to_string();
+            assert!(
+                message.contains(&format!("{rows} × {cols}"))
+                    && message.contains(&MAX_CELLS.to_string()),
+                "{message}"
+            );
+        }
+        assert_eq!(
+            AssignmentError::TooLarge {
+                rows: 200_000,
+                cols: 200_000
+            }
+            .to_string(),
+            "a dense assignment of 200000 × 200000 = 40000000000 cells is more than the limit \
+             of 67108864 cells (512 MiB); score fewer points"
+        );
+        // from_fn never calls the cost function (nor allocates) for a refused size.
+        let refused = CostMatrix::from_fn(200_000, 200_000, |_, _| unreachable!());
+        assert!(matches!(refused, Err(AssignmentError::TooLarge { .. })));
+    }
+
     fn brute_force_min(costs: &CostMatrix) -> f64 {
         fn rec(costs: &CostMatrix, row: usize, used: &mut Vec<bool>, transpose: bool) -> f64 {
             let (n, m) = if transpose {

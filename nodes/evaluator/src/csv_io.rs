@@ -13,8 +13,19 @@
 //! (GOSPA always with the plain Euclidean distance).
 //!
 //! Errors name the file, the line and the column.
+//!
+//! **Size.** A file is streamed, never read whole: one past [`MAX_CSV_BYTES`] bytes or
+//! [`MAX_CSV_ROWS`] rows is refused ([`EvaluatorError::TooLarge`]) as soon as the reader gets
+//! there, so a 10 GB file costs neither 10 GB of memory nor the time to read it all. Inputs that
+//! fit can still be too many points for the dense assignment behind both metrics
+//! ([`MAX_CELLS`](crate::assignment::MAX_CELLS) slots × estimates), which the metrics refuse
+//! before allocating.
 
+use std::cell::RefCell;
+use std::collections::{HashMap, VecDeque};
+use std::io::Read;
 use std::path::{Path, PathBuf};
+use std::rc::Rc;
 
 use serde::Serialize;
 use thiserror::Error;
@@ -27,6 +38,24 @@ use crate::point::Point2;
 /// Parameters of a metric report: c, p, α, the distance mode and `squared_distance`, as for
 /// ET-GOPSA; GOSPA uses c, p, α.
 pub type MetricParams = EtGospaParams;
+
+/// Largest CSV file read, in bytes (1 GiB).
+pub const MAX_CSV_BYTES: u64 = 1 << 30;
+
+/// Most data rows read from one CSV file (2^24 = 16 777 216 points, 256 MiB as points).
+pub const MAX_CSV_ROWS: u64 = 1 << 24;
+
+/// The size limits of one read (the constants above; smaller in the tests).
+#[derive(Debug, Clone, Copy)]
+struct Limits {
+    bytes: u64,
+    rows: u64,
+}
+
+const LIMITS: Limits = Limits {
+    bytes: MAX_CSV_BYTES,
+    rows: MAX_CSV_ROWS,
+};
 
 /// Why `evaluate_files` failed.
 #[derive(Debug, Error)]
@@ -80,6 +109,17 @@ pub enum EvaluatorError {
         column: &'static str,
         /// What is wrong with the field.
         problem: String,
+    },
+    /// The file is past [`MAX_CSV_BYTES`] bytes or [`MAX_CSV_ROWS`] rows (refused while
+    /// streaming: the rest is not read).
+    #[error("{}: more than {limit} {what}: too large for `nrslam metric`", path.display())]
+    TooLarge {
+        /// The file.
+        path: PathBuf,
+        /// The limit passed.
+        limit: u64,
+        /// `bytes` or `rows`.
+        what: &'static str,
     },
     /// The metric refused its parameters or input.
     #[error(transparent)]
@@ -170,18 +210,26 @@ pub fn evaluate(
 /// # Errors
 /// See [`EvaluatorError`].
 pub fn read_truth(path: &Path) -> Result<Vec<TruthTarget>, EvaluatorError> {
-    let mut table = Table::open(path, &["target", "x", "y"], TRUTH_HEADER)?;
+    read_truth_within(path, LIMITS)
+}
+
+fn read_truth_within(path: &Path, limits: Limits) -> Result<Vec<TruthTarget>, EvaluatorError> {
+    let mut table = Table::open(path, &["target", "x", "y"], TRUTH_HEADER, limits)?;
     let mut targets: Vec<TruthTarget> = Vec::new();
+    // Position in `targets` of each id: targets stay in first-appearance order.
+    let mut index: HashMap<String, usize> = HashMap::new();
     while let Some(row) = table.next_row()? {
-        let id = row.text(0)?.to_owned();
+        let id = row.text(0)?;
         let point = Point2::new(row.number(1)?, row.number(2)?);
-        // Linear search keeps first-appearance order; a HashMap index would need the same Vec.
-        match targets.iter_mut().find(|t| t.id == id) {
-            Some(target) => target.samples.push(point),
-            None => targets.push(TruthTarget {
-                id,
-                samples: vec![point],
-            }),
+        match index.get(id) {
+            Some(&k) => targets[k].samples.push(point),
+            None => {
+                index.insert(id.to_owned(), targets.len());
+                targets.push(TruthTarget {
+                    id: id.to_owned(),
+                    samples: vec![point],
+                });
+            }
         }
     }
     Ok(targets)
@@ -192,7 +240,11 @@ pub fn read_truth(path: &Path) -> Result<Vec<TruthTarget>, EvaluatorError> {
 /// # Errors
 /// See [`EvaluatorError`].
 pub fn read_estimates(path: &Path) -> Result<Vec<Point2>, EvaluatorError> {
-    let mut table = Table::open(path, &["x", "y"], ESTIMATES_HEADER)?;
+    read_estimates_within(path, LIMITS)
+}
+
+fn read_estimates_within(path: &Path, limits: Limits) -> Result<Vec<Point2>, EvaluatorError> {
+    let mut table = Table::open(path, &["x", "y"], ESTIMATES_HEADER, limits)?;
     let mut points = Vec::new();
     while let Some(row) = table.next_row()? {
         points.push(Point2::new(row.number(0)?, row.number(1)?));
@@ -203,10 +255,15 @@ pub fn read_estimates(path: &Path) -> Result<Vec<Point2>, EvaluatorError> {
 /// A CSV file whose required columns have been located in its header.
 struct Table<'a> {
     path: &'a Path,
-    reader: csv::Reader<std::io::Cursor<Vec<u8>>>,
-    /// Where each line starts and whether it is blank, for line numbers: the csv crate skips
-    /// blank lines without counting them, and a record's byte position points before them.
-    lines: Lines,
+    reader: csv::Reader<Tracked>,
+    /// Where the lines near the reader start and whether they are blank, for line numbers: the
+    /// csv crate skips blank lines without counting them, and a record's byte position points
+    /// before them.
+    lines: Rc<RefCell<Lines>>,
+    /// Data rows read so far.
+    rows: u64,
+    /// Most data rows read.
+    max_rows: u64,
     columns: &'static [&'static str],
     /// Position of each required column in the file's records.
     positions: Vec<usize>,
@@ -224,18 +281,25 @@ impl<'a> Table<'a> {
         path: &'a Path,
         columns: &'static [&'static str],
         expected: &'static str,
+        limits: Limits,
     ) -> Result<Self, EvaluatorError> {
-        let bytes = std::fs::read(path).map_err(|source| EvaluatorError::Io {
+        let file = std::fs::File::open(path).map_err(|source| EvaluatorError::Io {
             path: path.to_owned(),
             source,
         })?;
-        let lines = Lines::new(&bytes);
+        let lines = Rc::new(RefCell::new(Lines {
+            max_bytes: limits.bytes,
+            ..Lines::default()
+        }));
         let mut reader = csv::ReaderBuilder::new()
             .has_headers(true)
             // Short rows are reported by us, naming the missing column.
             .flexible(true)
             .trim(csv::Trim::All)
-            .from_reader(std::io::Cursor::new(bytes));
+            .from_reader(Tracked {
+                inner: std::io::BufReader::new(file).take(limits.bytes.saturating_add(1)),
+                lines: lines.clone(),
+            });
         let header = match reader.headers() {
             Ok(header) => header.clone(),
             Err(e) => return Err(csv_error(path, &lines, e)),
@@ -255,7 +319,7 @@ impl<'a> Table<'a> {
                 .map(|(k, _)| k);
             let bad_header = |problem: String| EvaluatorError::BadHeader {
                 path: path.to_owned(),
-                line: lines.line_of(header.position()),
+                line: lines.borrow_mut().line_of(header.position()),
                 problem,
                 expected,
             };
@@ -276,6 +340,8 @@ impl<'a> Table<'a> {
             path,
             reader,
             lines,
+            rows: 0,
+            max_rows: limits.rows,
             columns,
             positions,
             record: csv::StringRecord::new(),
@@ -290,7 +356,15 @@ impl<'a> Table<'a> {
         if !more {
             return Ok(None);
         }
-        let line = self.lines.line_of(self.record.position());
+        self.rows += 1;
+        if self.rows > self.max_rows {
+            return Err(EvaluatorError::TooLarge {
+                path: self.path.to_owned(),
+                limit: self.max_rows,
+                what: "rows",
+            });
+        }
+        let line = self.lines.borrow_mut().line_of(self.record.position());
         Ok(Some(Row {
             table: &*self,
             line,
@@ -330,47 +404,93 @@ impl Row<'_, '_> {
     }
 }
 
-/// Line starts and blank lines of a file.
+/// The file as the csv reader reads it, its lines tracked on the way.
+struct Tracked {
+    inner: std::io::Take<std::io::BufReader<std::fs::File>>,
+    lines: Rc<RefCell<Lines>>,
+}
+
+impl Read for Tracked {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        let mut lines = self.lines.borrow_mut();
+        lines.feed(&buf[..n]);
+        if lines.bytes > lines.max_bytes {
+            lines.too_large = true;
+            return Err(std::io::Error::other("file too large"));
+        }
+        Ok(n)
+    }
+}
+
+/// Line starts and blank lines of the part of a file around the reader: lines wholly before the
+/// last position asked about are dropped, so memory stays that of the csv reader's buffer.
+#[derive(Debug, Default)]
 struct Lines {
-    /// Byte offset where each line starts (line k + 1 starts at starts[k]).
-    starts: Vec<u64>,
-    /// Whether each line is empty (apart from a carriage return).
-    blank: Vec<bool>,
+    /// Bytes fed so far.
+    bytes: u64,
+    /// Most bytes read.
+    max_bytes: u64,
+    /// The file went past `max_bytes`.
+    too_large: bool,
+    /// Complete lines not dropped yet: (start byte, blank), the first being line `first_line`.
+    window: VecDeque<(u64, bool)>,
+    /// 1-based number of `window[0]` (or of the current line when the window is empty).
+    first_line: u64,
+    /// Start of the line being fed, and whether it is blank so far.
+    current: (u64, bool),
 }
 
 impl Lines {
-    fn new(bytes: &[u8]) -> Self {
-        let mut starts = vec![0u64];
-        let mut blank = Vec::new();
-        let mut line_start = 0usize;
-        for (k, &b) in bytes.iter().enumerate() {
-            if b == b'\n' {
-                blank.push(matches!(&bytes[line_start..k], [] | [b'\r']));
-                line_start = k + 1;
-                starts.push(line_start as u64);
+    fn feed(&mut self, bytes: &[u8]) {
+        if self.first_line == 0 {
+            self.first_line = 1;
+            self.current = (0, true);
+        }
+        for &b in bytes {
+            self.bytes += 1;
+            match b {
+                b'\n' => {
+                    self.window.push_back(self.current);
+                    self.current = (self.bytes, true);
+                }
+                b'\r' => {}
+                _ => self.current.1 = false,
             }
         }
-        blank.push(bytes[line_start..].iter().all(|&b| b == b'\r'));
-        Self { starts, blank }
     }
 
     /// 1-based line of the record whose csv position is `position` (0 if unknown): the line
-    /// holding that byte, moved past the blank lines the csv reader skipped.
-    fn line_of(&self, position: Option<&csv::Position>) -> u64 {
+    /// holding that byte, moved past the blank lines the csv reader skipped. Positions asked
+    /// about must not decrease (the reader only moves forward).
+    fn line_of(&mut self, position: Option<&csv::Position>) -> u64 {
         let Some(position) = position else { return 0 };
-        let mut line = self
-            .starts
-            .partition_point(|&start| start <= position.byte())
-            .saturating_sub(1);
-        while line + 1 < self.blank.len() && self.blank[line] {
-            line += 1;
+        let byte = position.byte();
+        self.first_line = self.first_line.max(1);
+        // Drop the lines that end before `byte` (the next line starts at or before it).
+        while !self.window.is_empty() {
+            let next_start = self.window.get(1).map_or(self.current.0, |l| l.0);
+            if next_start > byte {
+                break;
+            }
+            self.window.pop_front();
+            self.first_line += 1;
         }
-        line as u64 + 1
+        // Then past the blank lines the reader skipped, while a line follows.
+        let skipped = self.window.iter().take_while(|l| l.1).count();
+        self.first_line + skipped as u64
     }
 }
 
-fn csv_error(path: &Path, lines: &Lines, error: csv::Error) -> EvaluatorError {
-    let line = lines.line_of(error.position());
+fn csv_error(path: &Path, lines: &RefCell<Lines>, error: csv::Error) -> EvaluatorError {
+    if lines.borrow().too_large {
+        return EvaluatorError::TooLarge {
+            path: path.to_owned(),
+            limit: lines.borrow().max_bytes,
+            what: "bytes",
+        };
+    }
+    let line = lines.borrow_mut().line_of(error.position());
     let problem = error.to_string();
     match error.into_kind() {
         csv::ErrorKind::Io(source) => EvaluatorError::Io {
@@ -382,5 +502,76 @@ fn csv_error(path: &Path, lines: &Lines, error: csv::Error) -> EvaluatorError {
             line,
             problem,
         },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn file(text: &str) -> tempfile::NamedTempFile {
+        let file = tempfile::NamedTempFile::new().unwrap();
+        std::fs::write(file.path(), text).unwrap();
+        file
+    }
+
+    #[test]
+    fn files_past_the_row_or_byte_limit_are_refused_while_streaming() {
+        let rows: String = (0..100).map(|k| format!("{k},0\n")).collect();
+        let estimates = file(&format!("x,y\n{rows}"));
+        let roomy = Limits {
+            bytes: 1 << 20,
+            rows: 100,
+        };
+        assert_eq!(
+            read_estimates_within(estimates.path(), roomy)
+                .unwrap()
+                .len(),
+            100
+        );
+        let error = read_estimates_within(estimates.path(), Limits { rows: 99, ..roomy })
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.ends_with("more than 99 rows: too large for `nrslam metric`"),
+            "{error}"
+        );
+        let error = read_estimates_within(estimates.path(), Limits { bytes: 64, ..roomy })
+            .unwrap_err()
+            .to_string();
+        assert!(error.contains("more than 64 bytes"), "{error}");
+        let truth = file("target,x,y\na,0,0\nb,1,1\na,2,2\n");
+        let error = read_truth_within(truth.path(), Limits { rows: 2, ..roomy })
+            .unwrap_err()
+            .to_string();
+        assert!(error.contains("more than 2 rows"), "{error}");
+        let targets = read_truth_within(truth.path(), roomy).unwrap();
+        assert_eq!(
+            targets
+                .iter()
+                .map(|t| (t.id.as_str(), t.samples.len()))
+                .collect::<Vec<_>>(),
+            [("a", 2), ("b", 1)]
+        );
+    }
+
+    #[test]
+    fn line_numbers_hold_across_blank_lines_and_reader_buffers() {
+        // Blank lines before a bad row, and far enough into the file that the reader has
+        // refilled its buffer many times.
+        let mut text = "x,y\n".to_owned();
+        for k in 0..20_000 {
+            text.push_str(&format!("{k},1\n"));
+            if k % 7 == 0 {
+                text.push_str("\r\n\n");
+            }
+        }
+        let lines_before = text.matches('\n').count();
+        text.push_str("\n\n5,abc\n");
+        let error = read_estimates(file(&text).path()).unwrap_err().to_string();
+        assert!(
+            error.contains(&format!("line {}, column `y`", lines_before + 3)),
+            "{error}"
+        );
     }
 }

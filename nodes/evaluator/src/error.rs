@@ -56,8 +56,9 @@ pub enum MetricError {
         /// `sample` or `outline`.
         geometry: &'static str,
     },
-    /// The assignment refused its cost matrix (cannot happen for validated inputs; kept so a
-    /// future change fails loudly instead of panicking).
+    /// The assignment refused its cost matrix: more than
+    /// [`MAX_CELLS`](crate::assignment::MAX_CELLS) cells (too many points for the dense solver),
+    /// or (cannot happen for validated inputs) a non-finite cost.
     #[error(transparent)]
     Assignment(#[from] AssignmentError),
 }

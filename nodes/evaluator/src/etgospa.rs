@@ -35,7 +35,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::assignment::{solve_bottleneck, solve_partial, CostMatrix};
+use crate::assignment::{check_size, solve_bottleneck, solve_partial, CostMatrix};
 use crate::error::{InvalidMetricParam, MetricError};
 use crate::gospa::{pow_p, root_p, validate_c_p_alpha, GospaParams};
 use crate::point::{check_finite, distance_to_outline_m, Point2};
@@ -226,6 +226,13 @@ pub fn etgospa(
 
     let EtGospaParams { c, p, alpha, .. } = *params;
     let (n_targets, n_est) = (targets.len(), estimates.len());
+    // The dense slots × estimates matrix (and the targets × estimates tables below, no larger)
+    // must fit before anything is allocated.
+    let n_slots_total = targets
+        .iter()
+        .try_fold(0usize, |sum, t| sum.checked_add(t.slots))
+        .unwrap_or(usize::MAX);
+    check_size(n_slots_total.max(n_targets), n_est)?;
     // clipped[i * n_est + j] = min(c, δ(y_j, target i)).
     let mut clipped = Vec::with_capacity(n_targets * n_est);
     for target in targets {

@@ -37,7 +37,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::assignment::{solve_bottleneck, solve_partial, CostMatrix};
+use crate::assignment::{check_size, solve_bottleneck, solve_partial, CostMatrix};
 use crate::error::{InvalidMetricParam, MetricError};
 use crate::point::{check_finite, Point2};
 
@@ -230,6 +230,7 @@ pub fn gospa(
     params.validate()?;
     check_finite(truth, || "truth".to_owned())?;
     check_finite(estimates, || "estimates".to_owned())?;
+    check_size(truth.len(), estimates.len())?;
     let GospaParams { c, p, alpha } = *params;
     let clipped = |i: usize, j: usize| truth[i].distance_m(&estimates[j]).min(c);
 

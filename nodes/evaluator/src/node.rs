@@ -12,11 +12,21 @@
 //!
 //! The metrics change only when targets or segments do (once per keyframe), while poses come every
 //! frame, so the last metric result is cached and reused until one of them changes.
+//!
+//! **Maps too large to score.** The metrics use a dense assignment of at most
+//! [`MAX_CELLS`](crate::assignment::MAX_CELLS) cells (target slots or truth points × estimate
+//! points). A map whose estimates would need more is not scored: the evaluator publishes no
+//! `/metrics` for those poses, counts them ([`EvaluatorNode::skipped_steps`]) and logs a warning
+//! when it starts and stops skipping, so the graph runs on (its other outputs, the map and the
+//! poses, are still good) and the run's summary shows fewer metric steps than frames. Any other
+//! metric error stops the graph, as before.
 
 use nrslam_msgs::topics::{GROUND_TRUTH_POSE, GROUND_TRUTH_TARGETS, METRICS, SEGMENTS, SLAM_POSE};
 use nrslam_msgs::{Header, Message, Metrics, PoseStamped, Segments, TargetSet};
 use nrslam_runtime::{Node, NodeContext, NodeError, Outbox};
 
+use crate::assignment::AssignmentError;
+use crate::error::MetricError;
 use crate::etgospa::{etgospa, EtGospaParams, EtGospaResult, ExtendedTarget};
 use crate::gospa::{gospa, GospaResult};
 use crate::params::Params;
@@ -37,8 +47,11 @@ pub struct EvaluatorNode {
     estimated_targets: u32,
     /// Latest true AGV position (x_m, y_m).
     true_position_m: Option<(f64, f64)>,
-    /// Metrics of the current targets and estimates, computed on first need.
-    cached: Option<(GospaResult, EtGospaResult)>,
+    /// Metrics of the current targets and estimates, computed on first need; `Err` when the
+    /// inputs are too large to score (the message says the sizes).
+    cached: Option<Result<(GospaResult, EtGospaResult), String>>,
+    /// `/slam/pose` messages for which no metrics were published (inputs too large to score).
+    skipped_steps: u64,
 }
 
 /// Builds the evaluator node from validated parameters.
@@ -65,7 +78,32 @@ impl EvaluatorNode {
             estimated_targets: 0,
             true_position_m: None,
             cached: None,
+            skipped_steps: 0,
         })
+    }
+
+    /// Poses for which no metrics were published because the map was too large to score (see
+    /// the module doc).
+    pub fn skipped_steps(&self) -> u64 {
+        self.skipped_steps
+    }
+
+    /// Both metrics of the current inputs; `Ok(Err(message))` when they are too large to score.
+    fn score(&self) -> Result<Result<(GospaResult, EtGospaResult), String>, NodeError> {
+        let too_large = |e: &MetricError| {
+            matches!(e, MetricError::Assignment(AssignmentError::TooLarge { .. }))
+        };
+        let g = match gospa(&self.truth_points, &self.estimates, &self.metric.gospa()) {
+            Ok(g) => g,
+            Err(e) if too_large(&e) => return Ok(Err(format!("GOSPA: {e}"))),
+            Err(e) => return Err(NodeError::algorithm(e)),
+        };
+        let e = match etgospa(&self.targets, &self.estimates, &self.metric) {
+            Ok(e) => e,
+            Err(e) if too_large(&e) => return Ok(Err(format!("ET-GOPSA: {e}"))),
+            Err(e) => return Err(NodeError::algorithm(e)),
+        };
+        Ok(Ok((g, e)))
     }
 
     fn on_targets(&mut self, set: &TargetSet) -> Result<(), NodeError> {
@@ -139,14 +177,28 @@ impl EvaluatorNode {
             )
         })?;
         if self.cached.is_none() {
-            let g = gospa(&self.truth_points, &self.estimates, &self.metric.gospa())
-                .map_err(NodeError::algorithm)?;
-            let e = etgospa(&self.targets, &self.estimates, &self.metric)
-                .map_err(NodeError::algorithm)?;
-            self.cached = Some((g, e));
+            let scored = self.score()?;
+            match (&scored, self.skipped_steps > 0) {
+                (Err(why), _) => tracing::warn!(
+                    "evaluator: not scoring the map of {} estimate points from t = {} s on: {why}",
+                    self.estimates.len(),
+                    pose.header.stamp.as_seconds()
+                ),
+                (Ok(_), true) => tracing::warn!(
+                    "evaluator: scoring again from t = {} s ({} poses unscored so far)",
+                    pose.header.stamp.as_seconds(),
+                    self.skipped_steps
+                ),
+                (Ok(_), false) => {}
+            }
+            self.cached = Some(scored);
         }
-        let Some((g, e)) = &self.cached else {
-            unreachable!("filled just above")
+        let (g, e) = match &self.cached {
+            Some(Ok((g, e))) => (g, e),
+            _ => {
+                self.skipped_steps += 1;
+                return Ok(());
+            }
         };
         let estimate_points = u32::try_from(self.estimates.len()).map_err(|_| {
             NodeError::invalid_input(SEGMENTS, "more than u32::MAX estimate points")
@@ -344,6 +396,58 @@ mod tests {
             .unwrap_err();
         assert!(e.to_string().contains(SEGMENTS), "{e}");
         assert!(outbox.is_empty());
+    }
+
+    #[test]
+    fn a_map_too_large_to_score_skips_its_steps_instead_of_failing() {
+        let mut node = EvaluatorNode::new(Params::default()).unwrap();
+        let mut outbox = Outbox::new();
+        // One target with 2^20 sample points (slots), and 17 square clusters: 68 estimates,
+        // 2^20 × 68 > 2^26 cells.
+        let samples: Vec<Point> = (0..1 << 20)
+            .map(|k| Point::planar(f64::from(k) * 1e-3, 0.0))
+            .collect();
+        let big = Message::TargetSet(TargetSet {
+            header: Header::default(),
+            targets: vec![Target {
+                samples,
+                ..square(0, 0.0)
+            }],
+        });
+        node.on_message(GROUND_TRUTH_TARGETS, &big, &mut outbox)
+            .unwrap();
+        let clusters = |count: i32| {
+            let mut points = Vec::new();
+            let mut labels = Vec::new();
+            for c in 0..count {
+                points.extend(square(0, f64::from(c) * 10.0).samples);
+                labels.extend([c; 4]);
+            }
+            Message::Segments(Segments {
+                cluster_count: count as u32,
+                points,
+                labels,
+                ..Segments::default()
+            })
+        };
+        node.on_message(SEGMENTS, &clusters(17), &mut outbox)
+            .unwrap();
+        for t_s in [1.0, 2.0] {
+            node.on_message(GROUND_TRUTH_POSE, &stamped(t_s, 0.0, 0.0), &mut outbox)
+                .unwrap();
+            node.on_message(SLAM_POSE, &stamped(t_s, 0.0, 0.0), &mut outbox)
+                .unwrap();
+        }
+        assert!(outbox.is_empty(), "a too-large map was scored");
+        assert_eq!(node.skipped_steps(), 2);
+        // A map that fits is scored again.
+        node.on_message(SEGMENTS, &clusters(1), &mut outbox)
+            .unwrap();
+        node.on_message(SLAM_POSE, &stamped(3.0, 0.0, 0.0), &mut outbox)
+            .unwrap();
+        let m = metrics(&mut outbox);
+        assert_eq!((m.len(), m[0].estimate_points), (1, 4));
+        assert_eq!(node.skipped_steps(), 2);
     }
 
     #[test]
