@@ -9,6 +9,7 @@
 //! The range bound is DESIGN.md's single-antenna var(R) divided by K (the estimator sums the K
 //! antennas coherently); the angle bound already uses SNR·N·M.
 
+use crate::flags::{self, Whole};
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -38,21 +39,50 @@ pub struct AccuracyArgs {
         allow_hyphen_values = true
     )]
     pub snr_db: String,
-    /// Trials per SNR.
-    #[arg(long, default_value_t = 200)]
+    /// Trials per SNR, 1 to 1000000.
+    #[arg(long, default_value_t = 200, value_parser = TRIALS.parser::<u32>(), allow_hyphen_values = true)]
     pub trials: u32,
-    /// Seed of the trials.
-    #[arg(long, default_value_t = 1)]
+    /// Seed of the trials (0 to 2^64 − 1).
+    #[arg(long, default_value_t = 1, value_parser = flags::SEED.parser::<u64>(), allow_hyphen_values = true)]
     pub seed: u64,
-    /// Subcarriers N (Table I: 10240).
-    #[arg(long, default_value_t = 10240)]
+    /// Subcarriers N (Table I: 10240), 1 to 16777216; N × K at most 2^28.
+    #[arg(long, default_value_t = 10240, value_parser = SUBCARRIERS.parser::<usize>(), allow_hyphen_values = true)]
     pub subcarriers: usize,
-    /// Antennas K (Table I: 32).
-    #[arg(long, default_value_t = 32)]
+    /// Antennas K (Table I: 32), 1 to 4096; N × K at most 2^28.
+    #[arg(long, default_value_t = 32, value_parser = ANTENNAS.parser::<usize>(), allow_hyphen_values = true)]
     pub antennas: usize,
     /// Output folder: accuracy.csv and accuracy.png.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
+}
+
+/// `--trials`.
+const TRIALS: Whole = Whole::new(1, 1_000_000, "1 to 1000000 trials per SNR");
+/// `--subcarriers` (the OFDM model's own limit).
+const SUBCARRIERS: Whole = Whole::new(1, 16_777_216, "1 to 16777216 subcarriers");
+/// `--antennas`.
+const ANTENNAS: Whole = Whole::new(1, 4096, "1 to 4096 antennas");
+/// Largest N × K: a frame holds N × K complex samples (16 bytes each), so 4 GiB at the limit.
+const MAX_GRID_CELLS: u64 = 1 << 28;
+
+impl AccuracyArgs {
+    /// Checks every numeric flag (and the `--snr-db` sweep, `--refine`); the error names the flag.
+    pub fn validate(&self) -> Result<()> {
+        sweep(&self.snr_db)?;
+        parse_refinement(&self.refine)?;
+        flags::check("--trials", TRIALS.check(self.trials))?;
+        flags::check("--subcarriers", SUBCARRIERS.check(self.subcarriers as u64))?;
+        flags::check("--antennas", ANTENNAS.check(self.antennas as u64))?;
+        let cells = self.subcarriers as u64 * self.antennas as u64;
+        if cells > MAX_GRID_CELLS {
+            bail!(
+                "--subcarriers/--antennas: N × K = {} × {} = {cells} is out of range (allowed: at most {MAX_GRID_CELLS} samples per frame, 4 GiB)",
+                self.subcarriers,
+                self.antennas
+            );
+        }
+        Ok(())
+    }
 }
 
 fn sweep(text: &str) -> Result<Vec<f64>> {
@@ -94,6 +124,7 @@ struct Row {
 
 /// `nrslam accuracy`.
 pub fn accuracy(args: AccuracyArgs) -> Result<()> {
+    args.validate()?;
     let snrs = sweep(&args.snr_db)?;
     let waveform_level = match args.fidelity.as_str() {
         "spectral" => false,
@@ -101,12 +132,6 @@ pub fn accuracy(args: AccuracyArgs) -> Result<()> {
         other => bail!("--fidelity: {other:?} is not a level (allowed: spectral, waveform)"),
     };
     let (refinement, padding) = parse_refinement(&args.refine)?;
-    if args.trials == 0 || args.trials > 1_000_000 {
-        bail!(
-            "--trials: {} is out of range (allowed: 1 to 1000000)",
-            args.trials
-        );
-    }
     let base = OfdmParams {
         subcarriers: args.subcarriers,
         antennas: args.antennas,

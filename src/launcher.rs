@@ -1,5 +1,6 @@
 //! `nrslam launch` and `nrslam run`: a graph in one process or one process per node, supervised.
 
+use crate::flags::{self, Real, Whole};
 use crate::registry;
 use crate::report::{Reporter, REPORTED};
 use crate::TransportArgs;
@@ -28,8 +29,8 @@ pub struct LaunchArgs {
     /// Launch arguments as name:=value, e.g. range_std_m:=0.1 angle_std_deg:=5.
     #[arg(value_name = "NAME:=VALUE")]
     pub assignments: Vec<String>,
-    /// Run seed: every random stream of every node derives from it.
-    #[arg(long, default_value_t = 1)]
+    /// Run seed: every random stream of every node derives from it (0 to 2^64 − 1).
+    #[arg(long, default_value_t = 1, value_parser = flags::SEED.parser::<u64>(), allow_hyphen_values = true)]
     pub seed: u64,
     /// Output folder (created): summary.json, metrics.csv, map.png, segments.png, run.json.
     /// Default: out/<launch file name>.
@@ -39,17 +40,19 @@ pub struct LaunchArgs {
     /// Default: the launch file's mode.
     #[arg(long, value_name = "MODE")]
     pub mode: Option<Mode>,
-    /// Real-time factor R: simulated seconds per wall-clock second (2 = twice real time).
-    /// 0 (default): as fast as the nodes go. Nothing is dropped either way.
+    /// Real-time factor R: simulated seconds per wall-clock second (2 = twice real time), from
+    /// 1e-6 to 1e6. 0 (default): as fast as the nodes go. Nothing is dropped either way.
     #[arg(
         long,
         value_name = "R",
         default_value_t = 0.0,
-        allow_negative_numbers = true
+        value_parser = flags::RATE.parser(),
+        allow_hyphen_values = true
     )]
     pub rate: f64,
-    /// How long node processes may take to come up, in seconds (processes mode).
-    #[arg(long, value_name = "SECONDS", default_value_t = 30)]
+    /// How long node processes may take to come up, in seconds, 1 to 604800 (a week)
+    /// (processes mode).
+    #[arg(long, value_name = "SECONDS", default_value_t = 30, value_parser = flags::TIMEOUT_S.parser::<u64>(), allow_hyphen_values = true)]
     pub start_timeout_s: u64,
     /// Record the run into this new rosbag2 folder (metadata.yaml + MCAP, log times = simulated
     /// clock); `launch/replay.toml bag:=DIR` replays it.
@@ -62,8 +65,8 @@ pub struct LaunchArgs {
     pub chunk: crate::bag::ChunkArgs,
     /// With --listen/--connect: publish the mirrored topics as rmw_zenoh does in this ROS domain
     /// (key `<domain>/<topic>/<type>/<RIHS01 hash>` plus rmw_zenoh's attachment), so ROS 2 nodes on
-    /// rmw_zenoh receive them without a bridge (in-process mode).
-    #[arg(long, value_name = "DOMAIN_ID")]
+    /// rmw_zenoh receive them without a bridge (in-process mode). 0 to 232, ROS 2's range.
+    #[arg(long, value_name = "DOMAIN_ID", value_parser = ROS_DOMAIN_ID.parser::<u32>(), allow_hyphen_values = true)]
     pub ros_domain_id: Option<u32>,
     #[command(flatten)]
     pub transport: TransportArgs,
@@ -81,8 +84,8 @@ pub struct RunArgs {
     /// Instance name (readiness key nrslam/ready/<name>). Default: the kind.
     #[arg(long)]
     pub name: Option<String>,
-    /// Run seed (must match the other nodes' for reproducible runs).
-    #[arg(long, default_value_t = 1)]
+    /// Run seed (must match the other nodes' for reproducible runs; 0 to 2^64 − 1).
+    #[arg(long, default_value_t = 1, value_parser = flags::SEED.parser::<u64>(), allow_hyphen_values = true)]
     pub seed: u64,
     /// Folder that relative paths in the parameters resolve against. Default: the params file's folder.
     #[arg(long, value_name = "DIR")]
@@ -93,29 +96,63 @@ pub struct RunArgs {
     /// Declare readiness and, for a source, wait for the launcher's start signal (used by `launch --mode processes`).
     #[arg(long)]
     pub start_barrier: bool,
-    /// With --start-barrier: how long to wait for the start signal, in seconds.
-    #[arg(long, value_name = "SECONDS", default_value_t = 60)]
+    /// With --start-barrier: how long to wait for the start signal, in seconds, 1 to 604800
+    /// (a week).
+    #[arg(long, value_name = "SECONDS", default_value_t = 60, value_parser = flags::TIMEOUT_S.parser::<u64>(), allow_hyphen_values = true)]
     pub start_timeout_s: u64,
-    /// Without --start-barrier: seconds a source waits before its first frame, so subscribers can come up.
-    #[arg(long, value_name = "SECONDS", default_value_t = 1.0)]
+    /// Without --start-barrier: seconds a source waits before its first frame, so subscribers can
+    /// come up, 0 to 3600 s.
+    #[arg(long, value_name = "SECONDS", default_value_t = 1.0, value_parser = STARTUP_DELAY_S.parser(), allow_hyphen_values = true)]
     pub startup_delay_s: f64,
-    /// Real-time factor for a source (0: as fast as possible).
+    /// Real-time factor for a source, 1e-6 to 1e6 (0: as fast as possible).
     #[arg(
         long,
         value_name = "R",
         default_value_t = 0.0,
-        allow_negative_numbers = true
+        value_parser = flags::RATE.parser(),
+        allow_hyphen_values = true
     )]
     pub rate: f64,
     #[command(flatten)]
     pub transport: TransportArgs,
 }
 
-fn check_rate(rate: f64) -> Result<()> {
-    if !rate.is_finite() || rate < 0.0 {
-        bail!("--rate: {rate} is out of range (allowed: 0 for as fast as possible, or a positive real-time factor)");
+/// ROS 2 domain ids.
+const ROS_DOMAIN_ID: Whole = Whole::new(0, 232, "0 to 232 (ROS 2 domain ids)");
+/// Delay before a source's first frame.
+const STARTUP_DELAY_S: Real = Real::closed(0.0, 3600.0, "0 to 3600 s");
+
+impl LaunchArgs {
+    /// Checks every numeric flag against its range (clap's parsers check them too; this covers
+    /// `LaunchArgs` built in code, e.g. by `nrslam reproduce`). The error names the flag.
+    pub fn validate(&self) -> Result<()> {
+        flags::check("--rate", flags::RATE.check(self.rate))?;
+        flags::check(
+            "--start-timeout-s",
+            flags::TIMEOUT_S.check(self.start_timeout_s),
+        )?;
+        if let Some(id) = self.ros_domain_id {
+            flags::check("--ros-domain-id", ROS_DOMAIN_ID.check(id))?;
+        }
+        self.chunk.bytes()?;
+        Ok(())
     }
-    Ok(())
+}
+
+impl RunArgs {
+    /// Checks every numeric flag against its range; the error names the flag.
+    pub fn validate(&self) -> Result<()> {
+        flags::check("--rate", flags::RATE.check(self.rate))?;
+        flags::check(
+            "--start-timeout-s",
+            flags::TIMEOUT_S.check(self.start_timeout_s),
+        )?;
+        flags::check(
+            "--startup-delay-s",
+            STARTUP_DELAY_S.check(self.startup_delay_s),
+        )?;
+        Ok(())
+    }
 }
 
 /// The nodes of a launch, built and wired.
@@ -255,7 +292,7 @@ impl Observer for RunObserver {
 
 /// `nrslam launch`.
 pub fn launch(args: LaunchArgs) -> Result<()> {
-    check_rate(args.rate)?;
+    args.validate()?;
     let launch = Launch::load(&args.file, &args.assignments)?;
     let mode = args.mode.unwrap_or(launch.mode);
     let out = args.out.clone().unwrap_or_else(|| {
@@ -615,11 +652,17 @@ fn run_processes(
         }
     }
     let names: Vec<String> = launch.nodes.iter().map(|n| n.name.clone()).collect();
+    // The barrier adds the timeout to the clock: check here that it can.
+    let start_timeout = Duration::from_secs(args.start_timeout_s);
+    if let Err(error) = flags::deadline("--start-timeout-s", start_timeout) {
+        kill_all(&mut children);
+        return Err(error);
+    }
     let barrier = transport::start_barrier(
         &session,
         &args.transport.namespace,
         &names,
-        Duration::from_secs(args.start_timeout_s),
+        start_timeout,
         || check_children(&mut children),
     );
     if let Err(error) = barrier {
@@ -693,7 +736,7 @@ fn run_processes(
 
 /// `nrslam run`.
 pub fn run(args: RunArgs) -> Result<()> {
-    check_rate(args.rate)?;
+    args.validate()?;
     let table: toml::Table = match &args.params {
         Some(path) => {
             let text = std::fs::read_to_string(path)
@@ -732,15 +775,18 @@ pub fn run(args: RunArgs) -> Result<()> {
     let session = transport::open(&transport_config(mode, &args.transport))
         .context("opening the zenoh session")?;
     if node.inputs().is_empty() && !args.start_barrier && args.startup_delay_s > 0.0 {
-        std::thread::sleep(Duration::from_secs_f64(args.startup_delay_s.min(3600.0)));
+        std::thread::sleep(flags::seconds("--startup-delay-s", args.startup_delay_s)?);
     }
+    // run_node adds the timeout to the clock: check here that it can.
+    let start_timeout = Duration::from_secs(args.start_timeout_s);
+    flags::deadline("--start-timeout-s", start_timeout)?;
     transport::run_node(
         &session,
         &args.transport.namespace,
         &name,
         node,
         args.start_barrier,
-        Duration::from_secs(args.start_timeout_s),
+        start_timeout,
         args.rate,
     )
     .map_err(|e| anyhow!("node '{name}' failed: {e}"))?;

@@ -1,7 +1,9 @@
 //! `nrslam`: SLAM for multiple extended targets with 5G OFDM sensing, as a node graph over zenoh.
 //!
-//! Thin entry point: parse the command line, hand each verb to its module, turn errors into one
-//! line on stderr and a non-zero exit.
+//! Thin entry point: parse the command line, check every flag's range ([`Command::validate`],
+//! before any work), hand each verb to its module, turn errors into one line on stderr and a
+//! non-zero exit. A flag value clap refuses gets the same one line (`error: --flag: ...`, status
+//! 1); help, version and usage errors keep clap's own output.
 
 /// `println!` for command output that may be piped: when the reader has gone (`nrslam bag info
 /// DIR | head`) the process ends quietly with status 0, as Unix tools do, instead of panicking on
@@ -21,6 +23,9 @@ macro_rules! outln {
 
 mod accuracy;
 mod bag;
+#[cfg(test)]
+mod cli_tests;
+mod flags;
 mod launcher;
 mod montecarlo;
 mod plot;
@@ -91,6 +96,58 @@ enum Command {
     Ros2Bridge(ros2::Ros2BridgeArgs),
 }
 
+impl Command {
+    /// Checks the verb's flags against their ranges (what each verb also does first), so a bad
+    /// value is refused before anything starts. The error names the flag.
+    fn validate(&self) -> anyhow::Result<()> {
+        match self {
+            Command::Launch(args) => args.validate(),
+            Command::Run(args) => args.validate(),
+            Command::Topics(args) => args.validate(),
+            Command::Echo(args) => args.validate(),
+            Command::Metric(args) => args.validate(),
+            Command::Segment(args) => args.validate(),
+            Command::Accuracy(args) => args.validate(),
+            Command::Montecarlo(args) => args.validate(),
+            Command::Merge(_) => Ok(()),
+            Command::Reproduce(args) => args.validate(),
+            Command::Tradeoff(args) => args.validate(),
+            Command::Scene(args) => args.validate(),
+            // `nrslam bag` checks its own flags (src/bag.rs).
+            Command::Bag(_) => Ok(()),
+            #[cfg(feature = "ros2")]
+            Command::Ros2Bridge(_) => Ok(()),
+        }
+    }
+}
+
+/// Parses `args` (program name first) and checks the flags' ranges: the whole of what happens
+/// before a verb starts, as one call for the tests. `Err` holds the one-line message, or clap's
+/// own error for help, version and usage.
+fn parse_and_validate<I, T>(args: I) -> Result<Cli, Refused>
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    let cli = Cli::try_parse_from(args).map_err(|error| match flags::clap_error_line(&error) {
+        Some(line) => Refused::Line(line),
+        None => Refused::Clap(error),
+    })?;
+    cli.command
+        .validate()
+        .map_err(|error| Refused::Line(one_line(&error)))?;
+    Ok(cli)
+}
+
+/// Why the command line was not run.
+#[derive(Debug)]
+enum Refused {
+    /// A flag's value, in one line (`--flag: ...`).
+    Line(String),
+    /// Help, version or a usage error, printed by clap.
+    Clap(clap::Error),
+}
+
 fn main() -> std::process::ExitCode {
     tracing_subscriber::fmt()
         .with_env_filter(
@@ -99,7 +156,14 @@ fn main() -> std::process::ExitCode {
         )
         .with_writer(std::io::stderr)
         .init();
-    let cli = Cli::parse();
+    let cli = match parse_and_validate(std::env::args_os()) {
+        Ok(cli) => cli,
+        Err(Refused::Line(line)) => {
+            eprintln!("error: {line}");
+            return std::process::ExitCode::FAILURE;
+        }
+        Err(Refused::Clap(error)) => error.exit(),
+    };
     let result = match cli.command {
         Command::Launch(args) => launcher::launch(args),
         Command::Run(args) => launcher::run(args),

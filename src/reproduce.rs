@@ -8,6 +8,7 @@
 //!   against time for 5G and the four ideal conditions (`fig6.csv`/`.png`, `fig7.csv`/`.png`;
 //!   raw trials in `montecarlo/<condition>/`).
 
+use crate::flags::{self, Whole};
 use crate::launcher::{self, LaunchArgs};
 use crate::montecarlo::{self, MonteCarloArgs};
 use crate::TransportArgs;
@@ -23,14 +24,14 @@ pub struct ReproduceArgs {
     /// Output folder.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
-    /// Monte Carlo trials per condition for Figs. 6 and 7 (the paper: 500).
-    #[arg(long, default_value_t = 500)]
+    /// Monte Carlo trials per condition for Figs. 6 and 7 (the paper: 500), 1 to 100000.
+    #[arg(long, default_value_t = 500, value_parser = crate::montecarlo::TRIALS.parser::<u64>(), allow_hyphen_values = true)]
     pub trials: u64,
-    /// Base seed.
-    #[arg(long, default_value_t = 1)]
+    /// Base seed (0 to 2^64 − 1).
+    #[arg(long, default_value_t = 1, value_parser = flags::SEED.parser::<u64>(), allow_hyphen_values = true)]
     pub seed: u64,
-    /// Radar frames per run (0: the whole lap); fewer for a quick look.
-    #[arg(long, default_value_t = 0)]
+    /// Radar frames per run, 0 to 1000000 (0: the whole lap); fewer for a quick look.
+    #[arg(long, default_value_t = 0, value_parser = FRAMES.parser::<u32>(), allow_hyphen_values = true)]
     pub frames: u32,
     /// Close loops (pose graph and map rebuild, docs/slam.md). Off by default: the paper's SLAM
     /// is open-loop, and loop closure roughly doubles a trial's cost.
@@ -39,6 +40,18 @@ pub struct ReproduceArgs {
     /// Folder holding paper-ideal.toml and paper-5g.toml.
     #[arg(long, default_value = "launch", value_name = "DIR")]
     pub launch_dir: PathBuf,
+}
+
+/// `--frames` (also `nrslam tradeoff --frames`).
+pub(crate) const FRAMES: Whole = Whole::new(0, 1_000_000, "0 to 1000000 frames");
+
+impl ReproduceArgs {
+    /// Checks every numeric flag; the error names the flag.
+    pub fn validate(&self) -> Result<()> {
+        flags::check("--trials", crate::montecarlo::TRIALS.check(self.trials))?;
+        flags::check("--frames", FRAMES.check(self.frames))?;
+        Ok(())
+    }
 }
 
 /// (name, launch file, arguments, legend)
@@ -77,6 +90,7 @@ const CONDITIONS: [(&str, &str, [&str; 2], &str); 5] = [
 
 /// `nrslam reproduce`.
 pub fn reproduce(args: ReproduceArgs) -> Result<()> {
+    args.validate()?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     let started = std::time::Instant::now();

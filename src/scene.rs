@@ -11,6 +11,7 @@ use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use plotters::prelude::*;
 
+use crate::flags::{self, Real};
 use nrslam_radar::random_scene::{self, RandomSceneParams};
 use nrslam_radar::scene::{Scene, SceneSpec, ShapeKind};
 
@@ -20,8 +21,9 @@ pub struct SceneArgs {
     /// Draw a random scene (the only kind of scene this verb makes so far).
     #[arg(long)]
     pub random: bool,
-    /// Seed of the generator: the same seed and options give the same scene on every machine.
-    #[arg(long, default_value_t = 1)]
+    /// Seed of the generator: the same seed and options give the same scene on every machine
+    /// (0 to 2^64 − 1).
+    #[arg(long, default_value_t = 1, value_parser = flags::SEED.parser::<u64>(), allow_hyphen_values = true)]
     pub seed: u64,
     /// Scene file to write (TOML, the format of config/hall.toml); missing folders are created.
     #[arg(long, value_name = "FILE")]
@@ -37,7 +39,7 @@ pub struct SceneArgs {
     #[arg(long, value_name = "N|MIN:MAX")]
     pub targets: Option<String>,
     /// Probability that a target is a circle rather than a rectangle, 0 to 1 (default 0.25).
-    #[arg(long, value_name = "P")]
+    #[arg(long, value_name = "P", value_parser = CIRCLE_FRACTION.parser(), allow_hyphen_values = true)]
     pub circle_fraction: Option<f64>,
     /// Hall width along x in metres, W or MIN:MAX (default 42:56; the mapper's default grid
     /// covers up to 57 m).
@@ -48,12 +50,48 @@ pub struct SceneArgs {
     #[arg(long, value_name = "M|MIN:MAX")]
     pub hall_height_m: Option<String>,
     /// Least distance between two targets' outlines in metres (default 5.5: more than
-    /// ET-GOPSA's cut-off c = 5 m, as in the hall).
-    #[arg(long, value_name = "M")]
+    /// ET-GOPSA's cut-off c = 5 m, as in the hall), 0.1 to 100 m.
+    #[arg(long, value_name = "M", value_parser = TARGET_GAP_M.parser(), allow_hyphen_values = true)]
     pub target_gap_m: Option<f64>,
     /// Also draw the hall, the targets (with their ids) and the loop to this PNG file.
     #[arg(long, value_name = "FILE")]
     pub png: Option<PathBuf>,
+}
+
+/// `--circle-fraction` (the generator's range).
+const CIRCLE_FRACTION: Real = Real::closed(0.0, 1.0, "0 to 1");
+/// `--target-gap-m` (the generator's range).
+const TARGET_GAP_M: Real = Real::closed(0.1, 100.0, "0.1 to 100 m");
+
+impl SceneArgs {
+    /// Checks every numeric flag as far as it is known without the `--params` file (the
+    /// generator checks the combination); the error names the flag.
+    pub fn validate(&self) -> Result<()> {
+        if let Some(value) = self.circle_fraction {
+            flags::check("--circle-fraction", CIRCLE_FRACTION.check(value))?;
+        }
+        if let Some(value) = self.target_gap_m {
+            flags::check("--target-gap-m", TARGET_GAP_M.check(value))?;
+        }
+        for (flag, text) in [("--laps", &self.laps), ("--targets", &self.targets)] {
+            if let Some(text) = text {
+                parse_range::<u32>(flag, text)?;
+            }
+        }
+        for (flag, text) in [
+            ("--hall-width-m", &self.hall_width_m),
+            ("--hall-height-m", &self.hall_height_m),
+        ] {
+            if let Some(text) = text {
+                for value in parse_range::<f64>(flag, text)? {
+                    if !value.is_finite() {
+                        bail!("{flag}: {text} is out of range (allowed: finite metres)");
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
 }
 
 /// `N` or `MIN:MAX`.
@@ -159,6 +197,7 @@ fn describe(spec: &SceneSpec, scene: &Scene) -> String {
 
 /// `nrslam scene`.
 pub fn scene(args: SceneArgs) -> Result<()> {
+    args.validate()?;
     if !args.random {
         bail!("nrslam scene makes random scenes only: add --random (see nrslam scene --help)");
     }

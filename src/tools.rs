@@ -1,21 +1,24 @@
 //! Inspection and scoring verbs: `topics`, `echo`, `metric`, `segment`.
 
+use crate::flags::{self, Real, Whole};
 use crate::TransportArgs;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
+use nrslam_evaluator::csv_io::{MAX_CSV_BYTES, MAX_CSV_ROWS};
 use nrslam_evaluator::{DistanceMode, EtGospaParams};
 use nrslam_msgs::topics;
 use nrslam_runtime::transport::{self, SessionMode, TransportConfig};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 use zenoh::Wait;
 
 /// `nrslam topics`.
 #[derive(Args, Debug)]
 pub struct TopicsArgs {
-    /// Seconds to listen to a live graph (with --connect or --listen) before listing what it publishes.
-    #[arg(long, value_name = "SECONDS", default_value_t = 2.0)]
+    /// Seconds to listen to a live graph (with --connect or --listen) before listing what it
+    /// publishes, 0.001 to 3600 s.
+    #[arg(long, value_name = "SECONDS", default_value_t = 2.0, value_parser = LISTEN_S.parser(), allow_hyphen_values = true)]
     pub duration_s: f64,
     #[command(flatten)]
     pub transport: TransportArgs,
@@ -26,8 +29,8 @@ pub struct TopicsArgs {
 pub struct EchoArgs {
     /// Topic name, e.g. /slam/pose.
     pub topic: String,
-    /// Stop after this many messages (0: until the topic's stream ends or Ctrl-C).
-    #[arg(long, default_value_t = 0)]
+    /// Stop after this many messages, 0 to 2^64 − 1 (0: until the topic's stream ends or Ctrl-C).
+    #[arg(long, default_value_t = 0, value_parser = COUNT.parser::<u64>(), allow_hyphen_values = true)]
     pub count: u64,
     #[command(flatten)]
     pub transport: TransportArgs,
@@ -36,21 +39,25 @@ pub struct EchoArgs {
 /// `nrslam metric`.
 #[derive(Args, Debug)]
 pub struct MetricArgs {
-    /// Truth CSV with header `target,x,y`: one row per sample point (slot) of each extended target.
+    /// Truth CSV with header `target,x,y`: one row per sample point (slot) of each extended target
+    /// (each file at most 1 GiB and 16777216 rows; truth points × estimates at most 2^26).
     #[arg(long, value_name = "FILE")]
     pub truth: PathBuf,
     /// Estimates CSV with header `x,y`: one row per estimated point (m).
     #[arg(long, value_name = "FILE")]
     pub estimates: PathBuf,
-    /// Cut-off distance c (m; m² with --squared-distance): the largest error counted per point.
+    /// Cut-off distance c (m; m² with --squared-distance): the largest error counted per point,
+    /// 1e-12 to 1e12 (and c^p between 1e-100 and 1e100).
     #[arg(
         long = "c",
         value_name = "C",
         default_value_t = 5.0,
-        allow_negative_numbers = true
+        value_parser = CUTOFF.parser(),
+        allow_hyphen_values = true
     )]
     pub c: f64,
-    /// Order p ≥ 1 (`inf` for p = ∞): larger p penalises outliers more.
+    /// Order 1 ≤ p ≤ 1000, or `inf` for p = ∞ (c^p must stay between 1e-100 and 1e100): larger
+    /// p penalises outliers more.
     #[arg(
         long = "p",
         value_name = "P",
@@ -63,7 +70,8 @@ pub struct MetricArgs {
         long = "alpha",
         value_name = "A",
         default_value_t = 2.0,
-        allow_negative_numbers = true
+        value_parser = ALPHA.parser(),
+        allow_hyphen_values = true
     )]
     pub alpha: f64,
     /// ET-GOPSA distance to a target: to its nearest sample point (`samples`, the paper) or to the
@@ -81,18 +89,96 @@ pub struct MetricArgs {
 /// `nrslam segment`.
 #[derive(Args, Debug)]
 pub struct SegmentArgs {
-    /// Input CSV with header `x,y` (m).
+    /// Input CSV with header `x,y` (m); at most 1 GiB and 16777216 rows.
     #[arg(long, value_name = "FILE")]
     pub input: PathBuf,
-    /// DBSCAN neighbourhood radius (m): points within eps are neighbours.
-    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    /// DBSCAN neighbourhood radius (m): points within eps are neighbours, 0 to 1e9 m.
+    #[arg(long, value_name = "M", value_parser = EPS_M.parser(), allow_hyphen_values = true)]
     pub eps: f64,
-    /// DBSCAN minimum neighbourhood size, the point itself included (≥ 1).
-    #[arg(long, value_name = "K")]
+    /// DBSCAN minimum neighbourhood size, the point itself included, 1 to 4294967295.
+    #[arg(long, value_name = "K", value_parser = MIN_SAMPLES.parser::<usize>(), allow_hyphen_values = true)]
     pub min_samples: usize,
     /// Output CSV `x,y,label` (label -1: noise). Default: standard output.
     #[arg(long, value_name = "FILE")]
     pub output: Option<PathBuf>,
+}
+
+/// `topics --duration-s`.
+const LISTEN_S: Real = Real::closed(1e-3, 3600.0, "0.001 to 3600 s");
+/// `echo --count`.
+const COUNT: Whole = Whole::new(0, u64::MAX, "0 to 18446744073709551615 messages");
+/// `metric --c`.
+const CUTOFF: Real = Real::closed(1e-12, 1e12, "1e-12 to 1e12 m (m² with --squared-distance)");
+/// `metric --p` (finite values; `inf` is allowed too).
+const ORDER: Real = Real::closed(1.0, 1000.0, "1 to 1000, or inf");
+/// `metric --alpha`.
+const ALPHA: Real = Real {
+    min: 0.0,
+    max: 2.0,
+    open_min: true,
+    zero: false,
+    allowed: "0 < alpha ≤ 2",
+};
+/// `segment --eps`.
+const EPS_M: Real = Real::closed(0.0, 1e9, "0 to 1e9 m");
+/// `segment --min-samples`.
+const MIN_SAMPLES: Whole = Whole::new(1, u32::MAX as u64, "1 to 4294967295 points");
+
+impl TopicsArgs {
+    /// Checks `--duration-s`; the error names the flag.
+    pub fn validate(&self) -> Result<()> {
+        flags::check("--duration-s", LISTEN_S.check(self.duration_s)).map(drop)
+    }
+}
+
+impl EchoArgs {
+    /// Every `--count` is allowed (clap refuses what is not a u64).
+    pub fn validate(&self) -> Result<()> {
+        flags::check("--count", COUNT.check(self.count)).map(drop)
+    }
+}
+
+impl MetricArgs {
+    /// The metric parameters the flags give, each checked; the error names the flag.
+    pub fn params(&self) -> Result<EtGospaParams> {
+        let c = flags::check("--c", CUTOFF.check(self.c))?;
+        let p = match self.p.trim() {
+            "inf" | "∞" | "infinity" => f64::INFINITY,
+            text => flags::check("--p", ORDER.parse(text))?,
+        };
+        let alpha = flags::check("--alpha", ALPHA.check(self.alpha))?;
+        let distance = match self.distance.as_str() {
+            "samples" => DistanceMode::Samples,
+            "outline" => DistanceMode::Outline,
+            other => bail!("--distance: {other:?} is not a mode (allowed: samples, outline)"),
+        };
+        let params = EtGospaParams {
+            c,
+            p,
+            alpha,
+            distance,
+            squared_distance: self.squared_distance,
+        };
+        // The joint limits (c^p, c^p/α), named by the metric's field: `--c`, `--p` or `--alpha`.
+        params
+            .validate()
+            .map_err(|e| anyhow!("--{}: {} (allowed: {})", e.field, e.problem, e.allowed))?;
+        Ok(params)
+    }
+
+    /// Checks every flag; the error names the flag.
+    pub fn validate(&self) -> Result<()> {
+        self.params().map(drop)
+    }
+}
+
+impl SegmentArgs {
+    /// Checks `--eps` and `--min-samples`; the error names the flag.
+    pub fn validate(&self) -> Result<()> {
+        flags::check("--eps", EPS_M.check(self.eps))?;
+        flags::check("--min-samples", MIN_SAMPLES.check(self.min_samples as u64))?;
+        Ok(())
+    }
 }
 
 fn session_for(args: &TransportArgs) -> Result<zenoh::Session> {
@@ -110,6 +196,7 @@ fn session_for(args: &TransportArgs) -> Result<zenoh::Session> {
 
 /// `nrslam topics`.
 pub fn topics(args: TopicsArgs) -> Result<()> {
+    args.validate()?;
     if args.transport.listen.is_empty() && args.transport.connect.is_empty() {
         outln!(
             "{:<24} {:<32} {:<16} description",
@@ -132,17 +219,13 @@ pub fn topics(args: TopicsArgs) -> Result<()> {
         }
         return Ok(());
     }
-    if !(args.duration_s.is_finite() && args.duration_s > 0.0 && args.duration_s <= 3600.0) {
-        bail!(
-            "--duration-s: {} is out of range (allowed: 0 < seconds ≤ 3600)",
-            args.duration_s
-        );
-    }
+    let listen = flags::seconds("--duration-s", args.duration_s)?;
+    flags::deadline("--duration-s", listen)?;
     let session = session_for(&args.transport)?;
     let names: Vec<&'static str> = topics::CATALOGUE.iter().map(|t| t.name).collect();
     let (_subscribers, received) =
         transport::subscribe(&session, &args.transport.namespace, &names)?;
-    let deadline = Instant::now() + Duration::from_secs_f64(args.duration_s);
+    let deadline = flags::deadline("--duration-s", listen)?;
     let mut counts: BTreeMap<&'static str, u64> = BTreeMap::new();
     while let Some(left) = deadline.checked_duration_since(Instant::now()) {
         if let Ok((topic, bytes)) = received.recv_timeout(left) {
@@ -168,6 +251,7 @@ pub fn topics(args: TopicsArgs) -> Result<()> {
 
 /// `nrslam echo`.
 pub fn echo(args: EchoArgs) -> Result<()> {
+    args.validate()?;
     let spec = topics::spec(&args.topic).ok_or_else(|| {
         anyhow!(
             "unknown topic {:?} (known: {})",
@@ -219,24 +303,7 @@ fn message_json(message: &nrslam_msgs::Message) -> Result<String> {
 
 /// `nrslam metric`.
 pub fn metric(args: MetricArgs) -> Result<()> {
-    let p = match args.p.trim() {
-        "inf" | "∞" | "infinity" => f64::INFINITY,
-        text => text
-            .parse::<f64>()
-            .map_err(|_| anyhow!("--p: {text:?} is not a number (allowed: 1 ≤ p, or inf)"))?,
-    };
-    let distance = match args.distance.as_str() {
-        "samples" => DistanceMode::Samples,
-        "outline" => DistanceMode::Outline,
-        other => bail!("--distance: {other:?} is not a mode (allowed: samples, outline)"),
-    };
-    let params = EtGospaParams {
-        c: args.c,
-        p,
-        alpha: args.alpha,
-        distance,
-        squared_distance: args.squared_distance,
-    };
+    let params = args.params()?;
     let report = nrslam_evaluator::evaluate_files(&args.truth, &args.estimates, &params)?;
     if args.json {
         outln!("{}", serde_json::to_string_pretty(&report)?);
@@ -283,9 +350,20 @@ pub fn metric(args: MetricArgs) -> Result<()> {
 
 /// `nrslam segment`.
 pub fn segment(args: SegmentArgs) -> Result<()> {
+    args.validate()?;
     let path = &args.input;
-    let mut reader =
-        csv::Reader::from_path(path).with_context(|| format!("{}: cannot read", path.display()))?;
+    // Streamed, and refused past the limits `nrslam metric` has, before reading it whole.
+    let file =
+        std::fs::File::open(path).with_context(|| format!("{}: cannot read", path.display()))?;
+    let size = file.metadata().map(|m| m.len()).unwrap_or(0);
+    if size > MAX_CSV_BYTES {
+        bail!(
+            "{}: {size} bytes is more than the limit of {MAX_CSV_BYTES} bytes",
+            path.display()
+        );
+    }
+    // (A pipe has no size: it is cut at the limit.)
+    let mut reader = csv::Reader::from_reader(std::io::Read::take(file, MAX_CSV_BYTES));
     let headers = reader
         .headers()
         .with_context(|| format!("{}: no header row", path.display()))?
@@ -322,6 +400,12 @@ pub fn segment(args: SegmentArgs) -> Result<()> {
             }
             Ok(value)
         };
+        if points.len() as u64 >= MAX_CSV_ROWS {
+            bail!(
+                "{}: more than {MAX_CSV_ROWS} rows (the limit of `nrslam segment`)",
+                path.display()
+            );
+        }
         points.push([value(x_column, "x")?, value(y_column, "y")?]);
     }
     let clustering = nrslam_segmenter::dbscan(&points, args.eps, args.min_samples)

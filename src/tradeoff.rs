@@ -24,8 +24,9 @@
 //! frame, the settings no other beats on both marked and joined).
 
 use crate::accuracy::{parse_refinement, single_scatterer_trials};
+use crate::flags::{self, Real, Whole};
 use crate::montecarlo::{run_trial, TrialRows};
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{anyhow, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use nrslam_ofdm::OfdmParams;
@@ -89,23 +90,23 @@ pub struct TradeoffArgs {
     /// Output folder: tradeoff.csv and pareto.png.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
-    /// SLAM trials per setting (one after another; each timed on its thread's CPU clock, which on
-    /// an idle core is the wall-clock time).
-    #[arg(long, default_value_t = 5)]
+    /// SLAM trials per setting, 1 to 1000 (one after another; each timed on its thread's CPU
+    /// clock, which on an idle core is the wall-clock time).
+    #[arg(long, default_value_t = 5, value_parser = TRIALS.parser::<usize>(), allow_hyphen_values = true)]
     pub trials: usize,
-    /// Radar frames per SLAM trial (0: the whole 294-frame lap).
-    #[arg(long, default_value_t = 100)]
+    /// Radar frames per SLAM trial, 0 to 1000000 (0: the whole 294-frame lap).
+    #[arg(long, default_value_t = 100, value_parser = crate::reproduce::FRAMES.parser::<u32>(), allow_hyphen_values = true)]
     pub frames: u32,
-    /// Single-scatterer frames per setting for the range and angle RMSE.
-    #[arg(long, default_value_t = 100)]
+    /// Single-scatterer frames per setting for the range and angle RMSE, 1 to 1000000.
+    #[arg(long, default_value_t = 100, value_parser = SENSING_TRIALS.parser::<u32>(), allow_hyphen_values = true)]
     pub sensing_trials: u32,
     /// Per-element SNR of every echo (dB), for the SLAM runs and the sensing errors alike. At
     /// the paper's 10 dB the 1.23 GHz chain is grid-limited whatever N, M or the stride; below
-    /// about −25 dB their processing gain starts to show.
-    #[arg(long, default_value_t = 10.0, allow_hyphen_values = true)]
+    /// about −25 dB their processing gain starts to show. −100 to 100 dB.
+    #[arg(long, default_value_t = 10.0, value_parser = SNR_DB.parser(), allow_hyphen_values = true)]
     pub snr_db: f64,
-    /// Base seed.
-    #[arg(long, default_value_t = 1)]
+    /// Base seed (0 to 2^64 − 1).
+    #[arg(long, default_value_t = 1, value_parser = flags::SEED.parser::<u64>(), allow_hyphen_values = true)]
     pub seed: u64,
     /// Knobs to sweep, comma-separated (default: all): fidelity, stride, symbols, antennas,
     /// refinement, resolution, density, trials.
@@ -114,6 +115,27 @@ pub struct TradeoffArgs {
     /// Folder holding paper-5g.toml.
     #[arg(long, default_value = "launch", value_name = "DIR")]
     pub launch_dir: PathBuf,
+}
+
+/// `--trials`.
+const TRIALS: Whole = Whole::new(1, 1000, "1 to 1000 trials");
+/// `--sensing-trials`.
+const SENSING_TRIALS: Whole = Whole::new(1, 1_000_000, "1 to 1000000 frames");
+/// `--snr-db`.
+const SNR_DB: Real = Real::closed(-100.0, 100.0, "-100 to 100 dB");
+
+impl TradeoffArgs {
+    /// Checks every numeric flag; the error names the flag.
+    pub fn validate(&self) -> Result<()> {
+        flags::check("--trials", TRIALS.check(self.trials as u64))?;
+        flags::check("--frames", crate::reproduce::FRAMES.check(self.frames))?;
+        flags::check(
+            "--sensing-trials",
+            SENSING_TRIALS.check(self.sensing_trials),
+        )?;
+        flags::check("--snr-db", SNR_DB.check(self.snr_db))?;
+        Ok(())
+    }
 }
 
 /// One point of the sweep: every knob's value.
@@ -334,24 +356,7 @@ fn mark_pareto(rows: &mut [Row]) {
 
 /// `nrslam tradeoff`.
 pub fn tradeoff(args: TradeoffArgs) -> Result<()> {
-    if args.trials == 0 || args.trials > 1000 {
-        bail!(
-            "--trials: {} is out of range (allowed: 1 to 1000)",
-            args.trials
-        );
-    }
-    if !(-100.0..=100.0).contains(&args.snr_db) {
-        bail!(
-            "--snr-db: {} is out of range (allowed: -100 to 100 dB)",
-            args.snr_db
-        );
-    }
-    if args.sensing_trials == 0 || args.sensing_trials > 1_000_000 {
-        bail!(
-            "--sensing-trials: {} is out of range (allowed: 1 to 1000000)",
-            args.sensing_trials
-        );
-    }
+    args.validate()?;
     let knobs: Vec<&'static str> = if args.knobs.is_empty() {
         KNOBS.to_vec()
     } else {
