@@ -34,9 +34,26 @@ pub enum SessionMode {
     Router,
 }
 
-/// How to open a session. Multicast scouting is always off; with no endpoint given a session
-/// listens nowhere (peer) or on nothing but what is configured: nothing leaves loopback unless the
-/// user names a non-loopback endpoint.
+/// How to open a session.
+///
+/// Defaults (no `config_file`): multicast and gossip scouting off; a session listens only on
+/// `listen` and connects only to `connect`, so nothing leaves the machine unless an endpoint on
+/// another host is named (docs/security.md).
+///
+/// With `config_file`, the file is the base (TLS, mutual TLS, access control, anything zenoh
+/// accepts) and nrslam's settings go on top of it, by these rules:
+///
+/// | setting | result |
+/// |---|---|
+/// | `mode` | always [`TransportConfig::mode`]: the graph depends on its roles (router launcher, client node processes); a different `mode` in the file is overridden, with a warning |
+/// | `scouting/multicast/enabled`, `scouting/gossip/enabled` | off, unless the file sets them `true` itself |
+/// | `listen/endpoints` | the file's (for the mode), then [`TransportConfig::listen`], without duplicates; a client ignores the file's: nrslam's clients never accept connections, so one file can serve a launcher and its node processes |
+/// | `connect/endpoints` | [`TransportConfig::connect`] when it is not empty (it **replaces** the file's); otherwise the file's |
+/// | `connect/timeout_ms` (client) | 10 s unless the file sets it |
+/// | everything else | the file's, or zenoh's default |
+///
+/// A list of endpoints the file leaves out is nrslam's alone, never zenoh's default (which would
+/// listen on every interface).
 #[derive(Debug, Clone)]
 pub struct TransportConfig {
     /// Role.
@@ -47,6 +64,22 @@ pub struct TransportConfig {
     pub connect: Vec<String>,
     /// Key prefix for every topic (empty: none).
     pub namespace: String,
+    /// A zenoh configuration file (`.json5`, `.json`, `.yaml`/`.yml`; `--zenoh-config`) to start
+    /// from, e.g. for mutual TLS or access control: see the rules above and docs/security.md.
+    pub config_file: Option<std::path::PathBuf>,
+}
+
+impl Default for TransportConfig {
+    /// A peer that listens nowhere, connects nowhere, without namespace or configuration file.
+    fn default() -> Self {
+        Self {
+            mode: SessionMode::Peer,
+            listen: Vec::new(),
+            connect: Vec::new(),
+            namespace: String::new(),
+            config_file: None,
+        }
+    }
 }
 
 /// A transport failure.
@@ -78,45 +111,119 @@ fn zerr(error: impl std::fmt::Display) -> TransportError {
     TransportError::Zenoh(error.to_string())
 }
 
-fn json_list(items: &[String]) -> String {
-    format!(
-        "[{}]",
-        items
-            .iter()
-            .map(|s| format!("{s:?}"))
-            .collect::<Vec<_>>()
-            .join(",")
-    )
-}
-
-/// The zenoh configuration for `config`.
+/// The zenoh configuration for `config`: [`TransportConfig::config_file`] (if any) with nrslam's
+/// settings on top, by the rules in [`TransportConfig`]'s documentation.
 pub fn zenoh_config(config: &TransportConfig) -> Result<zenoh::Config, TransportError> {
-    let mut z = zenoh::Config::default();
     let mode = match config.mode {
         SessionMode::Peer => "peer",
         SessionMode::Client => "client",
         SessionMode::Router => "router",
     };
-    z.insert_json5("mode", &format!("{mode:?}")).map_err(zerr)?;
-    z.insert_json5("scouting/multicast/enabled", "false")
-        .map_err(zerr)?;
-    z.insert_json5("scouting/gossip/enabled", "false")
-        .map_err(zerr)?;
-    z.insert_json5("listen/endpoints", &json_list(&config.listen))
-        .map_err(zerr)?;
-    z.insert_json5("connect/endpoints", &json_list(&config.connect))
-        .map_err(zerr)?;
+    let (mut z, named) = match &config.config_file {
+        None => (zenoh::Config::default(), serde_json::Value::Null),
+        Some(path) => {
+            let named = config_file_settings(path)?;
+            let z = zenoh::Config::from_file(path).map_err(|e| file_error(path, e))?;
+            if let Some(theirs) = named.pointer("/mode").and_then(|m| m.as_str()) {
+                if theirs != mode {
+                    tracing::warn!(
+                        "{}: mode {theirs:?} overridden by nrslam's {mode:?} (the graph needs it)",
+                        path.display()
+                    );
+                }
+            }
+            (z, named)
+        }
+    };
+    let set = |z: &mut zenoh::Config, key: &str, value: &str| {
+        z.insert_json5(key, value)
+            .map_err(|e| match &config.config_file {
+                Some(path) => file_error(path, format!("{key}: {e}")),
+                None => zerr(e),
+            })
+    };
+    set(&mut z, "mode", &format!("{mode:?}"))?;
+    for scouting in ["multicast", "gossip"] {
+        let enabled = named.pointer(&format!("/scouting/{scouting}/enabled"));
+        if enabled != Some(&serde_json::Value::Bool(true)) {
+            set(&mut z, &format!("scouting/{scouting}/enabled"), "false")?;
+        }
+    }
+    let mut listen = if config.mode == SessionMode::Client {
+        Vec::new()
+    } else {
+        named_endpoints(&named, "listen", mode)
+    };
+    for endpoint in &config.listen {
+        let endpoint = serde_json::Value::String(endpoint.clone());
+        if !listen.contains(&endpoint) {
+            listen.push(endpoint);
+        }
+    }
+    let connect = if config.connect.is_empty() {
+        named_endpoints(&named, "connect", mode)
+    } else {
+        config
+            .connect
+            .iter()
+            .map(|e| serde_json::Value::String(e.clone()))
+            .collect()
+    };
+    set(
+        &mut z,
+        "listen/endpoints",
+        &serde_json::Value::from(listen).to_string(),
+    )?;
+    set(
+        &mut z,
+        "connect/endpoints",
+        &serde_json::Value::from(connect).to_string(),
+    )?;
     // A node process must not start before it reaches its launcher.
-    if config.mode == SessionMode::Client {
-        z.insert_json5("connect/timeout_ms", "10000")
-            .map_err(zerr)?;
+    if config.mode == SessionMode::Client && named.pointer("/connect/timeout_ms").is_none() {
+        set(&mut z, "connect/timeout_ms", "10000")?;
     }
     Ok(z)
 }
 
-/// Opens a session.
+/// An error about the configuration file `path`.
+fn file_error(path: &std::path::Path, error: impl std::fmt::Display) -> TransportError {
+    TransportError::Zenoh(format!("configuration file {}: {error}", path.display()))
+}
+
+/// The settings the configuration file `path` names itself (zenoh's defaults left out), parsed as
+/// zenoh parses it (by extension), to tell "set by the file" from "zenoh's default".
+fn config_file_settings(path: &std::path::Path) -> Result<serde_json::Value, TransportError> {
+    let text = std::fs::read_to_string(path).map_err(|e| file_error(path, e))?;
+    match path.extension().and_then(|e| e.to_str()) {
+        Some("json5" | "json") => json5::from_str(&text).map_err(|e| file_error(path, e)),
+        Some("yaml" | "yml") => serde_yaml::from_str(&text).map_err(|e| file_error(path, e)),
+        _ => Err(file_error(
+            path,
+            "unsupported extension (.json5, .json, .yaml and .yml are)",
+        )),
+    }
+}
+
+/// The `listen` or `connect` endpoints (`which`) the file names for `mode`: a list, or the
+/// entry of a per-mode object (`{ router: [...], peer: [...], client: [...] }`).
+fn named_endpoints(named: &serde_json::Value, which: &str, mode: &str) -> Vec<serde_json::Value> {
+    let endpoints = named.pointer(&format!("/{which}/endpoints"));
+    let list = match endpoints {
+        Some(serde_json::Value::Object(per_mode)) => per_mode.get(mode),
+        other => other,
+    };
+    list.and_then(|l| l.as_array()).cloned().unwrap_or_default()
+}
+
+/// Opens a session with [`zenoh_config`]`(config)`.
 pub fn open(config: &TransportConfig) -> Result<Session, TransportError> {
-    zenoh::open(zenoh_config(config)?).wait().map_err(zerr)
+    zenoh::open(zenoh_config(config)?)
+        .wait()
+        .map_err(|e| match &config.config_file {
+            Some(path) => file_error(path, format!("opening the session: {e}")),
+            None => zerr(e),
+        })
 }
 
 /// Key of the start signal.
