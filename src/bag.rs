@@ -5,10 +5,9 @@ use crate::TransportArgs;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, Subcommand};
 use nrslam_msgs::topics;
-use nrslam_runtime::bag::{self, BagContents, BagWriter, ReadMode, WriterOptions};
-use nrslam_runtime::transport::{
-    self, KeyStyle, Pacer, SessionMode, TopicPublisher, TransportConfig,
-};
+use indicatif::{ProgressBar, ProgressStyle};
+use nrslam_runtime::bag::{Bag, BagWriter, ReadMode, ReadReport, WriterOptions};
+use nrslam_runtime::transport::{self, KeyStyle, Pacer, SessionMode, TopicPublisher};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -29,7 +28,8 @@ pub enum BagCommand {
     /// Record a live graph's topics into a new rosbag2 folder (MCAP), until every recorded topic's
     /// stream has ended, --duration-s has passed, or Ctrl-C.
     Record(RecordArgs),
-    /// Print a bag's topics, types, message counts, start and duration.
+    /// Print a bag's topics, types, message counts, start and duration, after reading (streaming)
+    /// and decoding every message; --summary-only reads the MCAP summary alone.
     Info(InfoArgs),
     /// Publish a bag's messages onto a graph over zenoh with their original timing scaled by --rate.
     Play(PlayArgs),
@@ -80,13 +80,17 @@ pub struct RecordArgs {
 pub struct InfoArgs {
     /// Bag folder (or its .mcap file).
     pub dir: PathBuf,
-    /// Read a bag whose recorder was killed: without metadata.yaml or the MCAP summary, up to the
-    /// last complete chunk.
+    /// Read a bag whose recorder was killed or that is damaged: without metadata.yaml or the MCAP
+    /// summary, up to the last complete chunk, skipping damaged chunks (each loss is printed).
     #[arg(long)]
     pub recover: bool,
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
+    /// Print the figures of the MCAP summary section (statistics, channels, chunk indexes) without
+    /// reading the messages: instant, but nothing is checked or decoded. Needs an intact summary.
+    #[arg(long, conflicts_with = "recover")]
+    pub summary_only: bool,
 }
 
 /// `nrslam bag play`.
@@ -110,7 +114,8 @@ pub struct PlayArgs {
     /// Topics to play (default: every topic of the bag).
     #[arg(long, value_name = "TOPIC", num_args = 1..)]
     pub topics: Vec<String>,
-    /// Read a bag whose recorder was killed, up to its last complete chunk.
+    /// Read a bag whose recorder was killed or that is damaged, up to its last complete chunk,
+    /// skipping damaged chunks (each loss is printed).
     #[arg(long)]
     pub recover: bool,
     /// Seconds to wait for every played topic to have a subscriber before publishing (topics
@@ -160,13 +165,7 @@ fn session(args: &TransportArgs) -> Result<zenoh::Session> {
     if args.listen.is_empty() && args.connect.is_empty() {
         bail!("give --connect ENDPOINT (e.g. the --listen endpoint of a running `nrslam launch`) or --listen ENDPOINT");
     }
-    transport::open(&TransportConfig {
-        mode: SessionMode::Peer,
-        listen: args.listen.clone(),
-        connect: args.connect.clone(),
-        namespace: args.namespace.clone(),
-    })
-    .context("opening the zenoh session")
+    transport::open(&args.config(SessionMode::Peer)).context("opening the zenoh session")
 }
 
 /// Sets a flag on Ctrl-C (SIGINT) so a recorder or player can finish cleanly.
@@ -258,68 +257,126 @@ pub fn record(args: RecordArgs) -> Result<()> {
     Ok(())
 }
 
-fn open_bag(dir: &Path, recover: bool) -> Result<BagContents> {
+fn open_bag(dir: &Path, recover: bool) -> Result<Bag> {
     let mode = if recover {
         ReadMode::Recover
     } else {
         ReadMode::Strict
     };
-    Ok(bag::open(dir, mode)?)
+    Ok(Bag::open(dir, mode)?)
+}
+
+/// A progress bar over the bytes of a bag's MCAP file (drawn only on a terminal).
+fn byte_progress(bytes: u64, what: &str) -> ProgressBar {
+    let bar = ProgressBar::new(bytes);
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{spinner} [{elapsed_precise}] {bar:40} {bytes}/{total_bytes}  ETA {eta}  {msg}",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar.set_message(what.to_owned());
+    bar
+}
+
+/// Prints each part of the file that a recovering read skipped.
+fn print_losses(report: &ReadReport) {
+    for loss in &report.losses {
+        eprintln!("warning: {loss}");
+    }
 }
 
 /// `nrslam bag info`.
 pub fn info(args: InfoArgs) -> Result<()> {
-    let contents = open_bag(&args.dir, args.recover)?;
+    let bag = open_bag(&args.dir, args.recover)?;
+    if args.summary_only {
+        return info_from_summary(&bag, args.json);
+    }
+    let bar = byte_progress(bag.file_bytes(), "reading");
+    let mut stream = bag.messages()?;
     let mut undecodable = 0u64;
-    for message in &contents.messages {
-        if message.decode().is_err() {
+    let mut count = 0u64;
+    while let Some(message) = stream.next() {
+        if message?.decode().is_err() {
             undecodable += 1;
         }
+        count += 1;
+        if count % 256 == 0 {
+            bar.set_position(stream.position());
+        }
     }
-    let (start_ns, end_ns) = contents.time_range_ns().unwrap_or((0, 0));
+    bar.finish_and_clear();
+    let report = stream.into_report();
+    print_losses(&report);
+    let mut custom_data = bag.custom_data().clone();
+    if custom_data.is_empty() {
+        custom_data = report.custom_data.clone();
+    }
+    let (start_ns, end_ns) = report.time_range_ns.unwrap_or((0, 0));
     let duration_s = (end_ns - start_ns) as f64 * 1e-9;
+    let complete = report.stopped.is_none() && report.losses.is_empty();
     if args.json {
         let json = serde_json::json!({
-            "path": contents.dir.display().to_string(),
-            "file": contents.mcap_path.display().to_string(),
-            "file_bytes": contents.file_bytes,
-            "messages": contents.messages.len(),
-            "chunks": contents.chunks.len(),
-            "complete_bytes": contents.complete_bytes(),
+            "path": bag.dir().display().to_string(),
+            "file": bag.mcap_path().display().to_string(),
+            "file_bytes": bag.file_bytes(),
+            "messages": report.messages,
+            "chunks": report.chunks.len(),
+            "complete_bytes": report.complete_bytes(),
             "start_ns": start_ns,
             "duration_ns": end_ns - start_ns,
             "undecodable": undecodable,
-            "complete": contents.stopped.is_none(),
-            "stopped": contents.stopped,
-            "topics": contents.topics.iter().map(|t| serde_json::json!({
+            "complete": complete,
+            "stopped": report.stopped,
+            "losses": report.losses.iter().map(|l| serde_json::json!({
+                "start_byte": l.start_byte, "end_byte": l.end_byte,
+                "messages": l.messages, "reason": l.reason,
+            })).collect::<Vec<_>>(),
+            "lost_messages": report.lost_messages(),
+            "summary": bag.summary().is_some(),
+            "topics": report.topics.iter().map(|t| serde_json::json!({
                 "name": t.name, "type": t.type_name, "count": t.count,
             })).collect::<Vec<_>>(),
-            "custom_data": contents.custom_data,
+            "custom_data": custom_data,
         });
         outln!("{}", serde_json::to_string_pretty(&json)?);
         return Ok(());
     }
-    outln!("bag:       {}", contents.dir.display());
+    outln!("bag:       {}", bag.dir().display());
     outln!(
         "file:      {} ({} bytes, {} chunks)",
-        contents.mcap_path.display(),
-        contents.file_bytes,
-        contents.chunks.len()
+        bag.mcap_path().display(),
+        bag.file_bytes(),
+        report.chunks.len()
     );
-    outln!("messages:  {}", contents.messages.len());
+    outln!("messages:  {}", report.messages);
     outln!(
         "start:     {:.3} s (simulated clock)",
         start_ns as f64 * 1e-9
     );
     outln!("duration:  {duration_s:.3} s");
-    if let Some(stopped) = &contents.stopped {
+    if !report.losses.is_empty() {
+        let unknown = report.losses.iter().any(|l| l.messages.is_none());
+        outln!(
+            "recovered: skipped {} damaged part(s), {} messages lost{}",
+            report.losses.len(),
+            report.lost_messages(),
+            if unknown { " (plus some not counted)" } else { "" }
+        );
+    }
+    if let Some(stopped) = &report.stopped {
         outln!("recovered: read up to the last complete chunk ({stopped})");
     }
     if undecodable > 0 {
         outln!("undecodable messages: {undecodable}");
     }
+    print_topics(&report.topics);
+    Ok(())
+}
+
+fn print_topics(topics: &[nrslam_runtime::bag::TopicSummary]) {
     outln!("{:<24} {:<32} {:>8}", "topic", "type", "count");
-    for topic in &contents.topics {
+    for topic in topics {
         outln!(
             "{:<24} {:<32} {:>8}",
             topic.name,
@@ -327,6 +384,54 @@ pub fn info(args: InfoArgs) -> Result<()> {
             topic.count
         );
     }
+}
+
+/// `bag info --summary-only`.
+fn info_from_summary(bag: &Bag, json: bool) -> Result<()> {
+    let summary = bag.summary().ok_or_else(|| {
+        anyhow!(
+            "{}: no usable MCAP summary ({}); run `bag info` without --summary-only",
+            bag.mcap_path().display(),
+            bag.summary_note().unwrap_or("none")
+        )
+    })?;
+    let (start_ns, end_ns) = summary.time_range_ns.unwrap_or((0, 0));
+    let messages = summary
+        .message_count
+        .unwrap_or_else(|| summary.topics.iter().map(|t| t.count).sum());
+    if json {
+        let json = serde_json::json!({
+            "path": bag.dir().display().to_string(),
+            "file": bag.mcap_path().display().to_string(),
+            "file_bytes": bag.file_bytes(),
+            "messages": messages,
+            "chunks": summary.chunk_count,
+            "start_ns": start_ns,
+            "duration_ns": end_ns - start_ns,
+            "undecodable": null,
+            "summary": true,
+            "topics": summary.topics.iter().map(|t| serde_json::json!({
+                "name": t.name, "type": t.type_name, "count": t.count,
+            })).collect::<Vec<_>>(),
+            "custom_data": bag.custom_data(),
+        });
+        outln!("{}", serde_json::to_string_pretty(&json)?);
+        return Ok(());
+    }
+    outln!("bag:       {}", bag.dir().display());
+    outln!(
+        "file:      {} ({} bytes, {} chunks)",
+        bag.mcap_path().display(),
+        bag.file_bytes(),
+        summary.chunk_count
+    );
+    outln!("messages:  {messages} (from the MCAP summary, not read)");
+    outln!(
+        "start:     {:.3} s (simulated clock)",
+        start_ns as f64 * 1e-9
+    );
+    outln!("duration:  {:.3} s", (end_ns - start_ns) as f64 * 1e-9);
+    print_topics(&summary.topics);
     Ok(())
 }
 
@@ -344,28 +449,42 @@ pub fn play(args: PlayArgs) -> Result<()> {
             args.match_timeout_s
         );
     }
-    let mut contents = open_bag(&args.dir, args.recover)?;
-    contents.retain_topics(&args.topics)?;
-    let mut messages = Vec::with_capacity(contents.messages.len());
-    for message in &contents.messages {
-        let spec = topics::spec(&message.topic).ok_or_else(|| {
+    let bag = open_bag(&args.dir, args.recover)?;
+    // The topics to play, known before publishing: from the summary or metadata.yaml, else (a
+    // recovered recording) from one pass over the file.
+    let recorded = match bag.topics() {
+        Some(topics) => topics,
+        None => bag.survey()?.topics,
+    };
+    for topic in &args.topics {
+        if !recorded.iter().any(|t| &t.name == topic) {
+            bail!(
+                "{}: topic {topic} is not in the bag (recorded: {})",
+                args.dir.display(),
+                recorded
+                    .iter()
+                    .map(|t| t.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+        }
+    }
+    let mut played: Vec<&'static str> = Vec::new();
+    for topic in &recorded {
+        if !args.topics.is_empty() && !args.topics.contains(&topic.name) {
+            continue;
+        }
+        let spec = topics::spec(&topic.name).ok_or_else(|| {
             anyhow!(
                 "{}: topic {} is not a topic of the nrslam graph (use --topics to leave it out)",
                 args.dir.display(),
-                message.topic
+                topic.name
             )
         })?;
-        messages.push((spec.name, message.log_time_ns, &message.data));
-    }
-    let played: Vec<&'static str> = {
-        let mut names: Vec<&'static str> = Vec::new();
-        for (topic, _, _) in &messages {
-            if !names.contains(topic) {
-                names.push(topic);
-            }
+        if !played.contains(&spec.name) {
+            played.push(spec.name);
         }
-        names
-    };
+    }
     let session = session(&args.transport)?;
     let style = match args.ros_domain_id {
         Some(domain_id) => KeyStyle::RmwZenoh { domain_id },
@@ -379,16 +498,30 @@ pub fn play(args: PlayArgs) -> Result<()> {
     }
     let stop = interrupted();
     let mut published = 0u64;
+    let selected: Vec<String> = played.iter().map(|t| (*t).to_owned()).collect();
     'outer: loop {
         let mut pacer = Pacer::new(args.rate);
-        for (topic, log_time_ns, data) in &messages {
+        let bar = byte_progress(bag.file_bytes(), "playing");
+        let mut stream = bag.messages_on(&selected)?;
+        while let Some(message) = stream.next() {
             if stop.load(Ordering::SeqCst) {
                 break 'outer;
             }
-            pacer.pace(*log_time_ns as f64 * 1e-9);
-            publisher.publish_cdr(topic, data.to_vec())?;
+            let message = message?;
+            let topic = played
+                .iter()
+                .copied()
+                .find(|t| *t == message.topic)
+                .ok_or_else(|| anyhow!("{}: unexpected topic {}", args.dir.display(), message.topic))?;
+            pacer.pace(message.log_time_ns as f64 * 1e-9);
+            publisher.publish_cdr(topic, message.data)?;
             published += 1;
+            if published % 256 == 0 {
+                bar.set_position(stream.position());
+            }
         }
+        bar.finish_and_clear();
+        print_losses(stream.report());
         if !args.repeat {
             break;
         }

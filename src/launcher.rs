@@ -359,12 +359,7 @@ fn fmt_opt(value: Option<f64>) -> String {
 }
 
 fn transport_config(mode: SessionMode, args: &TransportArgs) -> TransportConfig {
-    TransportConfig {
-        mode,
-        listen: args.listen.clone(),
-        connect: args.connect.clone(),
-        namespace: args.namespace.clone(),
-    }
+    args.config(mode)
 }
 
 /// The identity (launch, arguments, seed) of a recorded run, from its bag's `custom_data`.
@@ -543,7 +538,14 @@ fn spawn_node(
             endpoint,
             "--namespace",
             &args.transport.namespace,
-        ])
+        ]);
+    if let Some(file) = &args.transport.zenoh_config {
+        command.arg("--zenoh-config").arg(
+            std::fs::canonicalize(file)
+                .with_context(|| format!("--zenoh-config {}", file.display()))?,
+        );
+    }
+    command
         .args([
             "--rate",
             &args.rate.to_string(),

@@ -61,6 +61,27 @@ pub struct TransportArgs {
     /// Prefix of every key expression (e.g. `robot1` → `robot1/map`); empty: none.
     #[arg(long, default_value = "", value_name = "PREFIX")]
     pub namespace: String,
+    /// zenoh configuration file (.json5, .json or .yaml) for every session of the run: TLS,
+    /// mutual TLS, access control (docs/security.md). Its endpoints come before --listen; a
+    /// --connect replaces its connect endpoints; the session's role stays nrslam's.
+    #[arg(long = "zenoh-config", value_name = "FILE")]
+    pub zenoh_config: Option<std::path::PathBuf>,
+}
+
+impl TransportArgs {
+    /// The session configuration for these flags, in role `mode`.
+    pub fn config(
+        &self,
+        mode: nrslam_runtime::transport::SessionMode,
+    ) -> nrslam_runtime::transport::TransportConfig {
+        nrslam_runtime::transport::TransportConfig {
+            mode,
+            listen: self.listen.clone(),
+            connect: self.connect.clone(),
+            namespace: self.namespace.clone(),
+            config_file: self.zenoh_config.clone(),
+        }
+    }
 }
 
 #[derive(Subcommand, Debug)]

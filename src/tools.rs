@@ -7,7 +7,7 @@ use clap::Args;
 use nrslam_evaluator::csv_io::{MAX_CSV_BYTES, MAX_CSV_ROWS};
 use nrslam_evaluator::{DistanceMode, EtGospaParams};
 use nrslam_msgs::topics;
-use nrslam_runtime::transport::{self, SessionMode, TransportConfig};
+use nrslam_runtime::transport::{self, SessionMode};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -185,12 +185,7 @@ fn session_for(args: &TransportArgs) -> Result<zenoh::Session> {
     if args.listen.is_empty() && args.connect.is_empty() {
         bail!("give --connect ENDPOINT (e.g. the --listen endpoint of a running `nrslam launch`) or --listen ENDPOINT");
     }
-    let config = TransportConfig {
-        mode: SessionMode::Peer,
-        listen: args.listen.clone(),
-        connect: args.connect.clone(),
-        namespace: args.namespace.clone(),
-    };
+    let config = args.config(SessionMode::Peer);
     transport::open(&config).context("opening the zenoh session")
 }
 
@@ -298,6 +293,7 @@ fn message_json(message: &nrslam_msgs::Message) -> Result<String> {
         M::RadarSpectrum(m) => serde_json::to_string(m)?,
         M::KeyframePoses(m) => serde_json::to_string(m)?,
         M::AssociationStats(m) => serde_json::to_string(m)?,
+        M::DiagnosticArray(m) => serde_json::to_string(m)?,
     })
 }
 

@@ -96,6 +96,7 @@ messages! {
     RadarSpectrum => "nrslam_msgs/msg/RadarSpectrum", |m: &RadarSpectrum| m.header.stamp;
     KeyframePoses => "nrslam_msgs/msg/KeyframePoses", |m: &KeyframePoses| m.header.stamp;
     AssociationStats => "nrslam_msgs/msg/AssociationStats", |m: &AssociationStats| m.header.stamp;
+    DiagnosticArray => "diagnostic_msgs/msg/DiagnosticArray", |m: &DiagnosticArray| m.header.stamp;
 }
 
 #[cfg(test)]
@@ -224,9 +225,22 @@ mod tests {
                 loop_relatives: vec![planar_pose()],
             }),
             Message::AssociationStats(AssociationStats {
-                header,
+                header: header.clone(),
                 rms_residual_m: f64::INFINITY,
                 ..Default::default()
+            }),
+            Message::DiagnosticArray(DiagnosticArray {
+                header,
+                status: vec![DiagnosticStatus {
+                    level: DiagnosticStatus::WARN,
+                    name: "nrslam/mapper/receive".into(),
+                    message: "dropped 1 sample".into(),
+                    hardware_id: String::new(),
+                    values: vec![KeyValue {
+                        key: "/map bad_cdr".into(),
+                        value: "1".into(),
+                    }],
+                }],
             }),
         ]
     }

@@ -266,3 +266,48 @@ pub struct Clock {
     /// The simulated time.
     pub clock: Time,
 }
+
+/// `diagnostic_msgs/msg/KeyValue`.
+#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct KeyValue {
+    /// Label.
+    pub key: String,
+    /// Value, as text.
+    pub value: String,
+}
+
+/// `diagnostic_msgs/msg/DiagnosticStatus`: the state of one component.
+#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct DiagnosticStatus {
+    /// [`DiagnosticStatus::OK`], [`DiagnosticStatus::WARN`], [`DiagnosticStatus::ERROR`] or
+    /// [`DiagnosticStatus::STALE`].
+    pub level: u8,
+    /// Component, e.g. `nrslam/association/receive`.
+    pub name: String,
+    /// Summary, one line.
+    pub message: String,
+    /// Hardware the component runs on (empty: none in particular).
+    pub hardware_id: String,
+    /// Figures.
+    pub values: Vec<KeyValue>,
+}
+
+impl DiagnosticStatus {
+    /// Level: all is well.
+    pub const OK: u8 = 0;
+    /// Level: something needs attention.
+    pub const WARN: u8 = 1;
+    /// Level: something failed.
+    pub const ERROR: u8 = 2;
+    /// Level: no recent information.
+    pub const STALE: u8 = 3;
+}
+
+/// `diagnostic_msgs/msg/DiagnosticArray`: the `/diagnostics` convention of ROS.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct DiagnosticArray {
+    /// Stamp of the report.
+    pub header: Header,
+    /// One status per component.
+    pub status: Vec<DiagnosticStatus>,
+}

@@ -63,6 +63,17 @@ const DEFINITIONS: &[(&str, &str)] = &[
         "nrslam_msgs/AssociationStats",
         "std_msgs/Header header\nuint32 detections\nuint32 associated\nuint32 inliers\nfloat64 inlier_ratio\nfloat64 rms_residual_m\nstring icp_status\nuint32 icp_iterations\nfloat64 correction_m\nfloat64 correction_rad\nbool odometry_rejected\nint32 keyframe_id\nfloat64 keyframe_overlap\nbool loop_closed\nuint32 loop_closures\n",
     ),
+    // The status levels (`byte OK=0` ...) are constants: they are left out, as they are of the
+    // type hash, and a reader needs no constant to decode.
+    ("diagnostic_msgs/KeyValue", "string key\nstring value\n"),
+    (
+        "diagnostic_msgs/DiagnosticStatus",
+        "byte level\nstring name\nstring message\nstring hardware_id\ndiagnostic_msgs/KeyValue[] values\n",
+    ),
+    (
+        "diagnostic_msgs/DiagnosticArray",
+        "std_msgs/Header header\ndiagnostic_msgs/DiagnosticStatus[] status\n",
+    ),
     ("nrslam_msgs/TargetSet", "std_msgs/Header header\nnrslam_msgs/Target[] targets\n"),
     (
         "nrslam_msgs/Metrics",

@@ -29,6 +29,8 @@ pub const MAP: &str = "/map";
 pub const SEGMENTS: &str = "/map/segments";
 /// Per-step metrics.
 pub const METRICS: &str = "/metrics";
+/// What each process's receive path dropped (the ROS convention for health reports).
+pub const DIAGNOSTICS: &str = "/diagnostics";
 
 /// Delivery guarantee of a topic.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -171,6 +173,12 @@ pub const CATALOGUE: &[TopicSpec] = &[
         type_name: "nrslam_msgs/msg/Metrics",
         qos: STREAM,
         description: "ET-GOPSA, GOSPA and position error, one per frame",
+    },
+    TopicSpec {
+        name: DIAGNOSTICS,
+        type_name: "diagnostic_msgs/msg/DiagnosticArray",
+        qos: STREAM,
+        description: "samples each process dropped, per topic and reason (on change)",
     },
 ];
 

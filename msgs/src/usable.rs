@@ -306,6 +306,12 @@ impl CheckUsable for Metrics {
     }
 }
 
+impl CheckUsable for DiagnosticArray {
+    fn check_usable(&self) -> Check {
+        header(&self.header)
+    }
+}
+
 impl CheckUsable for AssociationStats {
     fn check_usable(&self) -> Check {
         header(&self.header)

@@ -132,7 +132,59 @@ impl Drops {
     }
 }
 
+/// The `/diagnostics` report of what `component` (e.g. `nrslam/mapper/receive`) dropped, at
+/// simulated time `stamp`: one status, WARN when anything was dropped, one value per topic and
+/// reason (key `"<topic> <reason>"`, value the count).
+pub fn diagnostics(component: &str, drops: &Drops, stamp: Time) -> nrslam_msgs::DiagnosticArray {
+    use nrslam_msgs::{DiagnosticArray, DiagnosticStatus, Header, KeyValue};
+    let total = drops.total();
+    DiagnosticArray {
+        header: Header {
+            stamp,
+            frame_id: String::new(),
+        },
+        status: vec![DiagnosticStatus {
+            level: if total > 0 {
+                DiagnosticStatus::WARN
+            } else {
+                DiagnosticStatus::OK
+            },
+            name: component.to_owned(),
+            message: format!("dropped {total} unusable samples"),
+            hardware_id: String::new(),
+            values: drops
+                .iter()
+                .map(|(topic, reason, n)| KeyValue {
+                    key: format!("{topic} {reason}"),
+                    value: n.to_string(),
+                })
+                .collect(),
+        }],
+    }
+}
+
+/// The drops of each component in a `/diagnostics` report written by [`diagnostics`] (other
+/// statuses and values that are not counts are skipped).
+pub fn drops_in(report: &nrslam_msgs::DiagnosticArray) -> BTreeMap<String, Drops> {
+    let mut out = BTreeMap::new();
+    for status in &report.status {
+        let mut drops = Drops::default();
+        for value in &status.values {
+            if let (Some((topic, reason)), Ok(n)) =
+                (value.key.rsplit_once(' '), value.value.parse::<u64>())
+            {
+                drops.add(topic, reason, n);
+            }
+        }
+        out.insert(status.name.clone(), drops);
+    }
+    out
+}
+
 /// What [`Inbox::recv_timeout`] delivers.
+// A message is delivered by value, once; boxing it would cost an allocation per sample for
+// nothing (the `End` variant is rare).
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, PartialEq)]
 pub enum Delivery {
     /// A message that decoded and passed its checks.
@@ -502,6 +554,7 @@ mod tests {
             listen: Vec::new(),
             connect: Vec::new(),
             namespace: String::new(),
+            config_file: None,
         })
         .expect("a peer session on nothing")
     }
@@ -633,6 +686,20 @@ mod tests {
         }
         publisher.join().unwrap();
         assert!(inbox.drops().is_empty());
+    }
+
+    #[test]
+    fn diagnostics_carry_the_drops_and_read_back() {
+        let mut drops = Drops::default();
+        drops.add("/map", "bad_cdr", 3);
+        drops.count("/clock", "stamp_backwards");
+        let report = diagnostics("nrslam/mapper/receive", &drops, Time { sec: 7, nanosec: 0 });
+        assert_eq!(report.status[0].level, nrslam_msgs::DiagnosticStatus::WARN);
+        assert_eq!(report.status[0].message, "dropped 4 unusable samples");
+        let back = drops_in(&report);
+        assert_eq!(back["nrslam/mapper/receive"], drops);
+        let quiet = diagnostics("x", &Drops::default(), Time::default());
+        assert_eq!(quiet.status[0].level, nrslam_msgs::DiagnosticStatus::OK);
     }
 
     #[test]

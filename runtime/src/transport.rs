@@ -13,7 +13,7 @@
 
 use crate::merge::Merger;
 use crate::node::{Node, NodeError, Outbox, Tick};
-use crate::receive::{Delivery, Drops, Inbox, InboxOptions, ReceiveError};
+use crate::receive::{diagnostics, Delivery, Drops, Inbox, InboxOptions, ReceiveError};
 use nrslam_msgs::{topics, Message};
 use std::collections::BTreeMap;
 use std::sync::mpsc;
@@ -582,15 +582,22 @@ pub fn run_node_with(
         }
     } else {
         let mut merger = Merger::new(&inputs);
+        let component = format!("nrslam/{name}/receive");
+        let mut stamp = nrslam_msgs::Time::default();
         while !merger.finished() {
             match inbox.recv_timeout(Duration::from_millis(500))? {
                 Some(Delivery::End { topic }) => {
                     let _ = merger.close(topic);
                 }
                 Some(Delivery::Message { topic, message }) => {
+                    stamp = message.stamp();
                     let _ = merger.push(topic, message);
                 }
                 None => {}
+            }
+            if inbox.take_changed() {
+                let report = diagnostics(&component, inbox.drops(), stamp);
+                publisher.publish(topics::DIAGNOSTICS, &report.into())?;
             }
             while let Some((topic, message)) = merger.pop_ready() {
                 node.on_message(topic, &message, &mut outbox)?;

@@ -221,6 +221,17 @@ mod tests {
         );
     }
 
+    /// roslibrust's generated `ROS2_HASH` of `diagnostic_msgs/KeyValue`, a type whose definition
+    /// is the same in ROS 1 and ROS 2 (its other diagnostic hashes come from ROS 1 definitions,
+    /// with `seq` in the header, so they cannot be compared).
+    const KEY_VALUE: &str =
+        "RIHS01_d68081eaa540288c5440753baecef0c4e16e81a5f78ad68902ded5100413bb42";
+
+    #[test]
+    fn diagnostics_key_value_hash_is_the_one_roslibrust_generates() {
+        assert_eq!(rihs01("diagnostic_msgs/msg/KeyValue").unwrap(), KEY_VALUE);
+    }
+
     #[test]
     fn string_hash_is_the_one_in_the_rmw_zenoh_design() {
         let hash = rihs01_with("std_msgs/msg/String", &|name| {

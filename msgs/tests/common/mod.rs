@@ -282,6 +282,23 @@ pub fn random_message(type_name: &str, rng: &mut Rng) -> Message {
             loop_closed: r.one_in(2),
             loop_closures: r.u32(),
         }),
+        "diagnostic_msgs/msg/DiagnosticArray" => Message::DiagnosticArray(DiagnosticArray {
+            header: r.header(),
+            status: (0..r.below(3))
+                .map(|_| DiagnosticStatus {
+                    level: r.next_u64() as u8,
+                    name: r.string(),
+                    message: r.string(),
+                    hardware_id: r.string(),
+                    values: (0..r.below(3))
+                        .map(|_| KeyValue {
+                            key: r.string(),
+                            value: r.string(),
+                        })
+                        .collect(),
+                })
+                .collect(),
+        }),
         other => panic!("no generator for {other}: add one for every Message::TYPE_NAMES entry"),
     }
 }
