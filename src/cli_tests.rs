@@ -247,7 +247,7 @@ fn allowed(range: Range, text: &str) -> Option<bool> {
                 if unsigned.bytes().all(|b| b.is_ascii_digit()) && !unsigned.is_empty() {
                     unsigned
                         .parse::<u128>()
-                        .map_or(false, |v| (min..=max).contains(&v))
+                        .is_ok_and(|v| (min..=max).contains(&v))
                 } else {
                     // "-0" is 0 too.
                     digits
