@@ -4,9 +4,10 @@
 use crate::TransportArgs;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, Subcommand};
-use nrslam_msgs::topics;
 use indicatif::{ProgressBar, ProgressStyle};
+use nrslam_msgs::topics;
 use nrslam_runtime::bag::{Bag, BagWriter, ReadMode, ReadReport, WriterOptions};
+use nrslam_runtime::receive::{Delivery, Inbox};
 use nrslam_runtime::transport::{self, KeyStyle, Pacer, SessionMode, TopicPublisher};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -196,8 +197,12 @@ pub fn record(args: RecordArgs) -> Result<()> {
     let wanted = catalogue_topics(&args.topics)?;
     let chunk_size_bytes = args.chunk.bytes()?;
     let session = session(&args.transport)?;
-    let (_subscribers, received) =
-        transport::subscribe(&session, &args.transport.namespace, &wanted)?;
+    let mut inbox = Inbox::subscribe(
+        &session,
+        &args.transport.namespace,
+        &wanted,
+        args.transport.inbox_options()?,
+    )?;
     let mut writer = BagWriter::create(
         &args.dir,
         WriterOptions {
@@ -221,8 +226,8 @@ pub fn record(args: RecordArgs) -> Result<()> {
         if args.duration_s > 0.0 && started.elapsed().as_secs_f64() >= args.duration_s {
             break;
         }
-        match received.recv_timeout(Duration::from_millis(100)) {
-            Ok((topic, bytes)) if bytes.is_empty() => {
+        match inbox.recv_timeout(Duration::from_millis(100))? {
+            Some(Delivery::End { topic }) => {
                 if !ended.contains(&topic) {
                     ended.push(topic);
                 }
@@ -230,8 +235,11 @@ pub fn record(args: RecordArgs) -> Result<()> {
                     break;
                 }
             }
-            Ok((topic, bytes)) => {
-                let message = transport::decode(topic, &bytes)?;
+            Some(Delivery::Message {
+                topic,
+                message,
+                payload,
+            }) => {
                 if !seen.contains(&topic) {
                     seen.push(topic);
                 }
@@ -239,12 +247,14 @@ pub fn record(args: RecordArgs) -> Result<()> {
                     topic,
                     message.type_name(),
                     message.stamp().as_nanos(),
-                    &bytes,
+                    &payload,
                 )?;
             }
-            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
-            Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => bail!("zenoh session closed"),
+            None => {}
         }
+    }
+    for (topic, reason, n) in inbox.drops().iter() {
+        eprintln!("warning: {topic}: {n} samples dropped ({reason}), not recorded");
     }
     let info = writer.finish()?;
     let _ = session.close().wait();
@@ -361,7 +371,11 @@ pub fn info(args: InfoArgs) -> Result<()> {
             "recovered: skipped {} damaged part(s), {} messages lost{}",
             report.losses.len(),
             report.lost_messages(),
-            if unknown { " (plus some not counted)" } else { "" }
+            if unknown {
+                " (plus some not counted)"
+            } else {
+                ""
+            }
         );
     }
     if let Some(stopped) = &report.stopped {
@@ -512,7 +526,9 @@ pub fn play(args: PlayArgs) -> Result<()> {
                 .iter()
                 .copied()
                 .find(|t| *t == message.topic)
-                .ok_or_else(|| anyhow!("{}: unexpected topic {}", args.dir.display(), message.topic))?;
+                .ok_or_else(|| {
+                    anyhow!("{}: unexpected topic {}", args.dir.display(), message.topic)
+                })?;
             pacer.pace(message.log_time_ns as f64 * 1e-9);
             publisher.publish_cdr(topic, message.data)?;
             published += 1;

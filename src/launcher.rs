@@ -11,14 +11,14 @@ use nrslam_msgs::{topics, Message};
 use nrslam_runtime::bag::{self, BagWriter, WriterOptions};
 use nrslam_runtime::compose::{anyhow_free, Graph, Observer};
 use nrslam_runtime::launch::{Launch, Mode, NodeDecl};
+use nrslam_runtime::receive::{Delivery, Inbox};
+use nrslam_runtime::supervisor::{Event, ProcessSpec, RestartPolicy, Supervisor};
 use nrslam_runtime::transport::{
     self, KeyStyle, Pacer, SessionMode, TopicPublisher, TransportConfig,
 };
 use nrslam_runtime::{Node, NodeContext};
-use std::io::BufRead;
+use std::ffi::OsString;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
-use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 /// `nrslam launch`.
@@ -113,6 +113,10 @@ pub struct RunArgs {
         allow_hyphen_values = true
     )]
     pub rate: f64,
+    /// An input topic whose stream already ended (repeatable): the launcher passes these when it
+    /// respawns a node, so it does not wait for ends it missed.
+    #[arg(long, value_name = "TOPIC")]
+    pub ended: Vec<String>,
     #[command(flatten)]
     pub transport: TransportArgs,
 }
@@ -500,109 +504,77 @@ fn free_loopback_port() -> Result<u16> {
     Ok(listener.local_addr()?.port())
 }
 
-/// A node process with its last stderr line kept for the error report.
-struct NodeProcess {
-    name: String,
-    child: Child,
-    last_error: Arc<Mutex<String>>,
-}
-
-fn spawn_node(
-    exe: &Path,
+/// The command line of node `decl` as a process of this launch (`restart`: without waiting for
+/// the start signal, which was given long ago).
+fn node_args(
     decl: &NodeDecl,
     params_file: &Path,
     base_dir: &Path,
     endpoint: &str,
     args: &LaunchArgs,
-) -> Result<NodeProcess> {
-    let (name, kind, seed) = (decl.name.as_str(), decl.kind.as_str(), args.seed);
-    let mut command = Command::new(exe);
-    command
-        .args([
-            "run",
-            kind,
-            "--name",
-            name,
-            "--zenoh-mode",
-            "client",
-            "--start-barrier",
-        ])
-        .arg("--params")
-        .arg(params_file)
-        .arg("--base-dir")
-        .arg(base_dir)
-        .args([
-            "--seed",
-            &seed.to_string(),
-            "--connect",
-            endpoint,
-            "--namespace",
-            &args.transport.namespace,
-        ]);
+    restart: bool,
+) -> Result<Vec<OsString>> {
+    let mut out: Vec<OsString> = [
+        "run",
+        &decl.kind,
+        "--name",
+        &decl.name,
+        "--zenoh-mode",
+        "client",
+    ]
+    .iter()
+    .map(OsString::from)
+    .collect();
+    if !restart {
+        out.push("--start-barrier".into());
+    }
+    out.extend([
+        "--params".into(),
+        params_file.as_os_str().to_owned(),
+        "--base-dir".into(),
+        base_dir.as_os_str().to_owned(),
+    ]);
+    for (flag, value) in [
+        ("--seed", args.seed.to_string()),
+        ("--connect", endpoint.to_owned()),
+        ("--namespace", args.transport.namespace.clone()),
+        ("--rate", args.rate.to_string()),
+        ("--start-timeout-s", args.start_timeout_s.to_string()),
+        ("--on-bad-input", args.transport.on_bad_input.clone()),
+    ] {
+        out.extend([flag.into(), value.into()]);
+    }
     if let Some(file) = &args.transport.zenoh_config {
-        command.arg("--zenoh-config").arg(
+        out.push("--zenoh-config".into());
+        out.push(
             std::fs::canonicalize(file)
-                .with_context(|| format!("--zenoh-config {}", file.display()))?,
+                .with_context(|| format!("--zenoh-config {}", file.display()))?
+                .into_os_string(),
         );
     }
-    command
-        .args([
-            "--rate",
-            &args.rate.to_string(),
-            "--start-timeout-s",
-            &args.start_timeout_s.to_string(),
-        ])
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped());
-    let mut child = command
-        .spawn()
-        .with_context(|| format!("starting node process {name}"))?;
-    let last_error = Arc::new(Mutex::new(String::new()));
-    if let Some(stderr) = child.stderr.take() {
-        let last = last_error.clone();
-        let prefix = name.to_owned();
-        std::thread::spawn(move || {
-            for line in std::io::BufReader::new(stderr)
-                .lines()
-                .map_while(Result::ok)
-            {
-                eprintln!("[{prefix}] {line}");
-                *last.lock().unwrap_or_else(|e| e.into_inner()) = line;
-            }
-        });
-    }
-    Ok(NodeProcess {
-        name: name.to_owned(),
-        child,
-        last_error,
-    })
+    Ok(out)
 }
 
-fn check_children(children: &mut [NodeProcess]) -> Result<(), String> {
-    for process in children.iter_mut() {
-        if let Ok(Some(status)) = process.child.try_wait() {
-            if !status.success() {
-                let last = process
-                    .last_error
-                    .lock()
-                    .unwrap_or_else(|e| e.into_inner())
-                    .clone();
-                return Err(format!(
-                    "node '{}' exited with {status}: {last}",
-                    process.name
-                ));
-            }
+/// The restart policy of `decl`, refused for a node that cannot pick up a stream halfway: a
+/// source (it would start its stream over) or a node with a latched input (published once, at
+/// the start).
+fn restart_policy(decl: &NodeDecl, node: &dyn Node) -> Result<RestartPolicy> {
+    if decl.respawn {
+        if node.inputs().is_empty() {
+            bail!("node {}: respawn = true, but it is a source: a respawned source would start its stream over", decl.name);
+        }
+        let latched = node.inputs().into_iter().find(|t| {
+            topics::spec(t).is_some_and(|s| s.qos.durability == topics::Durability::TransientLocal)
+        });
+        if let Some(topic) = latched {
+            bail!("node {}: respawn = true, but its input {topic} is published once at the start: a respawned node would wait for it forever", decl.name);
         }
     }
-    Ok(())
-}
-
-fn kill_all(children: &mut [NodeProcess]) {
-    for process in children.iter_mut() {
-        let _ = process.child.kill();
-        let _ = process.child.wait();
-    }
+    Ok(RestartPolicy {
+        respawn: decl.respawn,
+        respawn_delay: flags::seconds("respawn_delay_s", decl.respawn_delay_s)?,
+        max_restarts: decl.max_restarts,
+    })
 }
 
 fn run_processes(
@@ -612,19 +584,39 @@ fn run_processes(
     out: &Path,
     mut recorder: Option<Recorder>,
 ) -> Result<Reporter> {
-    // Topics to listen to: the reporter's, and those recorded. Each ends with the node that
+    // Topics to listen to: the reporter's, those recorded, and the inputs of respawnable nodes
+    // (a respawned node is told which of them have ended). Each ends with the node that
     // publishes it; topics no node publishes are not waited for.
     let mut listened: Vec<&'static str> = REPORTED.to_vec();
     if let Some(recorder) = &recorder {
-        for topic in &recorder.topics {
-            if !listened.contains(topic) {
-                listened.push(topic);
-            }
+        listened.extend(recorder.topics.iter().copied());
+    }
+    let mut policies = Vec::new();
+    for decl in &launch.nodes {
+        let node = built
+            .nodes
+            .iter()
+            .find(|(name, _)| *name == decl.name)
+            .map(|(_, node)| node.as_ref())
+            .ok_or_else(|| anyhow!("node {} was not built", decl.name))?;
+        let policy = restart_policy(decl, node)?;
+        if policy.respawn {
+            listened.extend(node.inputs());
         }
+        policies.push(policy);
     }
     listened.retain(|t| {
         built.nodes.iter().any(|(_, n)| n.outputs().contains(t)) || REPORTED.contains(t)
     });
+    listened.sort_unstable();
+    listened.dedup();
+    let mut open: Vec<&'static str> = listened.clone();
+    listened.push(topics::DIAGNOSTICS);
+    let inputs: std::collections::BTreeMap<String, Vec<&'static str>> = built
+        .nodes
+        .iter()
+        .map(|(name, node)| (name.clone(), node.inputs()))
+        .collect();
     drop(built.nodes);
     let port = free_loopback_port()?;
     let endpoint = format!("tcp/127.0.0.1:{port}");
@@ -632,103 +624,94 @@ fn run_processes(
     transport_args.listen.push(endpoint.clone());
     let session = transport::open(&transport_config(SessionMode::Router, &transport_args))
         .context("opening the launcher's zenoh router")?;
-    let (_subscribers, received) =
-        transport::subscribe(&session, &args.transport.namespace, &listened)?;
+    let mut inbox = Inbox::subscribe(
+        &session,
+        &args.transport.namespace,
+        &listened,
+        args.transport.inbox_options()?,
+    )?;
     let params_dir = out.join("params");
     std::fs::create_dir_all(&params_dir)
         .with_context(|| format!("cannot create {}", params_dir.display()))?;
     let base_dir = std::fs::canonicalize(&launch.base_dir)
         .with_context(|| format!("resolving {}", launch.base_dir.display()))?;
     let exe = std::env::current_exe().context("locating the nrslam executable")?;
-    let mut children = Vec::new();
-    for decl in &launch.nodes {
+    let mut specs = Vec::new();
+    for (decl, restart) in launch.nodes.iter().zip(policies) {
         let file = params_dir.join(format!("{}.toml", decl.name));
         std::fs::write(&file, toml::to_string(&decl.params)?)
             .with_context(|| format!("cannot write {}", file.display()))?;
-        match spawn_node(&exe, decl, &file, &base_dir, &endpoint, args) {
-            Ok(child) => children.push(child),
-            Err(error) => {
-                kill_all(&mut children);
-                return Err(error);
-            }
-        }
+        specs.push(ProcessSpec {
+            name: decl.name.clone(),
+            program: exe.clone(),
+            args: node_args(decl, &file, &base_dir, &endpoint, args, false)?,
+            restart_args: node_args(decl, &file, &base_dir, &endpoint, args, true)?,
+            restart,
+        });
     }
+    let mut supervisor = Supervisor::start(specs)?;
     let names: Vec<String> = launch.nodes.iter().map(|n| n.name.clone()).collect();
     // The barrier adds the timeout to the clock: check here that it can.
     let start_timeout = Duration::from_secs(args.start_timeout_s);
-    if let Err(error) = flags::deadline("--start-timeout-s", start_timeout) {
-        kill_all(&mut children);
-        return Err(error);
-    }
-    let barrier = transport::start_barrier(
+    flags::deadline("--start-timeout-s", start_timeout)?;
+    transport::start_barrier(
         &session,
         &args.transport.namespace,
         &names,
         start_timeout,
-        || check_children(&mut children),
-    );
-    if let Err(error) = barrier {
-        kill_all(&mut children);
-        bail!("{error}");
-    }
+        || supervisor.poll().map(drop).map_err(|e| e.to_string()),
+    )
+    .map_err(|e| anyhow!("{e}"))?;
     let bar = progress(built.expected_frames);
     let mut reporter = Reporter::default();
-    let mut open: Vec<&'static str> = listened.clone();
-    let outcome = (|| -> Result<()> {
-        while !open.is_empty() {
-            match received.recv_timeout(Duration::from_millis(200)) {
-                Ok((topic, bytes)) if bytes.is_empty() => open.retain(|t| *t != topic),
-                Ok((topic, bytes)) => {
-                    let message = transport::decode(topic, &bytes)?;
-                    if topic == topics::CLOCK {
-                        bar.inc(1);
-                    }
-                    reporter.take(topic, &message);
-                    if let Some(recorder) = &mut recorder {
-                        recorder.take(topic, &message)?;
-                    }
+    let mut last_poll = Instant::now();
+    while !open.is_empty() {
+        match inbox.recv_timeout(Duration::from_millis(200))? {
+            Some(Delivery::End { topic }) => open.retain(|t| *t != topic),
+            Some(Delivery::Message { topic, message, .. }) => {
+                if topic == topics::CLOCK {
+                    bar.inc(1);
                 }
-                Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
-                    check_children(&mut children).map_err(|e| anyhow!(e))?;
-                    if children
-                        .iter_mut()
-                        .all(|c| matches!(c.child.try_wait(), Ok(Some(_))))
-                        && received.try_recv().is_err()
-                    {
-                        bail!(
-                            "every node process ended but topics {} never ended",
-                            open.join(", ")
-                        );
-                    }
+                reporter.take(topic, &message);
+                if let Some(recorder) = &mut recorder {
+                    recorder.take(topic, &message)?;
                 }
-                Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
-                    bail!("zenoh session closed")
+            }
+            None => {}
+        }
+        if last_poll.elapsed() >= Duration::from_millis(200) {
+            last_poll = Instant::now();
+            // A respawned node is told which of its inputs ended while it was down.
+            let ended = |name: &str| -> Vec<OsString> {
+                inputs
+                    .get(name)
+                    .into_iter()
+                    .flatten()
+                    .filter(|t| reporter.ended.contains(t) || !open.contains(t))
+                    .flat_map(|t| [OsString::from("--ended"), OsString::from(*t)])
+                    .collect()
+            };
+            for event in supervisor.poll_with(&ended)? {
+                let Event::Restarted { name, status, .. } = event;
+                bar.println(format!("node {name} died ({status}) and was restarted"));
+            }
+            if supervisor.all_finished() && !open.is_empty() {
+                // Every process is done: what is still queued is all there is.
+                if inbox.recv_timeout(Duration::from_millis(500))?.is_none() {
+                    bail!(
+                        "every node process ended but topics {} never ended",
+                        open.join(", ")
+                    );
                 }
             }
         }
-        Ok(())
-    })();
+    }
     bar.finish_and_clear();
-    if let Err(error) = outcome {
-        kill_all(&mut children);
-        return Err(error);
+    if !supervisor.wait_all(Duration::from_secs(60))? {
+        bail!("node processes still running 60 s after their topics ended");
     }
-    for index in 0..children.len() {
-        let status = children[index]
-            .child
-            .wait()
-            .with_context(|| format!("waiting for node {}", children[index].name))?;
-        if !status.success() {
-            let last = children[index]
-                .last_error
-                .lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .clone();
-            let name = children[index].name.clone();
-            kill_all(&mut children);
-            bail!("node '{name}' exited with {status}: {last}");
-        }
-    }
+    reporter.restarts = supervisor.restarts();
+    reporter.note_drops("nrslam/launch/receive", inbox.drops());
     let _ = zenoh::Wait::wait(session.close());
     if let Some(recorder) = recorder {
         recorder.finish()?;
@@ -782,16 +765,31 @@ pub fn run(args: RunArgs) -> Result<()> {
     // run_node adds the timeout to the clock: check here that it can.
     let start_timeout = Duration::from_secs(args.start_timeout_s);
     flags::deadline("--start-timeout-s", start_timeout)?;
-    transport::run_node(
-        &session,
-        &args.transport.namespace,
-        &name,
-        node,
-        args.start_barrier,
+    let ended = args
+        .ended
+        .iter()
+        .map(|t| {
+            topics::spec(t)
+                .map(|s| s.name)
+                .ok_or_else(|| anyhow!("--ended: {t} is not in the topic catalogue"))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let run = transport::NodeRun {
+        wait_for_start: args.start_barrier,
         start_timeout,
-        args.rate,
-    )
-    .map_err(|e| anyhow!("node '{name}' failed: {e}"))?;
+        rate: args.rate,
+        inbox: args.transport.inbox_options()?,
+        ended,
+    };
+    let drops = transport::run_node_with(&session, &args.transport.namespace, &name, node, run)
+        .map_err(|e| anyhow!("node '{name}' failed: {e}"))?;
+    if !drops.is_empty() {
+        tracing::warn!(
+            node = name,
+            dropped = drops.total(),
+            "unusable input samples were dropped"
+        );
+    }
     // Let the last publications leave before the session closes.
     std::thread::sleep(Duration::from_millis(200));
     let _ = zenoh::Wait::wait(session.close());

@@ -66,9 +66,25 @@ pub struct TransportArgs {
     /// --connect replaces its connect endpoints; the session's role stays nrslam's.
     #[arg(long = "zenoh-config", value_name = "FILE")]
     pub zenoh_config: Option<std::path::PathBuf>,
+    /// What a received sample that cannot be used (bad CDR, NaN where a number is needed, a
+    /// stamp older than the last on its topic, ...) does: `drop` counts it (summary.json
+    /// "dropped", /diagnostics) and goes on; `fail` stops with an error naming it.
+    #[arg(long, default_value = "drop", value_name = "POLICY", value_parser = ["drop", "fail"])]
+    pub on_bad_input: String,
 }
 
 impl TransportArgs {
+    /// The receive path's options for --on-bad-input (back-pressure on full queues).
+    pub fn inbox_options(&self) -> anyhow::Result<nrslam_runtime::receive::InboxOptions> {
+        Ok(nrslam_runtime::receive::InboxOptions {
+            bad_input: self
+                .on_bad_input
+                .parse()
+                .map_err(|e| anyhow::anyhow!("--on-bad-input: {e}"))?,
+            overload: nrslam_runtime::receive::Overload::BackPressure,
+        })
+    }
+
     /// The session configuration for these flags, in role `mode`.
     pub fn config(
         &self,

@@ -63,9 +63,21 @@ pub struct Reporter {
     pub keyframe_poses: Option<KeyframePoses>,
     /// Topics whose stream has ended.
     pub ended: Vec<&'static str>,
+    /// What each process's receive path dropped (latest `/diagnostics` report of each, and the
+    /// launcher's own), by component, e.g. `nrslam/mapper/receive`.
+    pub dropped: BTreeMap<String, nrslam_runtime::receive::Drops>,
+    /// Node processes restarted by supervision, and how many times.
+    pub restarts: BTreeMap<String, u32>,
 }
 
 impl Reporter {
+    /// Records `component`'s drops so far (a later report of the same component replaces it).
+    pub fn note_drops(&mut self, component: &str, drops: &nrslam_runtime::receive::Drops) {
+        if !drops.is_empty() {
+            self.dropped.insert(component.to_owned(), drops.clone());
+        }
+    }
+
     /// Takes one message.
     pub fn take(&mut self, topic: &str, message: &Message) {
         match (topic, message) {
@@ -93,6 +105,11 @@ impl Reporter {
                 self.true_path.push((x_m, y_m));
                 let stamp = (p.header.stamp.sec, p.header.stamp.nanosec);
                 self.true_by_stamp.insert(stamp, (x_m, y_m, yaw_rad));
+            }
+            (topics::DIAGNOSTICS, Message::DiagnosticArray(report)) => {
+                for (component, drops) in nrslam_runtime::receive::drops_in(report) {
+                    self.note_drops(&component, &drops);
+                }
             }
             (topics::SLAM_POSE, Message::PoseStamped(p)) => {
                 self.slam_path.push((p.pose.position.x, p.pose.position.y))
@@ -251,6 +268,8 @@ impl Reporter {
                 .iter()
                 .map(|(k, v)| (k.clone(), toml_to_json(v)))
                 .collect(),
+            dropped: self.dropped.clone(),
+            restarts: self.restarts.clone(),
         }
     }
 
@@ -373,6 +392,12 @@ pub struct Summary {
     pub launch: String,
     /// Launch arguments used.
     pub arguments: BTreeMap<String, serde_json::Value>,
+    /// Unusable samples dropped, by component, topic and reason (absent when none).
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub dropped: BTreeMap<String, nrslam_runtime::receive::Drops>,
+    /// Node processes restarted by supervision (absent when none).
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub restarts: BTreeMap<String, u32>,
 }
 
 fn toml_to_json(value: &toml::Value) -> serde_json::Value {

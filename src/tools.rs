@@ -7,10 +7,11 @@ use clap::Args;
 use nrslam_evaluator::csv_io::{MAX_CSV_BYTES, MAX_CSV_ROWS};
 use nrslam_evaluator::{DistanceMode, EtGospaParams};
 use nrslam_msgs::topics;
+use nrslam_runtime::receive::{Delivery, Inbox, InboxOptions, Overload, ReceiveError};
 use nrslam_runtime::transport::{self, SessionMode};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 use zenoh::Wait;
 
 /// `nrslam topics`.
@@ -218,17 +219,20 @@ pub fn topics(args: TopicsArgs) -> Result<()> {
     flags::deadline("--duration-s", listen)?;
     let session = session_for(&args.transport)?;
     let names: Vec<&'static str> = topics::CATALOGUE.iter().map(|t| t.name).collect();
-    let (_subscribers, received) =
-        transport::subscribe(&session, &args.transport.namespace, &names)?;
+    let mut inbox = Inbox::subscribe(
+        &session,
+        &args.transport.namespace,
+        &names,
+        observer_options(&args.transport)?,
+    )?;
     let deadline = flags::deadline("--duration-s", listen)?;
     let mut counts: BTreeMap<&'static str, u64> = BTreeMap::new();
     while let Some(left) = deadline.checked_duration_since(Instant::now()) {
-        if let Ok((topic, bytes)) = received.recv_timeout(left) {
-            if !bytes.is_empty() {
-                *counts.entry(topic).or_default() += 1;
-            }
+        if let Some(Delivery::Message { topic, .. }) = inbox.recv_timeout(left)? {
+            *counts.entry(topic).or_default() += 1;
         }
     }
+    report_drops(&inbox);
     outln!(
         "{:<24} {:<32} messages in {} s",
         "topic",
@@ -259,22 +263,48 @@ pub fn echo(args: EchoArgs) -> Result<()> {
         )
     })?;
     let session = session_for(&args.transport)?;
-    let (_subscribers, received) =
-        transport::subscribe(&session, &args.transport.namespace, &[spec.name])?;
+    let mut inbox = Inbox::subscribe(
+        &session,
+        &args.transport.namespace,
+        &[spec.name],
+        observer_options(&args.transport)?,
+    )?;
     let mut seen = 0u64;
-    while let Ok((_, bytes)) = received.recv() {
-        if bytes.is_empty() {
-            break;
-        }
-        let message = transport::decode(spec.name, &bytes)?;
-        outln!("{}", message_json(&message)?);
-        seen += 1;
-        if args.count > 0 && seen >= args.count {
-            break;
+    loop {
+        match inbox.recv_timeout(Duration::from_secs(3600)) {
+            Ok(Some(Delivery::End { .. })) | Err(ReceiveError::Closed) => break,
+            Ok(Some(Delivery::Message { message, .. })) => {
+                outln!("{}", message_json(&message)?);
+                seen += 1;
+                if args.count > 0 && seen >= args.count {
+                    break;
+                }
+            }
+            Ok(None) => {}
+            Err(error) => return Err(error.into()),
         }
     }
+    report_drops(&inbox);
     let _ = session.close().wait();
     Ok(())
+}
+
+/// An observer keeps the newest samples rather than slow the graph down.
+fn observer_options(transport: &TransportArgs) -> Result<InboxOptions> {
+    Ok(InboxOptions {
+        overload: Overload::KeepNewest(OBSERVER_QUEUE),
+        ..transport.inbox_options()?
+    })
+}
+
+/// Samples an observer queues per topic before it drops the oldest.
+const OBSERVER_QUEUE: usize = 256;
+
+/// One line on stderr per topic and reason dropped, if any.
+fn report_drops(inbox: &Inbox) {
+    for (topic, reason, n) in inbox.drops().iter() {
+        eprintln!("warning: {topic}: {n} samples dropped ({reason})");
+    }
 }
 
 fn message_json(message: &nrslam_msgs::Message) -> Result<String> {

@@ -9,6 +9,9 @@
 //! - [`type_hash`]: ROS 2 RIHS01 type description hashes; [`rmw_zenoh`]: rmw_zenoh's key
 //!   expressions and attachments.
 //! - `transport` (feature `zenoh`): the zenoh session, node adapters and the start barrier.
+//! - `receive` (feature `zenoh`): the one receive path: bounded queues, unusable samples dropped
+//!   and counted, `/diagnostics`.
+//! - `supervisor`: node processes watched and respawned as ROS 2 launch does.
 #![warn(missing_docs)]
 
 pub mod bag;
@@ -17,7 +20,6 @@ pub mod config;
 pub mod launch;
 pub mod merge;
 pub mod node;
-pub mod receive;
 pub mod rmw_zenoh;
 pub mod seed;
 pub mod supervisor;
@@ -25,5 +27,7 @@ pub mod type_hash;
 
 pub use config::{parse_params, InvalidParam, ParamsError};
 pub use node::{Node, NodeContext, NodeError, Outbox, Tick};
+#[cfg(feature = "zenoh")]
+pub mod receive;
 #[cfg(feature = "zenoh")]
 pub mod transport;

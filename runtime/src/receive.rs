@@ -8,7 +8,8 @@
 //! |-------------------|-------------------------------------------------------------------|
 //! | `bad_cdr`         | the payload does not decode as the topic's catalogue type          |
 //! | `non_finite`, ... | decoded, but refused by [`Message::check_usable`] (NaN, absurd sizes, ...) |
-//! | `stamp_backwards` | older than the last message accepted on the same topic            |
+//! | `stamp_backwards` | older than the last message accepted on the same topic (not on     |
+//! |                   | `/diagnostics`, where every process reports at its own time)       |
 //! | `queue_full`      | a best-effort topic's queue overflowed: the oldest sample went     |
 //!
 //! Counts are kept per topic and reason ([`Drops`]); the first drop on a topic is logged at once
@@ -193,6 +194,8 @@ pub enum Delivery {
         topic: &'static str,
         /// The message.
         message: Message,
+        /// The CDR bytes it was decoded from (for a recorder, which keeps them as sent).
+        payload: Vec<u8>,
     },
     /// The publisher marked the end of the topic's stream (an empty payload).
     End {
@@ -456,7 +459,13 @@ impl Inbox {
                 return Ok(Some(Delivery::End { topic }));
             }
             match self.accept(topic, &bytes) {
-                Ok(message) => return Ok(Some(Delivery::Message { topic, message })),
+                Ok(message) => {
+                    return Ok(Some(Delivery::Message {
+                        topic,
+                        message,
+                        payload: bytes,
+                    }))
+                }
                 Err((reason, detail)) => {
                     self.drops.count(topic, reason);
                     self.changed = true;
@@ -485,6 +494,10 @@ impl Inbox {
             .check_usable()
             .map_err(|unusable| (unusable.reason(), unusable.to_string()))?;
         let stamp = message.stamp();
+        // Every process reports on /diagnostics at its own simulated time: no order to keep.
+        if topic == topics::DIAGNOSTICS {
+            return Ok(message);
+        }
         if let Some(last) = self.last_stamp.get(topic) {
             if (stamp.sec, stamp.nanosec) < (last.sec, last.nanosec) {
                 return Err((

@@ -172,6 +172,15 @@ impl Supervisor {
     /// Looks at every process once, without blocking: restarts the respawnable ones that died
     /// (once their delay has passed) and reports a death that must stop the graph.
     pub fn poll(&mut self) -> Result<Vec<Event>, SupervisorError> {
+        self.poll_with(&|_| Vec::new())
+    }
+
+    /// [`Supervisor::poll`], adding `extra(name)` to a restart's arguments (what the process
+    /// must know of the run so far, e.g. which of its inputs have already ended).
+    pub fn poll_with(
+        &mut self,
+        extra: &dyn Fn(&str) -> Vec<OsString>,
+    ) -> Result<Vec<Event>, SupervisorError> {
         let mut events = Vec::new();
         for process in &mut self.processes {
             if let Some(child) = &mut process.child {
@@ -213,14 +222,13 @@ impl Supervisor {
                     continue;
                 }
                 process.restart_at = None;
-                let child = start(
-                    &process.spec,
-                    &process.spec.restart_args,
-                    &process.last_line,
-                )
-                .map_err(|source| SupervisorError::Spawn {
-                    name: process.spec.name.clone(),
-                    source,
+                let mut args = process.spec.restart_args.clone();
+                args.extend(extra(&process.spec.name));
+                let child = start(&process.spec, &args, &process.last_line).map_err(|source| {
+                    SupervisorError::Spawn {
+                        name: process.spec.name.clone(),
+                        source,
+                    }
                 })?;
                 process.child = Some(child);
                 process.restarts += 1;

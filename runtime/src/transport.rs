@@ -411,32 +411,6 @@ impl TopicPublisher {
     }
 }
 
-/// One received sample: the topic and its payload (empty = end of stream).
-pub type Received = (&'static str, Vec<u8>);
-
-/// Subscribes to `topics`, feeding every sample into one unbounded channel (nothing dropped,
-/// zenoh's receive thread never blocked).
-pub fn subscribe(
-    session: &Session,
-    namespace: &str,
-    topics: &[&'static str],
-) -> Result<(Vec<zenoh::pubsub::Subscriber<()>>, mpsc::Receiver<Received>), TransportError> {
-    let (sender, receiver) = mpsc::channel();
-    let mut subscribers = Vec::new();
-    for &topic in topics {
-        let sender = sender.clone();
-        let subscriber = session
-            .declare_subscriber(topics::key_expr(namespace, topic))
-            .callback(move |sample| {
-                let _ = sender.send((topic, sample.payload().to_bytes().into_owned()));
-            })
-            .wait()
-            .map_err(zerr)?;
-        subscribers.push(subscriber);
-    }
-    Ok((subscribers, receiver))
-}
-
 /// Decodes a payload received on `topic` by the catalogue's type.
 pub fn decode(topic: &str, bytes: &[u8]) -> Result<Message, TransportError> {
     let spec = topics::spec(topic).ok_or_else(|| TransportError::Decode {
@@ -468,7 +442,10 @@ impl Pacer {
             return;
         }
         let (wall, first) = *self.origin.get_or_insert((Instant::now(), stamp_s));
-        let due = Duration::from_secs_f64(((stamp_s - first) / self.rate).max(0.0));
+        // A stamp far ahead at a tiny rate is a wait too long to represent: wait a day at most.
+        let due = Duration::try_from_secs_f64(((stamp_s - first) / self.rate).max(0.0))
+            .unwrap_or(Duration::MAX)
+            .min(Duration::from_secs(86_400));
         if let Some(wait) = due.checked_sub(wall.elapsed()) {
             std::thread::sleep(wait);
         }
@@ -499,12 +476,13 @@ pub fn run_node(
             start_timeout,
             rate,
             inbox: InboxOptions::default(),
+            ended: Vec::new(),
         },
     )
 }
 
 /// How [`run_node_with`] runs a node.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct NodeRun {
     /// Declare readiness; a source waits for the launcher's start signal.
     pub wait_for_start: bool,
@@ -514,6 +492,9 @@ pub struct NodeRun {
     pub rate: f64,
     /// What the receive path does with unusable samples and overload.
     pub inbox: InboxOptions,
+    /// Inputs whose streams ended before the node started (a respawned node is told so by its
+    /// launcher): nothing more will arrive on them.
+    pub ended: Vec<&'static str>,
 }
 
 /// [`run_node`] with every option. Returns what the receive path dropped.
@@ -529,6 +510,7 @@ pub fn run_node_with(
         start_timeout,
         rate,
         inbox: inbox_options,
+        ended,
     } = run;
     let inputs = node.inputs();
     let outputs = node.outputs();
@@ -582,6 +564,9 @@ pub fn run_node_with(
         }
     } else {
         let mut merger = Merger::new(&inputs);
+        for topic in ended {
+            let _ = merger.close(topic);
+        }
         let component = format!("nrslam/{name}/receive");
         let mut stamp = nrslam_msgs::Time::default();
         while !merger.finished() {
@@ -589,7 +574,7 @@ pub fn run_node_with(
                 Some(Delivery::End { topic }) => {
                     let _ = merger.close(topic);
                 }
-                Some(Delivery::Message { topic, message }) => {
+                Some(Delivery::Message { topic, message, .. }) => {
                     stamp = message.stamp();
                     let _ = merger.push(topic, message);
                 }
@@ -629,7 +614,9 @@ pub fn start_barrier(
     timeout: Duration,
     mut alive: impl FnMut() -> Result<(), String>,
 ) -> Result<(), TransportError> {
-    let deadline = Instant::now() + timeout;
+    let deadline = Instant::now()
+        .checked_add(timeout)
+        .ok_or_else(|| TransportError::Barrier(format!("a timeout of {timeout:?} is too long")))?;
     loop {
         alive().map_err(TransportError::Barrier)?;
         let replies = session
