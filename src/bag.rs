@@ -169,8 +169,8 @@ fn session(args: &TransportArgs) -> Result<zenoh::Session> {
     transport::open(&args.config(SessionMode::Peer)).context("opening the zenoh session")
 }
 
-/// Sets a flag on Ctrl-C (SIGINT) so a recorder or player can finish cleanly.
-fn interrupted() -> Arc<AtomicBool> {
+/// Sets a flag on Ctrl-C (SIGINT) so a recorder, player or `echo` can finish cleanly.
+pub(crate) fn interrupted() -> Arc<AtomicBool> {
     let flag = Arc::new(AtomicBool::new(false));
     let set = flag.clone();
     std::thread::spawn(move || {
@@ -311,7 +311,7 @@ pub fn info(args: InfoArgs) -> Result<()> {
             undecodable += 1;
         }
         count += 1;
-        if count % 256 == 0 {
+        if count.is_multiple_of(256) {
             bar.set_position(stream.position());
         }
     }
@@ -532,7 +532,7 @@ pub fn play(args: PlayArgs) -> Result<()> {
             pacer.pace(message.log_time_ns as f64 * 1e-9);
             publisher.publish_cdr(topic, message.data)?;
             published += 1;
-            if published % 256 == 0 {
+            if published.is_multiple_of(256) {
                 bar.set_position(stream.position());
             }
         }

@@ -270,8 +270,9 @@ pub fn echo(args: EchoArgs) -> Result<()> {
         observer_options(&args.transport)?,
     )?;
     let mut seen = 0u64;
-    loop {
-        match inbox.recv_timeout(Duration::from_secs(3600)) {
+    let stop = crate::bag::interrupted();
+    while !stop.load(std::sync::atomic::Ordering::SeqCst) {
+        match inbox.recv_timeout(Duration::from_millis(200)) {
             Ok(Some(Delivery::End { .. })) | Err(ReceiveError::Closed) => break,
             Ok(Some(Delivery::Message { message, .. })) => {
                 outln!("{}", message_json(&message)?);
