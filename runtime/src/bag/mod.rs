@@ -16,8 +16,14 @@
 //! Crash safety: the writer cuts a chunk every `chunk_size_bytes` of message data and flushes it
 //! to the operating system, so a recorder killed mid-run loses at most the chunk it was filling;
 //! [`ReadMode::Recover`] reads such a file (no summary, no end magic, no `metadata.yaml`) up to its
-//! last complete chunk.
+//! last complete chunk, and skips a damaged chunk in the middle of a file, reporting each loss.
+//!
+//! Reading streams ([`Bag::messages`]): memory holds one chunk at a time, whatever the size of the
+//! file, and no length read from the file is trusted before it is checked against the bytes
+//! present (see the `reader` module docs).
 
+mod crc;
+mod format;
 mod metadata;
 mod reader;
 mod source;
@@ -26,7 +32,10 @@ mod writer;
 pub use metadata::{
     BagInfo, FileInfo, MetadataFile, Nanoseconds, StartingTime, TopicMetadata, TopicWithCount,
 };
-pub use reader::{open, BagContents, BagMessage, ChunkSpan, ReadMode, TopicSummary};
+pub use reader::{
+    open, Bag, BagContents, BagMessage, ChunkLoss, ChunkSpan, Messages, ReadMode, ReadReport,
+    Summary, TopicSummary, IN_MEMORY_CHUNK_BYTES, MAX_RECORD_BYTES, MAX_SUMMARY_BYTES,
+};
 pub use source::{BagSource, SourceParams};
 pub use writer::{BagWriter, WriterOptions};
 
@@ -113,7 +122,7 @@ pub fn offered_qos_profiles(qos: &nrslam_msgs::topics::Qos) -> String {
 
 /// The `custom_data` of a bag (the recorded run's identity), from metadata.yaml without reading
 /// the messages, or, when it has none (a recorder that was killed), from the MCAP file's `nrslam`
-/// metadata record (`recover` must then be set).
+/// metadata record at its start (`recover` must then be set).
 pub fn custom_data(
     dir: &std::path::Path,
     recover: bool,
@@ -131,5 +140,5 @@ pub fn custom_data(
     } else {
         ReadMode::Strict
     };
-    Ok(open(dir, mode)?.custom_data)
+    Ok(Bag::open(dir, mode)?.custom_data().clone())
 }

@@ -1,20 +1,73 @@
-//! Reading a bag: every message in file (recorded) order, strictly or, for a file cut off
-//! mid-write, up to its last complete chunk.
+//! Reading a bag as a stream: messages in file (recorded) order, one chunk at a time.
+//!
+//! # Memory bound
+//!
+//! [`Bag::open`] reads `metadata.yaml`, the MCAP magic and, when the file is complete, its summary
+//! section (schemas, channels, statistics, one chunk index per chunk: tens of bytes per chunk,
+//! refused past [`MAX_SUMMARY_BYTES`]). [`Bag::messages`] then walks the data section through a
+//! 1 MiB buffered file reader and holds at most one chunk at a time: a chunk up to
+//! [`IN_MEMORY_CHUNK_BYTES`] is read whole, checked (CRC, then every record's framing) and its
+//! messages handed out; a larger one is read twice, once to check its CRC through the buffer, once
+//! record by record. So memory does not grow with the file: a 2 GB bag of 768 KiB chunks plays
+//! in a few tens of MB. The file is never read whole nor mapped.
+//!
+//! Every length read from the file (record lengths, a chunk's sizes, string and map lengths) is
+//! checked against the bytes actually present (what is left of the file, of the chunk, of the
+//! record) before anything is allocated for it; a single record (a message, a schema) may not
+//! exceed [`MAX_RECORD_BYTES`]. The `mcap` crate writes bags here but does not read them: its
+//! parsers reserve a string's declared length before reading it (see `format.rs`).
+//!
+//! # Damage
+//!
+//! [`ReadMode::Strict`] needs `metadata.yaml` and a complete MCAP file (summary, footer, end
+//! magic); any damage (a chunk whose CRC does not match, a length that runs past its container, a
+//! record that does not parse, a message on an unknown channel, a schema, channel or message
+//! outside the chunks of a chunked file, where no CRC covers it, a message count that disagrees
+//! with the summary's statistics) is a [`BagError::Corrupt`] naming the byte offset and
+//! suggesting `--recover`.
+//!
+//! [`ReadMode::Recover`] reads what it can. A damaged chunk is skipped whole (a chunk's messages
+//! are handed out only once the whole chunk checks, so no message of a damaged chunk is used) and
+//! reading resumes at the next good record: the next chunk of the summary's chunk index when the
+//! summary is intact, else just past the damaged chunk when its length is plausible and is
+//! followed by a record, else at the next position holding a chunk whose header is consistent and
+//! whose CRC matches (a scan). Each skip is a [`ChunkLoss`] in the [`ReadReport`]: its byte range,
+//! the messages lost when the message indexes tell (from the chunk index, or from the Message
+//! Index records that follow the skipped chunk) and why; it is also logged. A file cut off
+//! mid-write (a recorder that was killed: no summary, no end magic, no metadata.yaml) loses its
+//! last, partial chunk the same way, with [`ReadReport::stopped`] set.
+//!
+//! Not checked: the data-section CRC (chunk CRCs cover every message; message indexes are only
+//! used to count losses). Compressed chunks are not supported (nrslam writes uncompressed ones,
+//! as `ros2 bag record` does by default): strictly they are an error, recovered they are a loss.
 
+use super::crc::{crc32, Crc32};
+use super::format::{self, op, ChunkIndex, CHUNK_FIXED, MAGIC, RECORD_PREFIX};
 use super::metadata::{BagInfo, MetadataFile};
 use super::{BagError, MCAP_METADATA_NAME};
-use mcap::read::{ChunkReader, LinearReader, Options};
-use mcap::records::Record;
 use std::collections::{BTreeMap, HashMap};
+use std::fs::File;
+use std::io::{BufReader, Read};
 use std::path::{Path, PathBuf};
+
+/// Largest single record accepted (a message, a schema, a metadata record), and largest
+/// decompressed size a compressed chunk may declare.
+pub const MAX_RECORD_BYTES: u64 = 256 << 20;
+/// Largest summary section read (chunk indexes and the like; a 2 GB bag of 768 KiB chunks has
+/// about 250 KB). A larger one is not used: reading falls back to the data section alone.
+pub const MAX_SUMMARY_BYTES: u64 = 64 << 20;
+/// Chunks up to this size are read whole; larger ones record by record.
+pub const IN_MEMORY_CHUNK_BYTES: u64 = 64 << 20;
+/// Buffer of the file reader.
+const READ_BUFFER: usize = 1 << 20;
 
 /// How strictly to read.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ReadMode {
     /// metadata.yaml and a complete MCAP file (end magic) are required; any damage is an error.
     Strict,
-    /// For a recorder that was killed: metadata.yaml is optional, and the MCAP file is read up to
-    /// the first record that is cut off or damaged; a partly written chunk is dropped whole.
+    /// For a recorder that was killed or a damaged file: metadata.yaml is optional; damaged or
+    /// cut-off chunks are skipped whole and reported (see the module docs).
     Recover,
 }
 
@@ -45,7 +98,7 @@ pub struct TopicSummary {
     pub name: String,
     /// ROS 2 type.
     pub type_name: String,
-    /// Messages read.
+    /// Messages (read, or recorded according to the summary).
     pub count: u64,
 }
 
@@ -58,7 +111,102 @@ pub struct ChunkSpan {
     pub messages: u64,
 }
 
-/// What was read from a bag folder.
+/// A part of the file skipped by [`ReadMode::Recover`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ChunkLoss {
+    /// First byte skipped (the damaged record's start).
+    pub start_byte: u64,
+    /// Where reading resumed (the end of the file if it did not).
+    pub end_byte: u64,
+    /// Messages lost, when the message indexes tell.
+    pub messages: Option<u64>,
+    /// What was wrong.
+    pub reason: String,
+}
+
+impl std::fmt::Display for ChunkLoss {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "skipped bytes {}..{} ({} bytes, ",
+            self.start_byte,
+            self.end_byte,
+            self.end_byte.saturating_sub(self.start_byte)
+        )?;
+        match self.messages {
+            Some(n) => write!(f, "{n} messages lost")?,
+            None => write!(f, "messages lost unknown")?,
+        }
+        write!(f, "): {}", self.reason)
+    }
+}
+
+/// What a pass over the messages found (complete once the stream has ended).
+#[derive(Debug, Clone, Default)]
+pub struct ReadReport {
+    /// Complete chunks read, in file order.
+    pub chunks: Vec<ChunkSpan>,
+    /// Parts skipped (Recover mode).
+    pub losses: Vec<ChunkLoss>,
+    /// Why reading stopped before the end of the file (Recover mode), if it did.
+    pub stopped: Option<String>,
+    /// Topics of the messages read (all of them, also those a topic filter left out), in order of
+    /// first appearance, with counts.
+    pub topics: Vec<TopicSummary>,
+    /// Messages handed out.
+    pub messages: u64,
+    /// First and last log time (ns) of the messages read.
+    pub time_range_ns: Option<(u64, u64)>,
+    /// The MCAP `nrslam` metadata record, if one was read.
+    pub custom_data: BTreeMap<String, String>,
+}
+
+impl ReadReport {
+    /// Bytes of the MCAP file up to the end of the last complete chunk.
+    pub fn complete_bytes(&self) -> u64 {
+        self.chunks.last().map_or(0, |c| c.end_byte)
+    }
+
+    /// Messages known lost (losses whose count is unknown count as 0).
+    pub fn lost_messages(&self) -> u64 {
+        self.losses.iter().filter_map(|l| l.messages).sum()
+    }
+
+    fn count(&mut self, topic: &str, type_name: &str, log_time: u64) {
+        match self.topics.iter_mut().find(|t| t.name == topic) {
+            Some(t) => t.count += 1,
+            None => self.topics.push(TopicSummary {
+                name: topic.to_owned(),
+                type_name: type_name.to_owned(),
+                count: 1,
+            }),
+        }
+        self.time_range_ns = Some(match self.time_range_ns {
+            None => (log_time, log_time),
+            Some((a, b)) => (a.min(log_time), b.max(log_time)),
+        });
+    }
+}
+
+/// The MCAP summary section, when present and intact.
+#[derive(Debug, Clone)]
+pub struct Summary {
+    /// Topics in channel order, with the statistics' counts (0 without statistics).
+    pub topics: Vec<TopicSummary>,
+    /// Messages according to the statistics record.
+    pub message_count: Option<u64>,
+    /// First and last log time according to the statistics record.
+    pub time_range_ns: Option<(u64, u64)>,
+    /// Chunks according to the chunk indexes.
+    pub chunk_count: usize,
+    channels: HashMap<u16, ChannelInfo>,
+    chunk_indexes: Vec<ChunkIndex>,
+    metadata: Vec<(u64, u64, String)>,
+    start: u64,
+}
+
+/// What was read from a bag folder, every message in memory: a convenience for tests and small
+/// bags ([`open`]). [`Bag::messages`] streams instead.
 #[derive(Debug, Clone)]
 pub struct BagContents {
     /// The folder.
@@ -73,6 +221,8 @@ pub struct BagContents {
     pub topics: Vec<TopicSummary>,
     /// Complete chunks read, in file order.
     pub chunks: Vec<ChunkSpan>,
+    /// Parts skipped (Recover mode).
+    pub losses: Vec<ChunkLoss>,
     /// The recorded run's identity (metadata.yaml `custom_data`, or the MCAP metadata record).
     pub custom_data: BTreeMap<String, String>,
     /// Size of the MCAP file (bytes).
@@ -97,26 +247,191 @@ impl BagContents {
     /// Keeps only the messages of `topics` (all if empty); a topic that is not in the bag is an
     /// error.
     pub fn retain_topics(&mut self, topics: &[String]) -> Result<(), BagError> {
+        check_topics(topics, &self.topics)?;
         if topics.is_empty() {
             return Ok(());
-        }
-        for topic in topics {
-            if !self.topics.iter().any(|t| &t.name == topic) {
-                return Err(BagError::UnknownTopic {
-                    topic: topic.clone(),
-                    recorded: self
-                        .topics
-                        .iter()
-                        .map(|t| t.name.as_str())
-                        .collect::<Vec<_>>()
-                        .join(", "),
-                });
-            }
         }
         self.messages.retain(|m| topics.contains(&m.topic));
         self.topics.retain(|t| topics.contains(&t.name));
         Ok(())
     }
+}
+
+/// Every name of `wanted` must be one of `recorded`.
+pub(crate) fn check_topics(wanted: &[String], recorded: &[TopicSummary]) -> Result<(), BagError> {
+    for topic in wanted {
+        if !recorded.iter().any(|t| &t.name == topic) {
+            return Err(BagError::UnknownTopic {
+                topic: topic.clone(),
+                recorded: recorded
+                    .iter()
+                    .map(|t| t.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Reads the bag folder `dir` (or, if `dir` is an `.mcap` file, that file alone) with every
+/// message in memory. Prefer [`Bag::open`] and [`Bag::messages`] for anything large.
+pub fn open(dir: &Path, mode: ReadMode) -> Result<BagContents, BagError> {
+    Bag::open(dir, mode)?.read_all()
+}
+
+#[derive(Debug, Clone)]
+struct ChannelInfo {
+    topic: String,
+    type_name: String,
+}
+
+/// Damage found at a byte offset.
+#[derive(Debug)]
+struct Damage {
+    offset: u64,
+    reason: String,
+}
+
+enum Fail {
+    Damage(Damage),
+    Io(std::io::Error),
+}
+
+impl From<Damage> for Fail {
+    fn from(d: Damage) -> Self {
+        Fail::Damage(d)
+    }
+}
+
+fn damage(offset: u64, reason: impl Into<String>) -> Fail {
+    Fail::Damage(Damage {
+        offset,
+        reason: reason.into(),
+    })
+}
+
+/// The MCAP file behind a buffered reader, with its length fixed when opened.
+struct Source {
+    reader: BufReader<File>,
+    pos: u64,
+    len: u64,
+}
+
+impl Source {
+    fn open(path: &Path) -> std::io::Result<Self> {
+        let file = File::open(path)?;
+        let len = file.metadata()?.len();
+        Ok(Self {
+            reader: BufReader::with_capacity(READ_BUFFER, file),
+            pos: 0,
+            len,
+        })
+    }
+
+    fn seek(&mut self, offset: u64) -> std::io::Result<()> {
+        if offset != self.pos {
+            let delta = i64::try_from(i128::from(offset) - i128::from(self.pos))
+                .map_err(|_| std::io::Error::other("seek out of range"))?;
+            self.reader.seek_relative(delta)?;
+            self.pos = offset;
+        }
+        Ok(())
+    }
+
+    /// Reads `buf.len()` bytes at `offset`; bytes missing (the file shrank) are damage there.
+    fn read_at(&mut self, offset: u64, buf: &mut [u8]) -> Result<(), Fail> {
+        if offset.saturating_add(buf.len() as u64) > self.len {
+            return Err(damage(
+                offset,
+                format!(
+                    "{} bytes needed, {} left in the file (cut off?)",
+                    buf.len(),
+                    self.len.saturating_sub(offset)
+                ),
+            ));
+        }
+        self.seek(offset).map_err(Fail::Io)?;
+        match self.reader.read_exact(buf) {
+            Ok(()) => {
+                self.pos += buf.len() as u64;
+                Ok(())
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::UnexpectedEof => {
+                // Where the reader stands is unknown now; force a real seek next time.
+                self.pos = u64::MAX;
+                let _ = self.reader.seek_relative(0);
+                Err(damage(
+                    offset,
+                    "the file is shorter than when it was opened",
+                ))
+            }
+            Err(e) => Err(Fail::Io(e)),
+        }
+    }
+
+    /// Reads `n` bytes at `offset` into `buf` (resized), after checking they are in the file.
+    fn read_into(&mut self, offset: u64, n: u64, buf: &mut Vec<u8>) -> Result<(), Fail> {
+        if offset.saturating_add(n) > self.len {
+            return Err(damage(
+                offset,
+                format!(
+                    "{n} bytes declared, {} left in the file",
+                    self.len.saturating_sub(offset)
+                ),
+            ));
+        }
+        buf.clear();
+        buf.resize(n as usize, 0);
+        self.read_at(offset, buf)
+    }
+
+    /// Opcode and length of the record at `offset`.
+    fn record_header(&mut self, offset: u64) -> Result<(u8, u64), Fail> {
+        let mut head = [0u8; RECORD_PREFIX as usize];
+        self.read_at(offset, &mut head)?;
+        let mut len = [0u8; 8];
+        len.copy_from_slice(&head[1..]);
+        Ok((head[0], u64::from_le_bytes(len)))
+    }
+
+    /// Length of the record at `offset` after checking it ends by `limit`.
+    fn record_within(&mut self, offset: u64, limit: u64) -> Result<(u8, u64), Fail> {
+        let (opcode, len) = self.record_header(offset)?;
+        let end = offset
+            .checked_add(RECORD_PREFIX)
+            .and_then(|o| o.checked_add(len));
+        match end {
+            Some(end) if end <= limit => Ok((opcode, len)),
+            _ => Err(damage(
+                offset,
+                format!(
+                    "record 0x{opcode:02x} declares {len} bytes, {} left{}",
+                    limit.saturating_sub(offset + RECORD_PREFIX),
+                    if limit == self.len {
+                        " in the file (cut off, or a garbage length)"
+                    } else {
+                        ""
+                    }
+                ),
+            )),
+        }
+    }
+}
+
+/// A bag folder opened for reading: metadata.yaml, the MCAP file's summary when intact, and the
+/// recorded run's identity. [`Bag::messages`] streams its messages.
+#[derive(Debug, Clone)]
+pub struct Bag {
+    dir: PathBuf,
+    mcap_path: PathBuf,
+    metadata: Option<BagInfo>,
+    mode: ReadMode,
+    file_bytes: u64,
+    summary: Option<Summary>,
+    summary_note: Option<String>,
+    custom_data: BTreeMap<String, String>,
+    in_memory_chunk_bytes: u64,
 }
 
 fn find_mcap(dir: &Path, metadata: Option<&BagInfo>) -> Result<PathBuf, BagError> {
@@ -155,227 +470,1098 @@ fn find_mcap(dir: &Path, metadata: Option<&BagInfo>) -> Result<PathBuf, BagError
     }
 }
 
-/// Reads the bag folder `dir` (or, if `dir` is an `.mcap` file, that file alone).
-pub fn open(dir: &Path, mode: ReadMode) -> Result<BagContents, BagError> {
-    if !dir.exists() {
-        return Err(BagError::Io {
-            path: dir.to_owned(),
-            source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file or folder"),
-        });
-    }
-    let (folder, metadata, mcap_path) = if dir.is_file() {
-        let folder = dir.parent().map(Path::to_owned).unwrap_or_default();
-        (folder, None, dir.to_owned())
-    } else {
-        let metadata_path = dir.join("metadata.yaml");
-        let metadata = match std::fs::read_to_string(&metadata_path) {
-            Ok(text) => Some(
-                MetadataFile::from_yaml(&text)
-                    .map_err(|e| BagError::Corrupt {
-                        path: metadata_path.clone(),
-                        reason: format!("not rosbag2 metadata: {e}"),
-                    })?
-                    .rosbag2_bagfile_information,
-            ),
-            Err(_) if mode == ReadMode::Recover => None,
-            Err(_) => {
-                return Err(BagError::NotABag {
-                    path: dir.to_owned(),
-                    reason: "no metadata.yaml (a recording cut off? try --recover)".into(),
-                })
+impl Bag {
+    /// Opens the bag folder `dir` (or, if `dir` is an `.mcap` file, that file alone): reads
+    /// metadata.yaml, checks the MCAP magic and reads the summary section (Strict mode: it must be
+    /// intact; Recover mode: a damaged or missing one is noted and not used).
+    pub fn open(dir: &Path, mode: ReadMode) -> Result<Self, BagError> {
+        if !dir.exists() {
+            return Err(BagError::Io {
+                path: dir.to_owned(),
+                source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file or folder"),
+            });
+        }
+        let (folder, metadata, mcap_path) = if dir.is_file() {
+            let folder = dir.parent().map(Path::to_owned).unwrap_or_default();
+            (folder, None, dir.to_owned())
+        } else {
+            let metadata_path = dir.join("metadata.yaml");
+            let metadata = match std::fs::read_to_string(&metadata_path) {
+                Ok(text) => Some(
+                    MetadataFile::from_yaml(&text)
+                        .map_err(|e| BagError::Corrupt {
+                            path: metadata_path.clone(),
+                            reason: format!("not rosbag2 metadata: {e}"),
+                        })?
+                        .rosbag2_bagfile_information,
+                ),
+                Err(_) if mode == ReadMode::Recover => None,
+                Err(_) => {
+                    return Err(BagError::NotABag {
+                        path: dir.to_owned(),
+                        reason: "no metadata.yaml (a recording cut off? try --recover)".into(),
+                    })
+                }
+            };
+            if let Some(info) = &metadata {
+                if info.storage_identifier != "mcap" {
+                    return Err(BagError::NotABag {
+                        path: dir.to_owned(),
+                        reason: format!(
+                            "storage {:?} is not supported (only mcap)",
+                            info.storage_identifier
+                        ),
+                    });
+                }
             }
+            let mcap_path = find_mcap(dir, metadata.as_ref())?;
+            (dir.to_owned(), metadata, mcap_path)
         };
-        if let Some(info) = &metadata {
-            if info.storage_identifier != "mcap" {
-                return Err(BagError::NotABag {
-                    path: dir.to_owned(),
-                    reason: format!(
-                        "storage {:?} is not supported (only mcap)",
-                        info.storage_identifier
-                    ),
-                });
-            }
+        let io = |source| BagError::Io {
+            path: mcap_path.clone(),
+            source,
+        };
+        let mut src = Source::open(&mcap_path).map_err(io)?;
+        let mut magic = [0u8; 8];
+        if src.read_at(0, &mut magic).is_err() || &magic != MAGIC {
+            return Err(BagError::Corrupt {
+                path: mcap_path.clone(),
+                reason: "not an MCAP file (no MCAP magic at its start)".into(),
+            });
         }
-        let mcap_path = find_mcap(dir, metadata.as_ref())?;
-        (dir.to_owned(), metadata, mcap_path)
-    };
-    let bytes = std::fs::read(&mcap_path).map_err(|source| BagError::Io {
-        path: mcap_path.clone(),
-        source,
-    })?;
-    let mut contents = read_mcap(&bytes, mode).map_err(|reason| BagError::Corrupt {
-        path: mcap_path.clone(),
+        let (summary, summary_note) = match read_summary(&mut src) {
+            Ok(Ok(summary)) => (Some(summary), None),
+            Ok(Err(note)) => (None, Some(note)),
+            Err(Fail::Io(e)) => return Err(io(e)),
+            Err(Fail::Damage(d)) if mode == ReadMode::Strict => {
+                return Err(corrupt(&mcap_path, mode, &d))
+            }
+            Err(Fail::Damage(d)) => (None, Some(format!("at byte {}: {}", d.offset, d.reason))),
+        };
+        let mut custom_data = metadata
+            .as_ref()
+            .map(|m| m.custom_data.clone())
+            .unwrap_or_default();
+        if custom_data.is_empty() {
+            custom_data = first_metadata_record(&mut src, summary.as_ref()).unwrap_or_default();
+        }
+        Ok(Self {
+            dir: folder,
+            mcap_path,
+            metadata,
+            mode,
+            file_bytes: src.len,
+            summary,
+            summary_note,
+            custom_data,
+            in_memory_chunk_bytes: IN_MEMORY_CHUNK_BYTES,
+        })
+    }
+
+    /// The folder.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// The MCAP file.
+    pub fn mcap_path(&self) -> &Path {
+        &self.mcap_path
+    }
+
+    /// metadata.yaml, when present.
+    pub fn metadata(&self) -> Option<&BagInfo> {
+        self.metadata.as_ref()
+    }
+
+    /// How it is read.
+    pub fn mode(&self) -> ReadMode {
+        self.mode
+    }
+
+    /// Size of the MCAP file (bytes).
+    pub fn file_bytes(&self) -> u64 {
+        self.file_bytes
+    }
+
+    /// The MCAP summary section, when present and intact.
+    pub fn summary(&self) -> Option<&Summary> {
+        self.summary.as_ref()
+    }
+
+    /// Why there is no summary (missing, damaged, too large), if there is none.
+    pub fn summary_note(&self) -> Option<&str> {
+        self.summary_note.as_deref()
+    }
+
+    /// The recorded run's identity (metadata.yaml `custom_data`, or the MCAP `nrslam` metadata
+    /// record at the start of the file).
+    pub fn custom_data(&self) -> &BTreeMap<String, String> {
+        &self.custom_data
+    }
+
+    /// The bag's topics without reading its messages: from the summary's channels and statistics,
+    /// else from metadata.yaml; `None` when neither is there (see [`Bag::survey`]).
+    pub fn topics(&self) -> Option<Vec<TopicSummary>> {
+        if let Some(summary) = &self.summary {
+            return Some(summary.topics.clone());
+        }
+        let info = self.metadata.as_ref()?;
+        Some(
+            info.topics_with_message_count
+                .iter()
+                .map(|t| TopicSummary {
+                    name: t.topic_metadata.name.clone(),
+                    type_name: t.topic_metadata.type_name.clone(),
+                    count: t.message_count,
+                })
+                .collect(),
+        )
+    }
+
+    /// Sets the size above which chunks are read record by record instead of whole (tests).
+    #[doc(hidden)]
+    pub fn set_in_memory_chunk_bytes(&mut self, bytes: u64) {
+        self.in_memory_chunk_bytes = bytes;
+    }
+
+    /// Streams every message, in file order.
+    pub fn messages(&self) -> Result<Messages, BagError> {
+        self.stream(None, false)
+    }
+
+    /// Streams the messages of `topics` (all if empty), in file order. A topic the bag does not
+    /// hold is an error when the bag's topics are known without reading ([`Bag::topics`]).
+    pub fn messages_on(&self, topics: &[String]) -> Result<Messages, BagError> {
+        if topics.is_empty() {
+            return self.messages();
+        }
+        if let Some(known) = self.topics() {
+            check_topics(topics, &known)?;
+        }
+        self.stream(Some(topics.to_vec()), false)
+    }
+
+    /// One pass over the file that counts messages per topic without handing them out.
+    pub fn survey(&self) -> Result<ReadReport, BagError> {
+        let mut stream = self.stream(None, true)?;
+        for item in stream.by_ref() {
+            item?;
+        }
+        Ok(stream.into_report())
+    }
+
+    /// Every message in memory, with the report of the pass.
+    pub fn read_all(&self) -> Result<BagContents, BagError> {
+        let mut stream = self.messages()?;
+        let mut messages = Vec::new();
+        for message in stream.by_ref() {
+            messages.push(message?);
+        }
+        let report = stream.into_report();
+        let mut custom_data = self.custom_data.clone();
+        if custom_data.is_empty() {
+            custom_data = report.custom_data;
+        }
+        Ok(BagContents {
+            dir: self.dir.clone(),
+            mcap_path: self.mcap_path.clone(),
+            metadata: self.metadata.clone(),
+            messages,
+            topics: report.topics,
+            chunks: report.chunks,
+            losses: report.losses,
+            custom_data,
+            file_bytes: self.file_bytes,
+            stopped: report.stopped,
+        })
+    }
+
+    fn stream(&self, filter: Option<Vec<String>>, count_only: bool) -> Result<Messages, BagError> {
+        let src = Source::open(&self.mcap_path).map_err(|source| BagError::Io {
+            path: self.mcap_path.clone(),
+            source,
+        })?;
+        let (channels, chunk_indexes, data_end, expected) = match &self.summary {
+            Some(s) => (
+                s.channels.clone(),
+                s.chunk_indexes.clone(),
+                s.start,
+                s.message_count,
+            ),
+            None => (HashMap::new(), Vec::new(), src.len, None),
+        };
+        Ok(Messages {
+            src,
+            path: self.mcap_path.clone(),
+            mode: self.mode,
+            filter,
+            count_only,
+            schemas: HashMap::new(),
+            channels,
+            chunk_indexes,
+            data_end,
+            expected_messages: expected,
+            seen_messages: 0,
+            pos: 8,
+            chunk: None,
+            done: false,
+            open_loss: None,
+            in_memory_chunk_bytes: self.in_memory_chunk_bytes,
+            scratch: Vec::new(),
+            partial: 0,
+            chunked: self.summary.as_ref().is_some_and(|s| s.chunk_count > 0),
+            report: ReadReport::default(),
+        })
+    }
+}
+
+fn corrupt(path: &Path, mode: ReadMode, d: &Damage) -> BagError {
+    BagError::Corrupt {
+        path: path.to_owned(),
         reason: match mode {
-            ReadMode::Strict => format!("{reason} (a recording cut off? try --recover)"),
-            ReadMode::Recover => reason,
+            ReadMode::Strict => format!(
+                "damaged at byte {}: {} (a recording cut off or damaged? try --recover, which skips damaged chunks)",
+                d.offset, d.reason
+            ),
+            ReadMode::Recover => format!("damaged at byte {}: {}", d.offset, d.reason),
         },
-    })?;
-    if let Some(info) = &metadata {
-        if !info.custom_data.is_empty() {
-            contents.custom_data = info.custom_data.clone();
+    }
+}
+
+/// The summary section through the footer at the end of the file: `Ok(Err(note))` when there is
+/// none to use, damage when the end of the file is not a valid footer and end magic.
+fn read_summary(src: &mut Source) -> Result<Result<Summary, String>, Fail> {
+    let tail = RECORD_PREFIX + format::FOOTER_BODY + 8;
+    let len = src.len;
+    if len < 8 + tail {
+        return Err(damage(len, "no footer (the file is cut off)"));
+    }
+    let footer_at = len - tail;
+    let mut end = [0u8; (RECORD_PREFIX + format::FOOTER_BODY + 8) as usize];
+    src.read_at(footer_at, &mut end)?;
+    if &end[end.len() - 8..] != MAGIC {
+        return Err(damage(
+            len - 8,
+            "no MCAP magic at the end (the file is cut off)",
+        ));
+    }
+    if end[0] != op::FOOTER || end[1..9] != format::FOOTER_BODY.to_le_bytes() {
+        return Err(damage(footer_at, "no footer record before the end magic"));
+    }
+    let (summary_start, _, summary_crc) =
+        format::footer(&end[9..29]).map_err(|e| damage(footer_at, e))?;
+    if summary_start == 0 {
+        return Ok(Err("the file has no summary section".into()));
+    }
+    if !(8..=footer_at).contains(&summary_start) {
+        return Err(damage(
+            footer_at,
+            format!("footer points the summary at byte {summary_start}, outside the file"),
+        ));
+    }
+    let section_len = footer_at - summary_start;
+    if section_len > MAX_SUMMARY_BYTES {
+        return Ok(Err(format!(
+            "summary section of {section_len} bytes is over the {MAX_SUMMARY_BYTES}-byte limit"
+        )));
+    }
+    let mut section = Vec::new();
+    src.read_into(summary_start, section_len, &mut section)?;
+    if summary_crc != 0 {
+        let mut crc = Crc32::default();
+        crc.update(&section);
+        crc.update(&end[..9 + 16]);
+        if crc.finish() != summary_crc {
+            return Err(damage(summary_start, "summary section CRC mismatch"));
         }
     }
-    contents.dir = folder;
-    contents.mcap_path = mcap_path;
-    contents.metadata = metadata;
-    Ok(contents)
+    let mut schemas = HashMap::new();
+    let mut channels: Vec<(u16, u16, String)> = Vec::new();
+    let mut statistics = None;
+    let mut chunk_indexes = Vec::new();
+    let mut metadata = Vec::new();
+    let mut c = format::Cursor::new(&section);
+    while !c.is_empty() {
+        let at = summary_start + c.position() as u64;
+        let bad = |e: String| damage(at, format!("summary: {e}"));
+        let opcode = c.u8("record opcode").map_err(bad)?;
+        let len = c.u64("record length").map_err(bad)?;
+        let body = c.take(len, "summary record").map_err(bad)?;
+        match opcode {
+            op::SCHEMA => {
+                let s = format::schema(body).map_err(bad)?;
+                schemas.insert(s.id, s.name.to_owned());
+            }
+            op::CHANNEL => {
+                let ch = format::channel(body).map_err(bad)?;
+                channels.push((ch.id, ch.schema_id, ch.topic.to_owned()));
+            }
+            op::STATISTICS => statistics = Some(format::statistics(body).map_err(bad)?),
+            op::CHUNK_INDEX => chunk_indexes.push(format::chunk_index(body).map_err(bad)?),
+            op::METADATA_INDEX => metadata.push(format::metadata_index(body).map_err(bad)?),
+            _ => {}
+        }
+    }
+    chunk_indexes.sort_by_key(|c| c.start_offset);
+    let mut previous_end = 8;
+    for index in &chunk_indexes {
+        let end = index.start_offset.checked_add(index.length);
+        if index.start_offset < previous_end || end.is_none_or(|e| e > summary_start) {
+            return Err(damage(
+                summary_start,
+                format!(
+                    "summary: chunk index {}+{} overlaps or leaves the data section",
+                    index.start_offset, index.length
+                ),
+            ));
+        }
+        previous_end = end.unwrap_or(summary_start);
+    }
+    channels.sort_by_key(|c| c.0);
+    let mut infos = HashMap::new();
+    let mut topics: Vec<TopicSummary> = Vec::new();
+    for (id, schema_id, topic) in channels {
+        let type_name = schemas.get(&schema_id).cloned().ok_or_else(|| {
+            damage(
+                summary_start,
+                format!("summary: channel {topic} has no schema"),
+            )
+        })?;
+        let count = statistics.as_ref().map_or(0, |s: &format::Statistics| {
+            s.channel_message_counts
+                .iter()
+                .filter(|(c, _)| *c == id)
+                .map(|(_, n)| *n)
+                .sum()
+        });
+        match topics.iter_mut().find(|t| t.name == topic) {
+            Some(t) => t.count += count,
+            None => topics.push(TopicSummary {
+                name: topic.clone(),
+                type_name: type_name.clone(),
+                count,
+            }),
+        }
+        infos.insert(id, ChannelInfo { topic, type_name });
+    }
+    Ok(Ok(Summary {
+        topics,
+        message_count: statistics.as_ref().map(|s| s.message_count),
+        time_range_ns: statistics
+            .as_ref()
+            .filter(|s| s.message_count > 0)
+            .map(|s| (s.message_start_time, s.message_end_time)),
+        chunk_count: chunk_indexes.len(),
+        channels: infos,
+        chunk_indexes,
+        metadata,
+        start: summary_start,
+    }))
 }
 
-#[derive(Clone)]
-struct ChannelInfo {
-    topic: String,
-    schema_id: u16,
+/// The `nrslam` metadata record: through the summary's metadata index, else the first one among
+/// the records before the first chunk (where the writer puts it).
+fn first_metadata_record(
+    src: &mut Source,
+    summary: Option<&Summary>,
+) -> Option<BTreeMap<String, String>> {
+    let mut body = Vec::new();
+    let mut read = |src: &mut Source, offset: u64| -> Option<BTreeMap<String, String>> {
+        let (opcode, len) = src.record_within(offset, src.len).ok()?;
+        if opcode != op::METADATA || len > MAX_RECORD_BYTES {
+            return None;
+        }
+        src.read_into(offset + RECORD_PREFIX, len, &mut body).ok()?;
+        let (name, map) = format::metadata(&body).ok()?;
+        (name == MCAP_METADATA_NAME).then_some(map)
+    };
+    if let Some(summary) = summary {
+        let (offset, _, _) = summary
+            .metadata
+            .iter()
+            .find(|(_, _, name)| name == MCAP_METADATA_NAME)?;
+        return read(src, *offset);
+    }
+    let mut offset = 8;
+    for _ in 0..64 {
+        let (opcode, len) = src.record_within(offset, src.len).ok()?;
+        match opcode {
+            op::METADATA => {
+                if let Some(map) = read(src, offset) {
+                    return Some(map);
+                }
+            }
+            op::CHUNK | op::DATA_END | op::FOOTER => return None,
+            _ => {}
+        }
+        offset += RECORD_PREFIX + len;
+    }
+    None
 }
 
-#[derive(Default)]
-struct State {
+/// A chunk being handed out.
+enum OpenChunk {
+    /// Read whole and checked: message records as (channel, log time, data range in `buf`).
+    Memory {
+        buf: Vec<u8>,
+        messages: Vec<(u16, u64, std::ops::Range<usize>)>,
+        next: usize,
+    },
+    /// Too large to hold: its CRC is checked, its records are read one by one.
+    File {
+        start: u64,
+        next: u64,
+        end: u64,
+        end_byte: u64,
+        count: u64,
+    },
+}
+
+/// The messages of a bag, streamed in file order (see the module docs); an error ends the stream.
+/// [`Messages::report`] tells what was read, skipped and lost.
+pub struct Messages {
+    src: Source,
+    path: PathBuf,
+    mode: ReadMode,
+    filter: Option<Vec<String>>,
+    count_only: bool,
     schemas: HashMap<u16, String>,
     channels: HashMap<u16, ChannelInfo>,
-    messages: Vec<BagMessage>,
-    custom_data: BTreeMap<String, String>,
+    chunk_indexes: Vec<ChunkIndex>,
+    data_end: u64,
+    expected_messages: Option<u64>,
+    seen_messages: u64,
+    pos: u64,
+    chunk: Option<OpenChunk>,
+    done: bool,
+    open_loss: Option<usize>,
+    in_memory_chunk_bytes: u64,
+    scratch: Vec<u8>,
+    /// Messages already handed out from the chunk being read record by record.
+    partial: u64,
+    /// Whether the file has chunks (a chunk was met, or the summary indexes some): schemas,
+    /// channels and messages are then taken from inside chunks only.
+    chunked: bool,
+    report: ReadReport,
 }
 
-impl State {
-    /// Takes one record (top level or inside a chunk).
-    fn take(&mut self, record: Record<'_>) -> Result<(), String> {
-        match record {
-            Record::Schema { header, .. } => {
-                self.schemas.insert(header.id, header.name);
+/// What the top level of the data section yielded.
+enum Step {
+    Message(BagMessage),
+    Continue,
+    End,
+}
+
+impl Iterator for Messages {
+    type Item = Result<BagMessage, BagError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        loop {
+            if self.done {
+                return None;
             }
-            Record::Channel(channel) => {
-                self.channels.insert(
-                    channel.id,
-                    ChannelInfo {
-                        topic: channel.topic,
-                        schema_id: channel.schema_id,
-                    },
-                );
+            let step = match self.chunk.take() {
+                Some(chunk) => self.chunk_step(chunk),
+                None => self.top_level_step(),
+            };
+            match step {
+                Ok(Step::Message(message)) => return Some(Ok(message)),
+                Ok(Step::Continue) => {}
+                Ok(Step::End) => {
+                    self.done = true;
+                    return self.final_check().err().map(Err);
+                }
+                Err(Fail::Io(source)) => {
+                    self.done = true;
+                    return Some(Err(BagError::Io {
+                        path: self.path.clone(),
+                        source,
+                    }));
+                }
+                Err(Fail::Damage(d)) => {
+                    self.chunk = None;
+                    if let Err(e) = self.recover_from(d) {
+                        self.done = true;
+                        return Some(Err(e));
+                    }
+                }
             }
-            Record::Message { header, data } => {
-                let channel = self
-                    .channels
-                    .get(&header.channel_id)
-                    .ok_or_else(|| format!("message on unknown channel {}", header.channel_id))?;
-                let type_name = self
-                    .schemas
-                    .get(&channel.schema_id)
-                    .ok_or_else(|| format!("channel {} has no schema", channel.topic))?;
-                self.messages.push(BagMessage {
-                    topic: channel.topic.clone(),
-                    type_name: type_name.clone(),
-                    log_time_ns: header.log_time,
-                    data: data.into_owned(),
-                });
+        }
+    }
+}
+
+impl Messages {
+    /// What has been read so far (all of it once the stream has ended).
+    pub fn report(&self) -> &ReadReport {
+        &self.report
+    }
+
+    /// The report, once done.
+    pub fn into_report(self) -> ReadReport {
+        self.report
+    }
+
+    /// Bytes of the file passed so far (for progress).
+    pub fn position(&self) -> u64 {
+        self.pos
+    }
+
+    fn wanted(&self, topic: &str) -> bool {
+        !self.count_only
+            && self
+                .filter
+                .as_ref()
+                .is_none_or(|f| f.iter().any(|t| t == topic))
+    }
+
+    /// Counts a message and makes it, if it is wanted.
+    fn take_message(&mut self, channel: u16, log_time: u64, data: &[u8]) -> Option<BagMessage> {
+        let info = self.channels.get(&channel)?;
+        self.seen_messages += 1;
+        self.report.count(&info.topic, &info.type_name, log_time);
+        if !self.wanted(&info.topic) {
+            return None;
+        }
+        self.report.messages += 1;
+        Some(BagMessage {
+            topic: info.topic.clone(),
+            type_name: info.type_name.clone(),
+            log_time_ns: log_time,
+            data: data.to_vec(),
+        })
+    }
+
+    fn register_schema(&mut self, body: &[u8]) -> Result<(), String> {
+        let s = format::schema(body)?;
+        self.schemas.insert(s.id, s.name.to_owned());
+        Ok(())
+    }
+
+    fn register_channel(&mut self, body: &[u8]) -> Result<(), String> {
+        let ch = format::channel(body)?;
+        if self.channels.contains_key(&ch.id) {
+            return Ok(());
+        }
+        let type_name = self
+            .schemas
+            .get(&ch.schema_id)
+            .ok_or_else(|| format!("channel {} has no schema", ch.topic))?
+            .clone();
+        self.channels.insert(
+            ch.id,
+            ChannelInfo {
+                topic: ch.topic.to_owned(),
+                type_name,
+            },
+        );
+        Ok(())
+    }
+
+    fn top_level_step(&mut self) -> Result<Step, Fail> {
+        let at = self.pos;
+        if at >= self.data_end {
+            if self.mode == ReadMode::Recover && self.data_end == self.src.len {
+                self.report.stopped = Some("file ends without a summary".into());
             }
-            Record::Metadata(metadata) if metadata.name == MCAP_METADATA_NAME => {
-                self.custom_data = metadata.metadata;
+            return if self.mode == ReadMode::Strict {
+                Err(damage(
+                    at,
+                    "the data section ends without a Data End record",
+                ))
+            } else {
+                Ok(Step::End)
+            };
+        }
+        let (opcode, len) = self.src.record_within(at, self.data_end)?;
+        let next = at + RECORD_PREFIX + len;
+        let body_at = at + RECORD_PREFIX;
+        let bounded = |len: u64| {
+            if len > MAX_RECORD_BYTES {
+                Err(damage(
+                    at,
+                    format!("record 0x{opcode:02x} of {len} bytes is over the {MAX_RECORD_BYTES}-byte limit"),
+                ))
+            } else {
+                Ok(())
+            }
+        };
+        match opcode {
+            op::CHUNK => {
+                self.chunked = true;
+                let chunk = self.open_chunk(at, len)?;
+                self.open_loss = None;
+                self.pos = next;
+                self.chunk = Some(chunk);
+                return Ok(Step::Continue);
+            }
+            op::DATA_END | op::FOOTER => return Ok(Step::End),
+            op::SCHEMA | op::CHANNEL | op::MESSAGE if self.chunked => {
+                // Outside chunks these records have no CRC: in a chunked file one here is a damaged
+                // record (a Message Index whose opcode lost a bit reads as a Message).
+                return Err(damage(
+                    at,
+                    format!("record 0x{opcode:02x} outside the chunks of a chunked file"),
+                ));
+            }
+            op::SCHEMA | op::CHANNEL | op::MESSAGE | op::METADATA | op::MESSAGE_INDEX => {
+                bounded(len)?;
+                let mut body = std::mem::take(&mut self.scratch);
+                self.src.read_into(body_at, len, &mut body)?;
+                let result = self.top_level_record(opcode, &body);
+                self.scratch = body;
+                let message = result.map_err(|e| damage(at, e))?;
+                self.pos = next;
+                if let Some(message) = message {
+                    return Ok(Step::Message(message));
+                }
+            }
+            0 => return Err(damage(at, "record with opcode 0x00")),
+            _ => self.pos = next,
+        }
+        Ok(Step::Continue)
+    }
+
+    fn top_level_record(&mut self, opcode: u8, body: &[u8]) -> Result<Option<BagMessage>, String> {
+        match opcode {
+            op::SCHEMA => self.register_schema(body)?,
+            op::CHANNEL => self.register_channel(body)?,
+            op::MESSAGE => {
+                let m = format::message(body)?;
+                if !self.channels.contains_key(&m.channel_id) {
+                    return Err(format!("message on unknown channel {}", m.channel_id));
+                }
+                return Ok(self.take_message(m.channel_id, m.log_time, m.data));
+            }
+            op::METADATA => {
+                let (name, map) = format::metadata(body)?;
+                if name == MCAP_METADATA_NAME {
+                    self.report.custom_data = map;
+                }
+            }
+            op::MESSAGE_INDEX => {
+                let entries = format::message_index_entries(body)?;
+                if let Some(loss) = self.open_loss.and_then(|i| self.report.losses.get_mut(i)) {
+                    loss.messages = Some(loss.messages.unwrap_or(0) + entries);
+                }
             }
             _ => {}
         }
-        Ok(())
+        Ok(None)
     }
-}
 
-/// Reads MCAP bytes; in Recover mode stops quietly at the first damaged or cut-off record.
-fn read_mcap(bytes: &[u8], mode: ReadMode) -> Result<BagContents, String> {
-    if !bytes.starts_with(mcap::MAGIC) {
-        return Err("not an MCAP file (no MCAP magic at its start)".into());
-    }
-    let reader = match mode {
-        ReadMode::Strict => LinearReader::new(bytes),
-        ReadMode::Recover => LinearReader::new_with_options(bytes, Options::IgnoreEndMagic.into()),
-    }
-    .map_err(|e| e.to_string())?;
-    let mut state = State::default();
-    let mut chunks = Vec::new();
-    // Offset of the next record: after the 8 magic bytes, each record is an opcode, a u64 LE
-    // length and that many bytes; the reader yields them in file order.
-    let mut offset: u64 = 8;
-    let mut stopped = None;
-    let mut saw_footer = false;
-    for record in reader {
-        let record = match record {
-            Ok(record) => record,
-            Err(error) if mode == ReadMode::Recover => {
-                stopped = Some(error.to_string());
-                break;
-            }
-            Err(error) => return Err(error.to_string()),
-        };
-        let start = offset as usize;
-        let length = bytes
-            .get(start + 1..start + 9)
-            .and_then(|b| b.try_into().ok())
-            .map(u64::from_le_bytes)
-            .unwrap_or(0);
-        offset += 9 + length;
-        match record {
-            Record::Chunk { header, data } => {
-                // A chunk's records are taken only if the whole chunk parses.
-                let mut inner = State {
-                    schemas: state.schemas.clone(),
-                    channels: state.channels.clone(),
-                    messages: Vec::new(),
-                    custom_data: BTreeMap::new(),
-                };
-                let parsed = ChunkReader::new(header, &data)
-                    .map_err(|e| e.to_string())
-                    .and_then(|mut records| {
-                        records.try_for_each(|r| {
-                            r.map_err(|e| e.to_string()).and_then(|r| inner.take(r))
-                        })
-                    });
-                match parsed {
-                    Ok(()) => {
-                        state.schemas = inner.schemas;
-                        state.channels = inner.channels;
-                        chunks.push(ChunkSpan {
-                            end_byte: offset,
-                            messages: inner.messages.len() as u64,
-                        });
-                        state.messages.extend(inner.messages);
-                    }
-                    Err(error) if mode == ReadMode::Recover => {
-                        stopped = Some(format!("damaged chunk: {error}"));
-                        break;
-                    }
-                    Err(error) => return Err(format!("damaged chunk: {error}")),
+    /// Reads and checks the chunk record at `at` (body of `len` bytes, inside the data section).
+    fn open_chunk(&mut self, at: u64, len: u64) -> Result<OpenChunk, Fail> {
+        let body_at = at + RECORD_PREFIX;
+        let end_byte = body_at + len;
+        let header = self.chunk_header(at, len)?;
+        if !header.compression.is_empty() {
+            return Err(damage(
+                at,
+                format!(
+                    "chunk compressed with {:?} ({} bytes uncompressed): only uncompressed chunks are read",
+                    header.compression, header.uncompressed_size
+                ),
+            ));
+        }
+        let records_at = body_at + header.header_len;
+        let records_len = header.records_len;
+        if records_len > self.in_memory_chunk_bytes {
+            if header.uncompressed_crc != 0 {
+                let crc = self.crc_of(records_at, records_len)?;
+                if crc != header.uncompressed_crc {
+                    return Err(damage(
+                        at,
+                        format!(
+                            "chunk CRC mismatch (recorded {:08x}, computed {crc:08x})",
+                            header.uncompressed_crc
+                        ),
+                    ));
                 }
             }
-            Record::DataEnd(_) if mode == ReadMode::Recover => {
-                // The summary section follows; everything is read.
-                saw_footer = true;
-                break;
+            return Ok(OpenChunk::File {
+                start: at,
+                next: records_at,
+                end: records_at + records_len,
+                end_byte,
+                count: 0,
+            });
+        }
+        let mut buf = Vec::new();
+        self.src.read_into(records_at, records_len, &mut buf)?;
+        if header.uncompressed_crc != 0 {
+            let crc = crc32(&buf);
+            if crc != header.uncompressed_crc {
+                return Err(damage(
+                    at,
+                    format!(
+                        "chunk CRC mismatch (recorded {:08x}, computed {crc:08x})",
+                        header.uncompressed_crc
+                    ),
+                ));
             }
-            Record::Footer(_) => saw_footer = true,
-            other => state.take(other)?,
+        }
+        // Every record must parse before any message is handed out; schemas and channels are
+        // taken only then.
+        let mut schemas = Vec::new();
+        let mut channels = Vec::new();
+        let mut messages = Vec::new();
+        let mut c = format::Cursor::new(&buf);
+        while !c.is_empty() {
+            let inner = c.position();
+            let fail = |e: String| damage(at, format!("record at byte {inner} of the chunk: {e}"));
+            let opcode = c.u8("record opcode").map_err(fail)?;
+            let len = c.u64("record length").map_err(fail)?;
+            let body_start = c.position();
+            let body = c.take(len, "record").map_err(fail)?;
+            match opcode {
+                op::SCHEMA => {
+                    let s = format::schema(body).map_err(fail)?;
+                    schemas.push((s.id, s.name.to_owned()));
+                }
+                op::CHANNEL => {
+                    let ch = format::channel(body).map_err(fail)?;
+                    let known = self.channels.contains_key(&ch.id)
+                        || channels.iter().any(|(id, _)| *id == ch.id);
+                    if !known {
+                        let type_name = schemas
+                            .iter()
+                            .rev()
+                            .find(|(id, _)| *id == ch.schema_id)
+                            .map(|(_, n)| n)
+                            .or_else(|| self.schemas.get(&ch.schema_id))
+                            .ok_or_else(|| fail(format!("channel {} has no schema", ch.topic)))?
+                            .clone();
+                        channels.push((
+                            ch.id,
+                            ChannelInfo {
+                                topic: ch.topic.to_owned(),
+                                type_name,
+                            },
+                        ));
+                    }
+                }
+                op::MESSAGE => {
+                    let m = format::message(body).map_err(fail)?;
+                    let known = self.channels.contains_key(&m.channel_id)
+                        || channels.iter().any(|(id, _)| *id == m.channel_id);
+                    if !known {
+                        return Err(fail(format!(
+                            "message on unknown channel {} (its definition was lost?)",
+                            m.channel_id
+                        )));
+                    }
+                    let data_start = body_start + (body.len() - m.data.len());
+                    messages.push((
+                        m.channel_id,
+                        m.log_time,
+                        data_start..body_start + body.len(),
+                    ));
+                }
+                0 => return Err(fail("record with opcode 0x00".into())),
+                _ => {}
+            }
+        }
+        self.schemas.extend(schemas);
+        self.channels.extend(channels);
+        self.report.chunks.push(ChunkSpan {
+            end_byte,
+            messages: messages.len() as u64,
+        });
+        Ok(OpenChunk::Memory {
+            buf,
+            messages,
+            next: 0,
+        })
+    }
+
+    fn chunk_header(&mut self, at: u64, len: u64) -> Result<format::ChunkHeader, Fail> {
+        let head_len = len.min(CHUNK_FIXED + u64::from(format::MAX_COMPRESSION_NAME));
+        let mut head = std::mem::take(&mut self.scratch);
+        let read = self.src.read_into(at + RECORD_PREFIX, head_len, &mut head);
+        let parsed = read.and_then(|()| {
+            format::chunk_header(&head, len).map_err(|e| damage(at, format!("chunk header: {e}")))
+        });
+        self.scratch = head;
+        parsed
+    }
+
+    /// CRC of `len` bytes at `offset`, read through a bounded buffer.
+    fn crc_of(&mut self, offset: u64, len: u64) -> Result<u32, Fail> {
+        let mut crc = Crc32::default();
+        let mut buf = vec![0u8; READ_BUFFER];
+        let mut done = 0;
+        while done < len {
+            let n = (len - done).min(READ_BUFFER as u64) as usize;
+            self.src.read_at(offset + done, &mut buf[..n])?;
+            crc.update(&buf[..n]);
+            done += n as u64;
+        }
+        Ok(crc.finish())
+    }
+
+    fn chunk_step(&mut self, mut chunk: OpenChunk) -> Result<Step, Fail> {
+        match &mut chunk {
+            OpenChunk::Memory {
+                buf,
+                messages,
+                next,
+            } => {
+                while let Some((channel, log_time, range)) = messages.get(*next).cloned() {
+                    *next += 1;
+                    if let Some(message) = self.take_message(channel, log_time, &buf[range]) {
+                        self.chunk = Some(chunk);
+                        return Ok(Step::Message(message));
+                    }
+                }
+                Ok(Step::Continue)
+            }
+            OpenChunk::File {
+                start,
+                next,
+                end,
+                end_byte,
+                count,
+            } => {
+                while *next < *end {
+                    self.partial = *count;
+                    let at = *next;
+                    let inner = at - *start;
+                    let chunk_start = *start;
+                    let fail = |e: String| {
+                        damage(
+                            chunk_start,
+                            format!("record at byte {inner} of the chunk: {e}"),
+                        )
+                    };
+                    let (opcode, len) = self.src.record_within(at, *end).map_err(|f| match f {
+                        Fail::Damage(d) => fail(d.reason),
+                        io => io,
+                    })?;
+                    if len > MAX_RECORD_BYTES {
+                        return Err(fail(format!("record of {len} bytes is over the limit")));
+                    }
+                    let mut body = std::mem::take(&mut self.scratch);
+                    self.src.read_into(at + RECORD_PREFIX, len, &mut body)?;
+                    *next = at + RECORD_PREFIX + len;
+                    let result = match opcode {
+                        op::SCHEMA => self.register_schema(&body).map(|()| None),
+                        op::CHANNEL => self.register_channel(&body).map(|()| None),
+                        op::MESSAGE => format::message(&body).and_then(|m| {
+                            if !self.channels.contains_key(&m.channel_id) {
+                                return Err(format!("message on unknown channel {}", m.channel_id));
+                            }
+                            *count += 1;
+                            Ok(self.take_message(m.channel_id, m.log_time, m.data))
+                        }),
+                        0 => Err("record with opcode 0x00".into()),
+                        _ => Ok(None),
+                    };
+                    self.scratch = body;
+                    if let Some(message) = result.map_err(fail)? {
+                        self.chunk = Some(chunk);
+                        return Ok(Step::Message(message));
+                    }
+                }
+                self.partial = 0;
+                self.report.chunks.push(ChunkSpan {
+                    end_byte: *end_byte,
+                    messages: *count,
+                });
+                Ok(Step::Continue)
+            }
         }
     }
-    let mut topics: Vec<TopicSummary> = Vec::new();
-    for message in &state.messages {
-        match topics.iter_mut().find(|t| t.name == message.topic) {
-            Some(topic) => topic.count += 1,
-            None => topics.push(TopicSummary {
-                name: message.topic.clone(),
-                type_name: message.type_name.clone(),
-                count: 1,
-            }),
+
+    /// Strict mode: the messages read must be the statistics' count.
+    fn final_check(&self) -> Result<(), BagError> {
+        if self.mode == ReadMode::Strict {
+            if let Some(expected) = self.expected_messages {
+                if expected != self.seen_messages {
+                    return Err(corrupt(
+                        &self.path,
+                        self.mode,
+                        &Damage {
+                            offset: self.data_end,
+                            reason: format!(
+                                "the summary counts {expected} messages, the chunks hold {}",
+                                self.seen_messages
+                            ),
+                        },
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Recover mode: notes the loss and moves to the next good record; Strict mode: the error.
+    fn recover_from(&mut self, d: Damage) -> Result<(), BagError> {
+        if self.mode == ReadMode::Strict {
+            return Err(corrupt(&self.path, self.mode, &d));
+        }
+        // Messages of a chunk read record by record that were already handed out are not lost.
+        let handed_out = std::mem::take(&mut self.partial);
+        let (resume, messages, follow_indexes) = match self.resume_after(&d) {
+            Ok(found) => found,
+            Err(Fail::Io(source)) => {
+                return Err(BagError::Io {
+                    path: self.path.clone(),
+                    source,
+                })
+            }
+            Err(Fail::Damage(_)) => (None, None, false),
+        };
+        let end_byte = resume.unwrap_or(self.src.len);
+        let loss = ChunkLoss {
+            start_byte: d.offset,
+            end_byte,
+            messages: messages.map(|m| m.saturating_sub(handed_out)),
+            reason: d.reason,
+        };
+        tracing::warn!("{}: {loss}", self.path.display());
+        self.report.losses.push(loss);
+        self.open_loss = follow_indexes.then(|| self.report.losses.len() - 1);
+        match resume {
+            Some(at) if at < self.data_end => self.pos = at,
+            _ => {
+                let last = self.report.losses.last().map(|l| l.to_string());
+                self.report.stopped = Some(format!(
+                    "damaged or cut off from byte {} to the end: {}",
+                    d.offset,
+                    last.unwrap_or_default()
+                ));
+                self.done = true;
+            }
+        }
+        Ok(())
+    }
+
+    /// Where to resume after damage at `d.offset`, the messages lost if known, and whether the
+    /// Message Index records that follow should be counted as lost.
+    fn resume_after(&mut self, d: &Damage) -> Result<(Option<u64>, Option<u64>, bool), Fail> {
+        // 1. The summary's chunk index.
+        if !self.chunk_indexes.is_empty() {
+            let next = self
+                .chunk_indexes
+                .iter()
+                .map(|c| c.start_offset)
+                .find(|&s| s > d.offset);
+            let until = next.unwrap_or(self.data_end);
+            let lost: Vec<ChunkIndex> = self
+                .chunk_indexes
+                .iter()
+                .filter(|c| c.start_offset >= d.offset && c.start_offset < until)
+                .cloned()
+                .collect();
+            let mut messages = Some(0u64);
+            for index in &lost {
+                for &offset in &index.message_index_offsets {
+                    let entries = self.message_index_at(offset);
+                    messages = messages.zip(entries).map(|(a, b)| a + b);
+                }
+            }
+            // A damaged record between chunks loses no message.
+            return Ok((next, messages, false));
+        }
+        // 2. Just past a damaged chunk whose length is plausible.
+        if let Ok((op::CHUNK, len)) = self.src.record_within(d.offset, self.data_end) {
+            let end = d.offset + RECORD_PREFIX + len;
+            if end == self.src.len || self.plausible_record_at(end) {
+                return Ok((Some(end), None, true));
+            }
+        }
+        // 3. The next chunk (or the Data End record) that checks.
+        Ok((self.scan(d.offset + 1)?, None, false))
+    }
+
+    fn message_index_at(&mut self, offset: u64) -> Option<u64> {
+        let (opcode, len) = self.src.record_within(offset, self.data_end).ok()?;
+        if opcode != op::MESSAGE_INDEX || len > MAX_RECORD_BYTES {
+            return None;
+        }
+        let mut body = Vec::new();
+        self.src
+            .read_into(offset + RECORD_PREFIX, len, &mut body)
+            .ok()?;
+        format::message_index_entries(&body).ok()
+    }
+
+    fn plausible_record_at(&mut self, at: u64) -> bool {
+        match self.src.record_within(at, self.data_end) {
+            Ok((opcode, _)) => format::known_opcode(opcode),
+            Err(_) => false,
         }
     }
-    if mode == ReadMode::Recover && !saw_footer && stopped.is_none() {
-        stopped = Some("file ends without a summary".into());
+
+    /// The first offset from `from` holding a chunk whose header is consistent and whose CRC
+    /// matches, or a Data End record followed by a record or the end of the file.
+    fn scan(&mut self, from: u64) -> Result<Option<u64>, Fail> {
+        let limit = self.data_end;
+        let mut window = vec![0u8; READ_BUFFER];
+        let head = (RECORD_PREFIX + CHUNK_FIXED) as usize;
+        let mut offset = from;
+        while offset < limit {
+            let n = (limit - offset).min(READ_BUFFER as u64) as usize;
+            self.src.read_at(offset, &mut window[..n])?;
+            for i in 0..n {
+                let at = offset + i as u64;
+                match window[i] {
+                    op::CHUNK => {
+                        // Cheap checks on the window first, when the header is in it.
+                        if i + head <= n {
+                            let mut len = [0u8; 8];
+                            len.copy_from_slice(&window[i + 1..i + 9]);
+                            let len = u64::from_le_bytes(len);
+                            if at
+                                .checked_add(RECORD_PREFIX)
+                                .and_then(|e| e.checked_add(len))
+                                .is_none_or(|e| e > limit)
+                            {
+                                continue;
+                            }
+                        }
+                        if self.chunk_checks(at, limit)? {
+                            return Ok(Some(at));
+                        }
+                    }
+                    op::DATA_END => {
+                        if let Ok((op::DATA_END, 4)) = self.src.record_within(at, limit) {
+                            let next = at + RECORD_PREFIX + 4;
+                            if next == self.src.len || self.plausible_record_at(next) {
+                                return Ok(Some(at));
+                            }
+                        }
+                    }
+                    _ => {}
+                }
+            }
+            offset += n as u64;
+        }
+        Ok(None)
     }
-    Ok(BagContents {
-        dir: PathBuf::new(),
-        mcap_path: PathBuf::new(),
-        metadata: None,
-        messages: state.messages,
-        topics,
-        chunks,
-        custom_data: state.custom_data,
-        file_bytes: bytes.len() as u64,
-        stopped,
-    })
+
+    /// Whether a chunk at `at` has a consistent header and a matching CRC (records parsing is
+    /// left to reading it).
+    fn chunk_checks(&mut self, at: u64, limit: u64) -> Result<bool, Fail> {
+        let Ok((op::CHUNK, len)) = self.src.record_within(at, limit) else {
+            return Ok(false);
+        };
+        let Ok(header) = self.chunk_header(at, len) else {
+            return Ok(false);
+        };
+        if !header.compression.is_empty() {
+            return Ok(false);
+        }
+        if header.uncompressed_crc == 0 {
+            return Ok(true);
+        }
+        let records_at = at + RECORD_PREFIX + header.header_len;
+        match self.crc_of(records_at, header.records_len) {
+            Ok(crc) => Ok(crc == header.uncompressed_crc),
+            Err(Fail::Damage(_)) => Ok(false),
+            Err(io) => Err(io),
+        }
+    }
 }
 
 #[cfg(test)]
@@ -432,6 +1618,42 @@ mod tests {
         let first = contents.messages[0].decode().unwrap();
         assert_eq!(first.stamp(), Time::from_seconds(0.5));
         assert!(contents.stopped.is_none());
+        assert!(contents.losses.is_empty());
+        // The summary agrees without reading the messages.
+        let opened = Bag::open(&bag, ReadMode::Strict).unwrap();
+        let summary = opened.summary().unwrap();
+        assert_eq!(summary.message_count, Some(40));
+        assert_eq!(summary.chunk_count, contents.chunks.len());
+        assert_eq!(summary.topics, contents.topics);
+        assert_eq!(
+            summary.time_range_ns,
+            Some((500_000_000, 10_000_000_000)),
+            "statistics' time range"
+        );
+    }
+
+    #[test]
+    fn chunks_read_record_by_record_give_the_same_messages() {
+        let dir = tempfile::tempdir().unwrap();
+        let bag = dir.path().join("run");
+        write_bag(&bag, 30, 700);
+        let whole = open(&bag, ReadMode::Strict).unwrap();
+        let mut opened = Bag::open(&bag, ReadMode::Strict).unwrap();
+        opened.set_in_memory_chunk_bytes(100);
+        let streamed = opened.read_all().unwrap();
+        assert_eq!(streamed.messages, whole.messages);
+        assert_eq!(streamed.chunks, whole.chunks);
+        // A damaged big chunk is detected by its CRC before any of its messages is handed out.
+        let mut bytes = std::fs::read(&whole.mcap_path).unwrap();
+        let second = whole.chunks[0].end_byte as usize;
+        let flip = (second + whole.chunks[1].end_byte as usize) / 2;
+        bytes[flip] ^= 0xFF;
+        std::fs::write(&whole.mcap_path, &bytes).unwrap();
+        let error = opened.read_all().unwrap_err().to_string();
+        assert!(
+            error.contains("CRC mismatch") && error.contains("--recover"),
+            "{error}"
+        );
     }
 
     #[test]
@@ -464,6 +1686,8 @@ mod tests {
                 .sum();
             assert_eq!(recovered.messages.len() as u64, expected, "cut at {cut}");
             assert!(recovered.complete_bytes() <= cut as u64);
+            assert_eq!(recovered.losses.len(), 1, "{:?}", recovered.losses);
+            assert_eq!(recovered.losses[0].end_byte, cut as u64);
         }
     }
 
@@ -507,5 +1731,13 @@ mod tests {
         );
         contents.retain_topics(&["/clock".to_owned()]).unwrap();
         assert_eq!(contents.messages.len(), 2);
+        let opened = Bag::open(&bag, ReadMode::Strict).unwrap();
+        assert!(opened.messages_on(&["/nope".to_owned()]).is_err());
+        let clock: Vec<BagMessage> = opened
+            .messages_on(&["/clock".to_owned()])
+            .unwrap()
+            .collect::<Result<_, _>>()
+            .unwrap();
+        assert_eq!(clock, contents.messages);
     }
 }

@@ -3,7 +3,7 @@
 //! it; the back end's nodes see the same per-topic streams as in the recorded run, so (their
 //! inputs being merged by (stamp, input order)) they compute the same results.
 
-use super::{open, BagContents, BagError, ReadMode};
+use super::{Bag, BagError, Messages, ReadMode};
 use crate::node::{Node, NodeError, Outbox, Tick};
 use nrslam_msgs::{topics, Message};
 use serde::Deserialize;
@@ -20,20 +20,23 @@ pub struct SourceParams {
     /// of the bag.
     #[serde(default)]
     pub topics: Vec<String>,
-    /// Read a bag whose recorder was killed, up to its last complete chunk.
+    /// Read a bag whose recorder was killed, up to its last complete chunk, skipping damaged
+    /// chunks (each loss is logged).
     #[serde(default)]
     pub recover: bool,
 }
 
-/// Publishes a bag's messages; see the module docs.
+/// Publishes a bag's messages; see the module docs. The messages are streamed from the file (one
+/// chunk in memory at a time) and decoded as they are published.
 pub struct BagSource {
     outputs: Vec<&'static str>,
-    messages: std::vec::IntoIter<(&'static str, Message)>,
+    messages: Messages,
     pending: Option<(&'static str, Message)>,
 }
 
 impl BagSource {
-    /// Reads the bag named by `params`.
+    /// Opens the bag named by `params` and checks its topics (from the MCAP summary or
+    /// metadata.yaml; a recovered bag without either is surveyed in one pass first).
     pub fn new(params: &SourceParams) -> Result<Self, BagError> {
         if params.path.as_os_str().is_empty() {
             return Err(BagError::NoPath);
@@ -43,43 +46,60 @@ impl BagSource {
         } else {
             ReadMode::Strict
         };
-        let mut contents = open(&params.path, mode)?;
-        contents.retain_topics(&params.topics)?;
-        Self::from_contents(contents)
-    }
-
-    /// Publishes the messages of `contents`, which must all be on catalogue topics.
-    pub fn from_contents(contents: BagContents) -> Result<Self, BagError> {
+        let bag = Bag::open(&params.path, mode)?;
+        let recorded = match bag.topics() {
+            Some(topics) => topics,
+            None => bag.survey()?.topics,
+        };
+        super::reader::check_topics(&params.topics, &recorded)?;
         let mut outputs: Vec<&'static str> = Vec::new();
-        let mut messages = Vec::with_capacity(contents.messages.len());
-        for message in &contents.messages {
-            let spec = topics::spec(&message.topic).ok_or_else(|| BagError::Message {
-                topic: message.topic.clone(),
+        for topic in &recorded {
+            if !params.topics.is_empty() && !params.topics.contains(&topic.name) {
+                continue;
+            }
+            let spec = topics::spec(&topic.name).ok_or_else(|| BagError::Message {
+                topic: topic.name.clone(),
                 reason: "not a topic of the nrslam graph (see `nrslam topics`)".into(),
             })?;
-            if spec.type_name != message.type_name {
+            if spec.type_name != topic.type_name {
                 return Err(BagError::Message {
-                    topic: message.topic.clone(),
+                    topic: topic.name.clone(),
                     reason: format!(
                         "recorded as {}, the graph carries {}",
-                        message.type_name, spec.type_name
+                        topic.type_name, spec.type_name
                     ),
                 });
             }
-            let decoded = message.decode().map_err(|e| BagError::Message {
-                topic: message.topic.clone(),
-                reason: e.to_string(),
-            })?;
             if !outputs.contains(&spec.name) {
                 outputs.push(spec.name);
             }
-            messages.push((spec.name, decoded));
         }
+        let messages = bag.messages_on(&params.topics)?;
         Ok(Self {
             outputs,
-            messages: messages.into_iter(),
+            messages,
             pending: None,
         })
+    }
+
+    /// The next message, decoded; `None` at the end of the bag.
+    fn next_message(&mut self) -> Result<Option<(&'static str, Message)>, NodeError> {
+        let Some(read) = self.messages.next() else {
+            return Ok(None);
+        };
+        let message = read.map_err(NodeError::algorithm)?;
+        let name = self
+            .outputs
+            .iter()
+            .copied()
+            .find(|name| *name == message.topic)
+            .ok_or_else(|| {
+                NodeError::invalid_input(&message.topic, "not among the topics checked at start")
+            })?;
+        let decoded = message
+            .decode()
+            .map_err(|e| NodeError::invalid_input(name, e.to_string()))?;
+        Ok(Some((name, decoded)))
     }
 }
 
@@ -100,12 +120,16 @@ impl Node for BagSource {
     }
 
     fn tick(&mut self, outbox: &mut Outbox) -> Result<Tick, NodeError> {
-        let Some((topic, first)) = self.pending.take().or_else(|| self.messages.next()) else {
-            return Ok(Tick::Done);
+        let first = match self.pending.take() {
+            Some(pending) => pending,
+            None => match self.next_message()? {
+                Some(message) => message,
+                None => return Ok(Tick::Done),
+            },
         };
-        let stamp = first.stamp();
-        outbox.publish(topic, first);
-        for (topic, message) in self.messages.by_ref() {
+        let stamp = first.1.stamp();
+        outbox.publish(first.0, first.1);
+        while let Some((topic, message)) = self.next_message()? {
             if message.stamp() != stamp {
                 self.pending = Some((topic, message));
                 return Ok(Tick::More);
