@@ -82,6 +82,7 @@ impl TransportArgs {
                 .parse()
                 .map_err(|e| anyhow::anyhow!("--on-bad-input: {e}"))?,
             overload: nrslam_runtime::receive::Overload::BackPressure,
+            in_order: true,
         })
     }
 

@@ -290,10 +290,12 @@ pub fn echo(args: EchoArgs) -> Result<()> {
     Ok(())
 }
 
-/// An observer keeps the newest samples rather than slow the graph down.
+/// An observer keeps the newest samples rather than slow the graph down, and shows them in
+/// arrival order (a bag played in a loop starts its stamps over).
 fn observer_options(transport: &TransportArgs) -> Result<InboxOptions> {
     Ok(InboxOptions {
         overload: Overload::KeepNewest(OBSERVER_QUEUE),
+        in_order: false,
         ..transport.inbox_options()?
     })
 }

@@ -66,12 +66,25 @@ pub enum Overload {
 }
 
 /// How an [`Inbox`] treats unusable samples and overload.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct InboxOptions {
     /// Unusable samples: drop and count, or fail.
     pub bad_input: BadInput,
     /// Full queues: back-pressure or keep the newest.
     pub overload: Overload,
+    /// Drop a message older than the last on its topic (`stamp_backwards`). A node needs its
+    /// streams in order; an observer (`echo` of a bag played in a loop) may not.
+    pub in_order: bool,
+}
+
+impl Default for InboxOptions {
+    fn default() -> Self {
+        Self {
+            bad_input: BadInput::default(),
+            overload: Overload::default(),
+            in_order: true,
+        }
+    }
 }
 
 /// Samples dropped, per topic and reason.
@@ -355,6 +368,7 @@ pub struct Inbox {
     shared: Arc<Shared>,
     _subscribers: Vec<zenoh::pubsub::Subscriber<()>>,
     policy: BadInput,
+    in_order: bool,
     drops: Drops,
     last_stamp: BTreeMap<&'static str, Time>,
     last_logged: BTreeMap<&'static str, Instant>,
@@ -415,23 +429,16 @@ impl Inbox {
                 .map_err(|e| ReceiveError::Zenoh(e.to_string()))?;
             subscribers.push(subscriber);
         }
-        Ok(Self::with_shared(shared, subscribers, options.bad_input))
-    }
-
-    fn with_shared(
-        shared: Arc<Shared>,
-        subscribers: Vec<zenoh::pubsub::Subscriber<()>>,
-        policy: BadInput,
-    ) -> Self {
-        Self {
+        Ok(Self {
             shared,
             _subscribers: subscribers,
-            policy,
+            policy: options.bad_input,
+            in_order: options.in_order,
             drops: Drops::default(),
             last_stamp: BTreeMap::new(),
             last_logged: BTreeMap::new(),
             changed: false,
-        }
+        })
     }
 
     /// The next usable sample, waiting at most `timeout`; `Ok(None)` on timeout. Unusable
@@ -495,7 +502,7 @@ impl Inbox {
             .map_err(|unusable| (unusable.reason(), unusable.to_string()))?;
         let stamp = message.stamp();
         // Every process reports on /diagnostics at its own simulated time: no order to keep.
-        if topic == topics::DIAGNOSTICS {
+        if topic == topics::DIAGNOSTICS || !self.in_order {
             return Ok(message);
         }
         if let Some(last) = self.last_stamp.get(topic) {
