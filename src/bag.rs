@@ -99,14 +99,15 @@ pub struct InfoArgs {
 pub struct PlayArgs {
     /// Bag folder.
     pub dir: PathBuf,
-    /// Real-time factor R: recorded seconds per wall-clock second (2 = twice as fast).
-    /// 0 (default): as fast as the subscribers take the messages; nothing is dropped either way
-    /// (reliable publication that blocks on congestion).
+    /// Real-time factor R: recorded seconds per wall-clock second (2 = twice as fast), 1e-6 to
+    /// 1e6. 0 (default): as fast as the subscribers take the messages; nothing is dropped either
+    /// way (reliable publication that blocks on congestion).
     #[arg(
         long,
         value_name = "R",
         default_value_t = 0.0,
-        allow_negative_numbers = true
+        value_parser = crate::flags::RATE.parser(),
+        allow_hyphen_values = true
     )]
     pub rate: f64,
     /// Play again from the start when the bag ends, until Ctrl-C (no end-of-stream is sent).
@@ -125,7 +126,8 @@ pub struct PlayArgs {
     pub match_timeout_s: f64,
     /// Publish as rmw_zenoh does in this ROS domain (key `<domain>/<topic>/<type>/<RIHS01 hash>`,
     /// rmw_zenoh's attachment), so ROS 2 nodes on rmw_zenoh receive the messages without a bridge.
-    #[arg(long, value_name = "DOMAIN_ID")]
+    /// 0 to 232, ROS 2's range.
+    #[arg(long, value_name = "DOMAIN_ID", value_parser = crate::launcher::ROS_DOMAIN_ID.parser::<u32>(), allow_hyphen_values = true)]
     pub ros_domain_id: Option<u32>,
     #[command(flatten)]
     pub transport: TransportArgs,
@@ -451,12 +453,7 @@ fn info_from_summary(bag: &Bag, json: bool) -> Result<()> {
 
 /// `nrslam bag play`.
 pub fn play(args: PlayArgs) -> Result<()> {
-    if !args.rate.is_finite() || args.rate < 0.0 {
-        bail!(
-            "--rate: {} is out of range (allowed: 0 for as fast as possible, or a positive real-time factor)",
-            args.rate
-        );
-    }
+    crate::flags::check("--rate", crate::flags::RATE.check(args.rate))?;
     if !(args.match_timeout_s.is_finite() && (0.0..=3600.0).contains(&args.match_timeout_s)) {
         bail!(
             "--match-timeout-s: {} is out of range (allowed: 0 to 3600 s)",

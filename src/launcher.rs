@@ -122,7 +122,7 @@ pub struct RunArgs {
 }
 
 /// ROS 2 domain ids.
-const ROS_DOMAIN_ID: Whole = Whole::new(0, 232, "0 to 232 (ROS 2 domain ids)");
+pub(crate) const ROS_DOMAIN_ID: Whole = Whole::new(0, 232, "0 to 232 (ROS 2 domain ids)");
 /// Delay before a source's first frame.
 const STARTUP_DELAY_S: Real = Real::closed(0.0, 3600.0, "0 to 3600 s");
 
