@@ -67,7 +67,7 @@ fn summary(out: &std::path::Path) -> serde_json::Map<String, serde_json::Value> 
 /// docs/security.md for access control).
 fn malformed(k: u64) -> Vec<u8> {
     let n = (k % 64) as usize;
-    if k % 3 == 0 {
+    if k.is_multiple_of(3) {
         let mut bytes = vec![0x42, 0x13, 0, 0];
         bytes.extend((0..n).map(|i| (i as u64 * 31 + k) as u8));
         bytes
