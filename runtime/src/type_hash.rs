@@ -227,6 +227,19 @@ mod tests {
     const KEY_VALUE: &str =
         "RIHS01_d68081eaa540288c5440753baecef0c4e16e81a5f78ad68902ded5100413bb42";
 
+    /// rosbags' ROS 2 Jazzy type store (`get_typestore(Stores.ROS2_JAZZY).hash_rihs01(...)`,
+    /// rosbags 0.11.9), an implementation we did not write, from the Jazzy definitions.
+    const DIAGNOSTIC_ARRAY: &str =
+        "RIHS01_5a8a36efb05fb25070fa0fb3810290c0e6cd4862b54a8fb975a1ee8dc55a333e";
+
+    #[test]
+    fn diagnostic_array_hash_is_the_one_rosbags_computes_for_jazzy() {
+        assert_eq!(
+            rihs01("diagnostic_msgs/msg/DiagnosticArray").unwrap(),
+            DIAGNOSTIC_ARRAY
+        );
+    }
+
     #[test]
     fn diagnostics_key_value_hash_is_the_one_roslibrust_generates() {
         assert_eq!(rihs01("diagnostic_msgs/msg/KeyValue").unwrap(), KEY_VALUE);
