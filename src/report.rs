@@ -30,8 +30,12 @@ type PositionM = (f64, f64);
 /// Loop edges off by more than this against the truth count as wrong (m).
 pub const LOOP_EDGE_WRONG_M: f64 = 0.5;
 
+/// The 99 % point of χ² with 3 degrees of freedom: a loop edge whose error's squared
+/// Mahalanobis distance (x, y, heading) exceeds it is off beyond its own uncertainty.
+pub const LOOP_EDGE_CHI2_99: f64 = 11.345;
+
 /// Collected run.
-#[derive(Debug, Default)]
+#[derive(Debug, Default, Clone)]
 pub struct Reporter {
     /// Frames seen on /clock.
     pub frames: u64,
@@ -166,7 +170,8 @@ impl Reporter {
             .iter()
             .zip(&k.loop_to_ids)
             .zip(&k.loop_relatives)
-            .filter_map(|((from, to), measured)| {
+            .enumerate()
+            .filter_map(|(index, ((from, to), measured))| {
                 let (a, b) = (true_pose(from)?, true_pose(to)?);
                 // The true pose of `to` in the frame of `from`.
                 let (sin, cos) = a.2.sin_cos();
@@ -176,6 +181,19 @@ impl Reporter {
                 let error_m = (x_m - truth.0).hypot(y_m - truth.1);
                 let true_yaw_rad = b.2 - a.2;
                 let error_rad = nrslam_association::wrap_angle_rad(yaw_rad - true_yaw_rad);
+                // The error as the pose graph whitens it: in the measurement's frame.
+                let (sin_z, cos_z) = yaw_rad.sin_cos();
+                let (ex, ey) = (truth.0 - x_m, truth.1 - y_m);
+                let e = [
+                    cos_z * ex + sin_z * ey,
+                    -sin_z * ex + cos_z * ey,
+                    -error_rad,
+                ];
+                let chi2 = k
+                    .loop_informations
+                    .get(9 * index..9 * index + 9)
+                    .map(|omega| (0..9).map(|c| e[c / 3] * omega[c] * e[c % 3]).sum::<f64>())
+                    .filter(|chi2| chi2.is_finite());
                 error_m.is_finite().then_some(ScoredLoopEdge {
                     from: *from,
                     to: *to,
@@ -183,6 +201,7 @@ impl Reporter {
                     truth: (truth.0, truth.1, true_yaw_rad),
                     error_m,
                     error_rad: error_rad.abs(),
+                    chi2,
                 })
             })
             .collect()
@@ -203,6 +222,7 @@ impl Reporter {
             "true_yaw_rad",
             "error_m",
             "error_rad",
+            "chi2",
         ])?;
         for e in self.scored_loop_edges() {
             writer.write_record([
@@ -216,6 +236,7 @@ impl Reporter {
                 e.truth.2.to_string(),
                 e.error_m.to_string(),
                 e.error_rad.to_string(),
+                e.chi2.map_or_else(String::new, |c| c.to_string()),
             ])?;
         }
         writer
@@ -258,6 +279,11 @@ impl Reporter {
                 .filter(|&&e| e > LOOP_EDGE_WRONG_M)
                 .count() as u64,
             max_loop_edge_error_m: loop_errors_m.iter().copied().reduce(f64::max),
+            loop_edges_inconsistent: self
+                .scored_loop_edges()
+                .iter()
+                .filter(|e| e.chi2.is_some_and(|c| c > LOOP_EDGE_CHI2_99))
+                .count() as u64,
             mean_inlier_ratio: (self.association_frames > 0)
                 .then(|| self.inlier_ratio_sum / self.association_frames as f64),
             estimated_targets: last.map(|m| m.estimated_targets),
@@ -346,6 +372,9 @@ pub struct ScoredLoopEdge {
     pub error_m: f64,
     /// Heading difference, radians (absolute, wrapped to [0, π]).
     pub error_rad: f64,
+    /// The error's squared Mahalanobis distance under the edge's own information
+    /// (`loop_informations`), when the back end published it.
+    pub chi2: Option<f64>,
 }
 
 /// `summary.json`: the same for a seed whatever the mode (no wall time in it).
@@ -380,6 +409,10 @@ pub struct Summary {
     pub loop_edges_wrong: u64,
     /// The largest loop-edge position error (m); `None` without a scored edge.
     pub max_loop_edge_error_m: Option<f64>,
+    /// Scored edges whose error lies outside their own stated uncertainty: squared Mahalanobis
+    /// distance under the published information above [`LOOP_EDGE_CHI2_99`]. An edge that says
+    /// it cannot tell where it lies along a wall, and is off along it, is not counted here.
+    pub loop_edges_inconsistent: u64,
     /// Mean over frames of the association inlier ratio (`/slam/association_stats`).
     pub mean_inlier_ratio: Option<f64>,
     /// Clusters in the final map.
@@ -492,6 +525,7 @@ mod tests {
             };
             r.take(topics::KEYFRAME, &Message::Keyframe(keyframe));
         }
+        let r_with_truth = r.clone();
         // One right loop, one 0.6 m off sideways, one naming a keyframe never seen (not scored),
         // and an excess relative pose without ids (ignored).
         let poses = KeyframePoses {
@@ -506,6 +540,24 @@ mod tests {
             ],
             ..KeyframePoses::default()
         };
+        // The same edges saying they pin down (0.1 m std) only the measurement frame's x, then
+        // only its y: the 0.6 m sideways error (along the older keyframe's y, which is the
+        // measurement frame's x after its -90° turn) is inconsistent with the first and not with
+        // the second.
+        let sure_of = |axis: usize| {
+            let mut omega = vec![0.0; 9];
+            omega[4 * axis] = 100.0;
+            omega[8] = 1.0;
+            omega
+        };
+        for (axis, inconsistent) in [(0, 1), (1, 0)] {
+            let mut informed = poses.clone();
+            informed.loop_informations = [sure_of(axis), sure_of(axis)].concat();
+            let mut r = r_with_truth.clone();
+            r.take(topics::KEYFRAME_POSES, &Message::KeyframePoses(informed));
+            let summary = r.summary(&BTreeMap::new(), 1, "x.toml");
+            assert_eq!(summary.loop_edges_inconsistent, inconsistent, "axis {axis}");
+        }
         r.take(topics::KEYFRAME_POSES, &Message::KeyframePoses(poses));
         let errors = r.loop_edge_errors_m();
         assert_eq!(errors.len(), 2, "{errors:?}");

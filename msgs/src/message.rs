@@ -223,6 +223,7 @@ mod tests {
                 loop_from_ids: vec![0],
                 loop_to_ids: vec![],
                 loop_relatives: vec![planar_pose()],
+                loop_informations: vec![1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 100.0],
             }),
             Message::AssociationStats(AssociationStats {
                 header: header.clone(),

@@ -66,6 +66,10 @@ pub struct KeyframePoses {
     /// What each loop measured: the pose of its newer keyframe in its older keyframe's frame
     /// (planar, m and rad). A reader should zip the three loop arrays and ignore any excess.
     pub loop_relatives: Vec<Pose>,
+    /// What each loop's match pins down: its information (inverse covariance) over (x m, y m,
+    /// yaw rad) of the relative pose, error taken in the relative pose's own frame, row-major,
+    /// nine values per loop, same order. Empty from a back end that does not say.
+    pub loop_informations: Vec<f64>,
 }
 
 /// What data association did with one radar frame (`/slam/association_stats`).

@@ -258,6 +258,9 @@ impl CheckUsable for KeyframePoses {
         for p in &self.loop_relatives {
             pose(p, "loop_relatives.position", "loop_relatives.orientation")?;
         }
+        for &v in &self.loop_informations {
+            finite(v, "loop_informations")?;
+        }
         Ok(())
     }
 }

@@ -264,6 +264,7 @@ pub fn random_message(type_name: &str, rng: &mut Rng) -> Message {
             loop_from_ids: r.u32s(2),
             loop_to_ids: r.u32s(2),
             loop_relatives: r.poses(2),
+            loop_informations: r.f64s(18),
         }),
         "nrslam_msgs/msg/AssociationStats" => Message::AssociationStats(AssociationStats {
             header: r.header(),

@@ -134,6 +134,13 @@ impl AssociationNode {
                             Pose::from_planar(r.x_m, r.y_m, r.yaw_rad)
                         })
                         .collect(),
+                    loop_informations: loops
+                        .iter()
+                        .flat_map(|e| {
+                            let omega = self.slam.loop_edge_information(e);
+                            (0..9).map(move |k| omega[(k / 3, k % 3)])
+                        })
+                        .collect(),
                 },
             );
         }

@@ -718,6 +718,12 @@ impl Association {
         }
     }
 
+    /// The information the pose graph gives loop edge `edge` over (x m, y m, yaw rad), error in
+    /// the measurement's frame (see `loop_information`).
+    pub fn loop_edge_information(&self, edge: &LoopEdge) -> nalgebra::Matrix3<f64> {
+        loop_information(edge, &self.params.loop_closure)
+    }
+
     /// The current SLAM pose (map frame); `None` before the first odometry.
     pub fn pose(&self) -> Option<Pose2> {
         self.slam_pose
