@@ -30,7 +30,10 @@ pub mod node;
 mod params;
 mod raycast;
 
-pub use map::{detection_point, IntegrationReport, OccupancyMap, Pose2};
+pub use map::{
+    detection_point, occupancy_percent, occupancy_percent_from, percent_thresholds,
+    IntegrationReport, OccupancyMap, Pose2,
+};
 pub use node::{build, MapperNode};
 pub use params::{Params, MAX_CELLS};
 

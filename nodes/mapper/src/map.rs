@@ -68,6 +68,48 @@ pub fn detection_point(pose: Pose2, boresight_rad: f64, range_m: f64, angle_rad:
 }
 
 /// Log-odds of probability `p`.
+/// The ROS occupancy of a cell of log-odds `log_odds`: the percentage `round(100 p)` of
+/// `p = 1 / (1 + e^(−l))`, in 0..=100 (0 for NaN). The definition; [`OccupancyMap::occupancy_data`]
+/// gets the same values from [`percent_thresholds`] without an `exp` per cell.
+pub fn occupancy_percent(log_odds: f64) -> i8 {
+    let p = 1.0 / (1.0 + (-log_odds).exp());
+    (100.0 * p).round() as i8
+}
+
+/// For k = 1..=100, the smallest log-odds whose [`occupancy_percent`] is at least k, found by
+/// bisection over the ordered f64 values with `occupancy_percent` itself, so that counting the
+/// thresholds at or below a log-odds gives exactly its percentage. Computed once per process.
+pub fn percent_thresholds() -> &'static [f64; 100] {
+    static THRESHOLDS: std::sync::OnceLock<[f64; 100]> = std::sync::OnceLock::new();
+    THRESHOLDS.get_or_init(|| {
+        // f64 ↔ i64 keys in f64::total_cmp order (an involution).
+        let key = |x: f64| {
+            let bits = x.to_bits() as i64;
+            bits ^ (((bits >> 63) as u64) >> 1) as i64
+        };
+        let value = |k: i64| f64::from_bits((k ^ (((k >> 63) as u64) >> 1) as i64) as u64);
+        let mut thresholds = [0.0; 100];
+        for (slot, percent) in thresholds.iter_mut().zip(1i8..=100) {
+            let (mut low, mut high) = (i128::from(key(-1000.0)), i128::from(key(1000.0)));
+            while low < high {
+                let middle = low + (high - low) / 2;
+                if occupancy_percent(value(middle as i64)) >= percent {
+                    high = middle;
+                } else {
+                    low = middle + 1;
+                }
+            }
+            *slot = value(low as i64);
+        }
+        thresholds
+    })
+}
+
+/// [`occupancy_percent`] by counting `thresholds` (from [`percent_thresholds`]).
+pub fn occupancy_percent_from(thresholds: &[f64; 100], log_odds: f64) -> i8 {
+    thresholds.partition_point(|&t| t <= log_odds) as i8
+}
+
 fn logit(p: f64) -> f64 {
     (p / (1.0 - p)).ln()
 }
@@ -385,14 +427,13 @@ impl OccupancyMap {
     /// The grid as `nav_msgs/OccupancyGrid` data: row-major from the origin cell, x fastest;
     /// −1 for never observed cells, else round(100·p).
     pub fn occupancy_data(&self) -> Vec<i8> {
+        let thresholds = percent_thresholds();
         self.log_odds
             .iter()
             .zip(&self.observed)
             .map(|(&l, &observed)| {
                 if observed {
-                    let p = 1.0 / (1.0 + (-l).exp());
-                    // p ∈ (0, 1), so the rounded percentage is in 0..=100.
-                    (100.0 * p).round() as i8
+                    occupancy_percent_from(thresholds, l)
                 } else {
                     -1
                 }
@@ -424,5 +465,59 @@ impl OccupancyMap {
             (point[0] - self.origin_x_m) / self.resolution_m,
             (point[1] - self.origin_y_m) / self.resolution_m,
         ]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    #[test]
+    fn the_threshold_table_agrees_with_the_definition_at_and_around_every_threshold() {
+        let thresholds = percent_thresholds();
+        assert!(thresholds.windows(2).all(|w| w[0] <= w[1]));
+        let special = [
+            f64::NEG_INFINITY,
+            -1e300,
+            -700.0,
+            -0.0,
+            0.0,
+            f64::MIN_POSITIVE,
+            700.0,
+            1e300,
+            f64::INFINITY,
+            f64::NAN,
+        ];
+        let around = thresholds.iter().flat_map(|&t| {
+            let up = f64::from_bits(t.to_bits().wrapping_add(1));
+            let down = f64::from_bits(t.to_bits().wrapping_sub(1));
+            [t, up, down, -t]
+        });
+        for l in special.into_iter().chain(around) {
+            assert_eq!(
+                occupancy_percent_from(thresholds, l),
+                occupancy_percent(l),
+                "log-odds {l:e}"
+            );
+        }
+        // Percentages step by one: 50 % at log-odds 0, 0 and 100 at the ends.
+        assert_eq!(occupancy_percent_from(thresholds, 0.0), 50);
+        assert_eq!(occupancy_percent_from(thresholds, -50.0), 0);
+        assert_eq!(occupancy_percent_from(thresholds, 50.0), 100);
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(20_000))]
+        #[test]
+        fn the_threshold_table_agrees_with_the_definition(l in -60.0f64..60.0) {
+            prop_assert_eq!(occupancy_percent_from(percent_thresholds(), l), occupancy_percent(l));
+        }
+
+        #[test]
+        fn the_threshold_table_agrees_for_any_bits(bits in any::<u64>()) {
+            let l = f64::from_bits(bits);
+            prop_assert_eq!(occupancy_percent_from(percent_thresholds(), l), occupancy_percent(l));
+        }
     }
 }
