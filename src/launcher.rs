@@ -665,6 +665,7 @@ fn run_processes(
     let bar = progress(built.expected_frames);
     let mut reporter = Reporter::default();
     let mut last_poll = Instant::now();
+    let mut all_finished = false;
     while !open.is_empty() {
         match inbox.recv_timeout(Duration::from_millis(200))? {
             Some(Delivery::End { topic }) => open.retain(|t| *t != topic),
@@ -677,6 +678,11 @@ fn run_processes(
                     recorder.take(topic, &message)?;
                 }
             }
+            // Every process had ended and nothing more came for 200 ms: that was all there is.
+            None if all_finished => bail!(
+                "every node process ended but topics {} never ended",
+                open.join(", ")
+            ),
             None => {}
         }
         if last_poll.elapsed() >= Duration::from_millis(200) {
@@ -687,7 +693,7 @@ fn run_processes(
                     .get(name)
                     .into_iter()
                     .flatten()
-                    .filter(|t| reporter.ended.contains(t) || !open.contains(t))
+                    .filter(|t| !open.contains(t))
                     .flat_map(|t| [OsString::from("--ended"), OsString::from(*t)])
                     .collect()
             };
@@ -695,15 +701,7 @@ fn run_processes(
                 let Event::Restarted { name, status, .. } = event;
                 bar.println(format!("node {name} died ({status}) and was restarted"));
             }
-            if supervisor.all_finished() && !open.is_empty() {
-                // Every process is done: what is still queued is all there is.
-                if inbox.recv_timeout(Duration::from_millis(500))?.is_none() {
-                    bail!(
-                        "every node process ended but topics {} never ended",
-                        open.join(", ")
-                    );
-                }
-            }
+            all_finished = supervisor.all_finished();
         }
     }
     bar.finish_and_clear();

@@ -178,7 +178,7 @@ pub const CATALOGUE: &[TopicSpec] = &[
         name: DIAGNOSTICS,
         type_name: "diagnostic_msgs/msg/DiagnosticArray",
         qos: STREAM,
-        description: "samples each process dropped, per topic and reason (on change)",
+        description: "samples each process dropped, per topic and reason (at most once a second while they change, and at the end)",
     },
 ];
 

@@ -549,7 +549,8 @@ impl Inbox {
         &self.drops
     }
 
-    /// Whether anything was dropped since the last call (to publish diagnostics only on change).
+    /// Whether anything was dropped since the last call (to report diagnostics only when there
+    /// is something new).
     pub fn take_changed(&mut self) -> bool {
         std::mem::take(&mut self.changed)
     }

@@ -481,6 +481,9 @@ pub fn run_node(
     )
 }
 
+/// How often, at most, a node reports its receive path's drops on `/diagnostics`.
+pub const DIAGNOSTICS_PERIOD: Duration = Duration::from_secs(1);
+
 /// How [`run_node_with`] runs a node.
 #[derive(Debug, Clone)]
 pub struct NodeRun {
@@ -569,6 +572,10 @@ pub fn run_node_with(
         }
         let component = format!("nrslam/{name}/receive");
         let mut stamp = nrslam_msgs::Time::default();
+        // Drops are reported at most every DIAGNOSTICS_PERIOD (and once more at the end), so a
+        // flood of bad samples does not become a flood of reports.
+        let mut unreported = false;
+        let mut last_report: Option<Instant> = None;
         while !merger.finished() {
             match inbox.recv_timeout(Duration::from_millis(500))? {
                 Some(Delivery::End { topic }) => {
@@ -580,14 +587,21 @@ pub fn run_node_with(
                 }
                 None => {}
             }
-            if inbox.take_changed() {
+            unreported |= inbox.take_changed();
+            if unreported && last_report.is_none_or(|t| t.elapsed() >= DIAGNOSTICS_PERIOD) {
                 let report = diagnostics(&component, inbox.drops(), stamp);
                 publisher.publish(topics::DIAGNOSTICS, &report.into())?;
+                unreported = false;
+                last_report = Some(Instant::now());
             }
             while let Some((topic, message)) = merger.pop_ready() {
                 node.on_message(topic, &message, &mut outbox)?;
                 flush(&mut outbox, &mut publisher)?;
             }
+        }
+        if unreported || inbox.take_changed() {
+            let report = diagnostics(&component, inbox.drops(), stamp);
+            publisher.publish(topics::DIAGNOSTICS, &report.into())?;
         }
         node.on_end(&mut outbox)?;
         flush(&mut outbox, &mut publisher)?;
