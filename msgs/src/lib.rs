@@ -3,7 +3,8 @@
 //!
 //! Every topic of the graph (DESIGN.md, "What the system is") carries one of the types here. Where a
 //! standard ROS 2 type fits it is used with its exact field layout ([`ros`]), so the bytes on the
-//! wire are the bytes a ROS 2 node would send; project types ([`nrslam`]) have `.msg` definitions
+//! wire are the bytes a ROS 2 node would send ([`sensors`]: what radar drivers publish; [`visual`]:
+//! what RViz and Foxglove draw); project types ([`nrslam`]) have `.msg` definitions
 //! under `msgs/msg/` (package `nrslam_msgs`). [`Message`] is the one enum the runtime moves around;
 //! [`cdr`] encodes and decodes it; [`topics`] says which topic carries which type with which QoS;
 //! [`schema`] gives each type's `ros2msg` text with its dependencies appended, as rosbag2 records it.
@@ -30,10 +31,14 @@ mod message;
 pub mod nrslam;
 pub mod ros;
 pub mod schema;
+pub mod sensors;
 pub mod topics;
 pub mod usable;
+pub mod visual;
 
 pub use message::{Message, MessageError};
 pub use nrslam::*;
 pub use ros::*;
+pub use sensors::*;
 pub use usable::Unusable;
+pub use visual::*;

@@ -3,7 +3,9 @@
 use crate::cdr::{self, CdrError};
 use crate::nrslam::*;
 use crate::ros::*;
+use crate::sensors::*;
 use crate::usable::{CheckUsable, Unusable};
+use crate::visual::*;
 
 /// Why a message could not be decoded for a type name.
 #[derive(Debug, thiserror::Error)]
@@ -97,6 +99,11 @@ messages! {
     KeyframePoses => "nrslam_msgs/msg/KeyframePoses", |m: &KeyframePoses| m.header.stamp;
     AssociationStats => "nrslam_msgs/msg/AssociationStats", |m: &AssociationStats| m.header.stamp;
     DiagnosticArray => "diagnostic_msgs/msg/DiagnosticArray", |m: &DiagnosticArray| m.header.stamp;
+    RadarScan => "radar_msgs/msg/RadarScan", |m: &RadarScan| m.header.stamp;
+    PointCloud2 => "sensor_msgs/msg/PointCloud2", |m: &PointCloud2| m.header.stamp;
+    TFMessage => "tf2_msgs/msg/TFMessage", TFMessage::stamp;
+    Path => "nav_msgs/msg/Path", |m: &Path| m.header.stamp;
+    MarkerArray => "visualization_msgs/msg/MarkerArray", MarkerArray::stamp;
 }
 
 #[cfg(test)]
@@ -230,6 +237,60 @@ mod tests {
                 rms_residual_m: f64::INFINITY,
                 ..Default::default()
             }),
+            Message::RadarScan(RadarScan {
+                header: header.clone(),
+                returns: vec![RadarReturn {
+                    range: 8.0,
+                    azimuth: -0.3,
+                    elevation: 0.0,
+                    doppler_velocity: f32::NAN,
+                    amplitude: 20.0,
+                }],
+            }),
+            Message::PointCloud2(PointCloud2 {
+                header: header.clone(),
+                height: 2,
+                width: 1,
+                fields: vec![
+                    PointField::scalar("x", 0, PointField::FLOAT32),
+                    PointField::scalar("y", 4, PointField::FLOAT32),
+                ],
+                point_step: 8,
+                row_step: 12,
+                data: vec![0; 24],
+                ..Default::default()
+            }),
+            Message::TFMessage(TFMessage {
+                transforms: vec![TransformStamped {
+                    header: header.clone(),
+                    child_frame_id: "odom".into(),
+                    transform: Transform::from_planar(1.0, 2.0, 0.3),
+                }],
+            }),
+            Message::Path(Path {
+                header: header.clone(),
+                poses: vec![PoseStamped {
+                    header: header.clone(),
+                    pose: planar_pose(),
+                }],
+            }),
+            Message::MarkerArray(MarkerArray {
+                markers: vec![Marker {
+                    header: header.clone(),
+                    marker_type: Marker::LINE_STRIP,
+                    pose: Pose {
+                        orientation: Quaternion {
+                            x: 0.0,
+                            y: 0.0,
+                            z: 0.0,
+                            w: 0.0,
+                        },
+                        ..Pose::default()
+                    },
+                    points: vec![Point::planar(0.0, 8.0), Point::planar(30.0, 8.0)],
+                    ..Default::default()
+                }],
+            }),
             Message::DiagnosticArray(DiagnosticArray {
                 header,
                 status: vec![DiagnosticStatus {
@@ -337,6 +398,26 @@ mod tests {
                 spoil!(OccupancyGrid, g => { g.info.origin.orientation.z = nan; }),
                 "info.origin.orientation",
             ),
+            (
+                spoil!(RadarScan, r => { r.returns[0].azimuth = f32::NAN; }),
+                "returns.azimuth",
+            ),
+            (
+                spoil!(RadarScan, r => { r.returns[0].amplitude = f32::NAN; }),
+                "returns.amplitude",
+            ),
+            (
+                spoil!(TFMessage, t => { t.transforms[0].transform.translation.y = nan; }),
+                "transforms.transform.translation",
+            ),
+            (
+                spoil!(Path, p => { p.poses[0].pose.position.x = f64::INFINITY; }),
+                "poses.pose.position",
+            ),
+            (
+                spoil!(MarkerArray, m => { m.markers[0].points[1].y = nan; }),
+                "markers.points",
+            ),
         ];
         for (spoil, field) in cases {
             let verdict = spoiled(spoil);
@@ -365,6 +446,16 @@ mod tests {
             (spoil!(RadarSpectrum, s => { s.angle_bins = 8; }), "values"),
             (spoil!(KeyframePoses, k => { k.ids.push(2); }), "poses"),
             (spoil!(Segments, s => { s.labels.pop(); }), "labels"),
+            (spoil!(PointCloud2, c => { c.data.pop(); }), "data"),
+            (
+                spoil!(PointCloud2, c => { c.row_step = u32::MAX; c.height = u32::MAX; }),
+                "data",
+            ),
+            (spoil!(PointCloud2, c => { c.width = 2; }), "row_step"),
+            (
+                spoil!(PointCloud2, c => { c.width = u32::MAX; c.point_step = u32::MAX; }),
+                "row_step",
+            ),
         ];
         for (spoil, field) in cases {
             let verdict = spoiled(spoil);
@@ -411,6 +502,34 @@ mod tests {
             (
                 spoil!(RadarSpectrum, s => { s.noise_power = -1e-9; }),
                 "noise_power",
+            ),
+            (
+                spoil!(RadarScan, r => { r.returns[0].range = -1.0; }),
+                "returns.range",
+            ),
+            (
+                spoil!(PointCloud2, c => { c.fields[1].offset = 5; }),
+                "fields.offset",
+            ),
+            (
+                spoil!(PointCloud2, c => { c.fields[0].count = u32::MAX; }),
+                "fields.offset",
+            ),
+            (
+                spoil!(PointCloud2, c => { c.fields[0].offset = u32::MAX; }),
+                "fields.offset",
+            ),
+            (
+                spoil!(PointCloud2, c => { c.fields[0].datatype = 9; }),
+                "fields.datatype",
+            ),
+            (
+                spoil!(TFMessage, t => { t.transforms[0].transform.rotation.w = 0.0; t.transforms[0].transform.rotation.z = 0.0; }),
+                "transforms.transform.rotation",
+            ),
+            (
+                spoil!(MarkerArray, m => { m.markers[0].lifetime.nanosec = 1_000_000_000; }),
+                "markers.lifetime.nanosec",
             ),
         ];
         for (spoil, field) in cases {

@@ -31,6 +31,25 @@ pub const SEGMENTS: &str = "/map/segments";
 pub const METRICS: &str = "/metrics";
 /// What each process's receive path dropped (the ROS convention for health reports).
 pub const DIAGNOSTICS: &str = "/diagnostics";
+/// Returns of a real radar driver (`radar_msgs/msg/RadarScan`), the sensor adapter's input.
+pub const RADAR_SCAN: &str = "/radar/scan";
+/// Points of a real radar or lidar driver (`sensor_msgs/msg/PointCloud2`), the sensor adapter's
+/// input.
+pub const RADAR_POINTS: &str = "/radar/points";
+/// Moving transforms `map → odom → base_link` (REP-105).
+pub const TF: &str = "/tf";
+/// Fixed transforms (`base_link → radar`), latched.
+pub const TF_STATIC: &str = "/tf_static";
+/// The SLAM trajectory so far, for viewers.
+pub const SLAM_PATH: &str = "/slam/path";
+/// The true trajectory so far, for viewers.
+pub const GROUND_TRUTH_PATH: &str = "/ground_truth/path";
+/// Outlines and sample points of the true targets, for viewers (latched).
+pub const GROUND_TRUTH_MARKERS: &str = "/ground_truth/markers";
+/// Clusters of the map and their representative points, for viewers.
+pub const CLUSTER_MARKERS: &str = "/map/clusters";
+/// One frame's detections as points in the radar frame, for viewers.
+pub const DETECTIONS_CLOUD: &str = "/radar/detections_cloud";
 
 /// Delivery guarantee of a topic.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -179,6 +198,60 @@ pub const CATALOGUE: &[TopicSpec] = &[
         type_name: "diagnostic_msgs/msg/DiagnosticArray",
         qos: STREAM,
         description: "samples each process dropped, per topic and reason (at most once a second while they change, and at the end)",
+    },
+    TopicSpec {
+        name: RADAR_SCAN,
+        type_name: "radar_msgs/msg/RadarScan",
+        qos: STREAM,
+        description: "a radar driver's returns (range, azimuth) in its own frame, for the sensor adapter",
+    },
+    TopicSpec {
+        name: RADAR_POINTS,
+        type_name: "sensor_msgs/msg/PointCloud2",
+        qos: STREAM,
+        description: "a radar driver's points (x, y, z fields) in its own frame, for the sensor adapter",
+    },
+    TopicSpec {
+        name: TF,
+        type_name: "tf2_msgs/msg/TFMessage",
+        qos: STREAM,
+        description: "map -> odom -> base_link transforms (REP-105), one per frame",
+    },
+    TopicSpec {
+        name: TF_STATIC,
+        type_name: "tf2_msgs/msg/TFMessage",
+        qos: LATCHED,
+        description: "base_link -> radar, the sensor's mounting",
+    },
+    TopicSpec {
+        name: SLAM_PATH,
+        type_name: "nav_msgs/msg/Path",
+        qos: BULK,
+        description: "SLAM trajectory so far, frame map, one per frame",
+    },
+    TopicSpec {
+        name: GROUND_TRUTH_PATH,
+        type_name: "nav_msgs/msg/Path",
+        qos: BULK,
+        description: "true trajectory so far, frame map, one per frame",
+    },
+    TopicSpec {
+        name: GROUND_TRUTH_MARKERS,
+        type_name: "visualization_msgs/msg/MarkerArray",
+        qos: LATCHED,
+        description: "outlines and ET-GOPSA sample points of the true targets, for viewers",
+    },
+    TopicSpec {
+        name: CLUSTER_MARKERS,
+        type_name: "visualization_msgs/msg/MarkerArray",
+        qos: STREAM,
+        description: "DBSCAN clusters of the map and their representative points, one per map",
+    },
+    TopicSpec {
+        name: DETECTIONS_CLOUD,
+        type_name: "sensor_msgs/msg/PointCloud2",
+        qos: STREAM,
+        description: "one frame's detections as x, y, z, power_db points in frame radar",
     },
 ];
 

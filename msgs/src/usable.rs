@@ -29,12 +29,25 @@
 //!   `transmitted.len() = 2·M·N` (no overflow); every sample finite.
 //! - `RadarSpectrum`: boresight, bin size (> 0), antenna spacing (> 0), noise power (≥ 0)
 //!   finite; `values.len() = 2·range_bins·angle_bins`; every value finite.
+//! - `PointCloud2`: every field's datatype in 1..=8 and its extent (`offset + count × size`)
+//!   within `point_step`; `width × point_step ≤ row_step` and `data.len() = row_step × height`
+//!   (no overflow). The point values are not read (a reader decodes them bounded by these sizes;
+//!   NaN points are legal, `is_dense` says whether there are any).
+//! - `RadarScan`: every return's range finite and ≥ 0, azimuth and elevation finite, amplitude
+//!   not NaN; the Doppler velocity is not checked (nothing computes with it).
+//! - `TFMessage`: every transform's stamp, translation finite, rotation finite and not zero.
+//! - `Path`: its stamp and every pose as for `PoseStamped`.
+//! - `MarkerArray`: every marker's stamp and lifetime nanoseconds < 10⁹, pose, scale and points
+//!   finite (a zero quaternion is accepted: viewers draw it unrotated). Markers are drawn, not
+//!   computed with, so colours and the texture are not checked.
 //! - `Metrics` and `AssociationStats`: only the stamp. They are diagnostics that nodes record
 //!   and nothing computes with; refusing a NaN there would hide the producer's fault from the
 //!   report instead of showing it.
 
 use crate::nrslam::*;
 use crate::ros::*;
+use crate::sensors::*;
+use crate::visual::*;
 
 /// Why a received message is not used. `Copy`, with a short [`Unusable::reason`] to use as a
 /// counter key; the `&'static str` names the field.
@@ -373,5 +386,91 @@ impl CheckUsable for RadarSpectrum {
             "values",
         )?;
         all_finite(&self.values, "values")
+    }
+}
+
+impl CheckUsable for PointCloud2 {
+    fn check_usable(&self) -> Check {
+        header(&self.header)?;
+        for field in &self.fields {
+            let extent = PointField::datatype_size(field.datatype)
+                .ok_or(Unusable::OutOfRange("fields.datatype"))
+                .map(u64::from)?
+                .checked_mul(u64::from(field.count))
+                .and_then(|size| size.checked_add(u64::from(field.offset)));
+            if extent.is_none_or(|end| end > u64::from(self.point_step)) {
+                return Err(Unusable::OutOfRange("fields.offset"));
+            }
+        }
+        if u64::from(self.width) * u64::from(self.point_step) > u64::from(self.row_step) {
+            return Err(Unusable::SizeMismatch("row_step"));
+        }
+        let bytes = usize::try_from(self.row_step)
+            .ok()
+            .zip(usize::try_from(self.height).ok())
+            .and_then(|(row, rows)| row.checked_mul(rows));
+        length(self.data.len(), bytes, "data")
+    }
+}
+
+impl CheckUsable for RadarScan {
+    fn check_usable(&self) -> Check {
+        header(&self.header)?;
+        for r in &self.returns {
+            at_least(f64::from(r.range), 0.0, false, "returns.range")?;
+            finite(f64::from(r.azimuth), "returns.azimuth")?;
+            finite(f64::from(r.elevation), "returns.elevation")?;
+            if r.amplitude.is_nan() {
+                return Err(Unusable::NonFinite("returns.amplitude"));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl CheckUsable for TFMessage {
+    fn check_usable(&self) -> Check {
+        for t in &self.transforms {
+            time(&t.header.stamp, "transforms.header.stamp.nanosec")?;
+            let v = &t.transform.translation;
+            all_finite(&[v.x, v.y, v.z], "transforms.transform.translation")?;
+            let q = &t.transform.rotation;
+            all_finite(&[q.x, q.y, q.z, q.w], "transforms.transform.rotation")?;
+            if q.x == 0.0 && q.y == 0.0 && q.z == 0.0 && q.w == 0.0 {
+                return Err(Unusable::OutOfRange("transforms.transform.rotation"));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl CheckUsable for Path {
+    fn check_usable(&self) -> Check {
+        header(&self.header)?;
+        for p in &self.poses {
+            time(&p.header.stamp, "poses.header.stamp.nanosec")?;
+            pose(&p.pose, "poses.pose.position", "poses.pose.orientation")?;
+        }
+        Ok(())
+    }
+}
+
+impl CheckUsable for MarkerArray {
+    fn check_usable(&self) -> Check {
+        for m in &self.markers {
+            time(&m.header.stamp, "markers.header.stamp.nanosec")?;
+            if m.lifetime.nanosec >= 1_000_000_000 {
+                return Err(Unusable::OutOfRange("markers.lifetime.nanosec"));
+            }
+            point(&m.pose.position, "markers.pose.position")?;
+            let q = &m.pose.orientation;
+            all_finite(&[q.x, q.y, q.z, q.w], "markers.pose.orientation")?;
+            let s = &m.scale;
+            all_finite(&[s.x, s.y, s.z], "markers.scale")?;
+            for p in &m.points {
+                point(p, "markers.points")?;
+            }
+        }
+        Ok(())
     }
 }

@@ -151,3 +151,21 @@ fn sequences_claiming_one_element_per_byte_left_stay_bounded() {
         );
     }
 }
+
+/// A MarkerArray (a Marker is about 450 bytes in memory, the largest element of the catalogue)
+/// whose count claims one marker per byte left, over zeros (each zero marker decodes, about 190
+/// bytes on the wire): the markers are not reserved from the count.
+#[test]
+fn marker_arrays_claiming_one_marker_per_byte_left_stay_bounded() {
+    for payload_len in [64usize, 1024, 65_536, 1 << 20] {
+        let mut bytes = vec![0u8; payload_len];
+        bytes[1] = 1;
+        let left = (payload_len - 8) as u32;
+        bytes[4..8].copy_from_slice(&left.to_le_bytes());
+        let allocated = allocated_by_decode("visualization_msgs/msg/MarkerArray", &bytes);
+        assert!(
+            allocated <= 8 * payload_len + 4096,
+            "{allocated} bytes for {payload_len}"
+        );
+    }
+}

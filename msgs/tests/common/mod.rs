@@ -126,6 +126,63 @@ impl Rng {
             .collect()
     }
 
+    fn color(&mut self) -> ColorRGBA {
+        ColorRGBA {
+            r: self.f64() as f32,
+            g: self.f64() as f32,
+            b: self.f64() as f32,
+            a: self.f64() as f32,
+        }
+    }
+
+    fn bytes(&mut self, max_len: usize) -> Vec<u8> {
+        let n = self.below(max_len + 1);
+        (0..n).map(|_| self.next_u64() as u8).collect()
+    }
+
+    fn marker(&mut self) -> Marker {
+        Marker {
+            header: self.header(),
+            ns: self.string(),
+            id: self.next_u64() as i32,
+            marker_type: self.below(13) as i32,
+            action: self.below(4) as i32,
+            pose: self.pose(),
+            scale: Vector3 {
+                x: self.f64(),
+                y: self.f64(),
+                z: self.f64(),
+            },
+            color: self.color(),
+            lifetime: Duration {
+                sec: self.next_u64() as i32,
+                nanosec: self.below(1_000_000_000) as u32,
+            },
+            frame_locked: self.one_in(2),
+            points: self.points(4),
+            colors: (0..self.below(3)).map(|_| self.color()).collect(),
+            texture_resource: self.string(),
+            texture: CompressedImage {
+                header: self.header(),
+                format: self.string(),
+                data: self.bytes(8),
+            },
+            uv_coordinates: (0..self.below(3))
+                .map(|_| UVCoordinate {
+                    u: self.f64() as f32,
+                    v: self.f64() as f32,
+                })
+                .collect(),
+            text: self.string(),
+            mesh_resource: self.string(),
+            mesh_file: MeshFile {
+                filename: self.string(),
+                data: self.bytes(8),
+            },
+            mesh_use_embedded_materials: self.one_in(2),
+        }
+    }
+
     fn covariance(&mut self) -> [f64; 36] {
         std::array::from_fn(|_| self.f64())
     }
@@ -299,6 +356,67 @@ pub fn random_message(type_name: &str, rng: &mut Rng) -> Message {
                         .collect(),
                 })
                 .collect(),
+        }),
+        "radar_msgs/msg/RadarScan" => Message::RadarScan(RadarScan {
+            header: r.header(),
+            returns: (0..r.below(5))
+                .map(|_| RadarReturn {
+                    range: r.f64() as f32,
+                    azimuth: r.f64() as f32,
+                    elevation: r.f64() as f32,
+                    doppler_velocity: r.f64() as f32,
+                    amplitude: r.f64() as f32,
+                })
+                .collect(),
+        }),
+        "sensor_msgs/msg/PointCloud2" => Message::PointCloud2(PointCloud2 {
+            header: r.header(),
+            height: r.u32(),
+            width: r.u32(),
+            fields: (0..r.below(4))
+                .map(|_| PointField {
+                    name: r.string(),
+                    offset: r.u32(),
+                    datatype: r.below(10) as u8,
+                    count: r.u32(),
+                })
+                .collect(),
+            is_bigendian: r.one_in(2),
+            point_step: r.u32(),
+            row_step: r.u32(),
+            data: (0..r.below(40)).map(|_| r.next_u64() as u8).collect(),
+            is_dense: r.one_in(2),
+        }),
+        "tf2_msgs/msg/TFMessage" => Message::TFMessage(TFMessage {
+            transforms: (0..r.below(4))
+                .map(|_| {
+                    let pose = r.pose();
+                    TransformStamped {
+                        header: r.header(),
+                        child_frame_id: r.string(),
+                        transform: Transform {
+                            translation: Vector3 {
+                                x: pose.position.x,
+                                y: pose.position.y,
+                                z: pose.position.z,
+                            },
+                            rotation: pose.orientation,
+                        },
+                    }
+                })
+                .collect(),
+        }),
+        "nav_msgs/msg/Path" => Message::Path(Path {
+            header: r.header(),
+            poses: (0..r.below(4))
+                .map(|_| PoseStamped {
+                    header: r.header(),
+                    pose: r.pose(),
+                })
+                .collect(),
+        }),
+        "visualization_msgs/msg/MarkerArray" => Message::MarkerArray(MarkerArray {
+            markers: (0..r.below(3)).map(|_| r.marker()).collect(),
         }),
         other => panic!("no generator for {other}: add one for every Message::TYPE_NAMES entry"),
     }
