@@ -14,7 +14,7 @@ use nrslam_runtime::launch::{Launch, Mode, NodeDecl};
 use nrslam_runtime::receive::{Delivery, Inbox};
 use nrslam_runtime::supervisor::{Event, ProcessSpec, RestartPolicy, Supervisor};
 use nrslam_runtime::transport::{
-    self, KeyStyle, Pacer, SessionMode, TopicPublisher, TransportConfig,
+    self, KeyStyle, Pacer, RosNode, SessionMode, TopicPublisher, TransportConfig,
 };
 use nrslam_runtime::{Node, NodeContext};
 use std::ffi::OsString;
@@ -456,7 +456,10 @@ fn recorder(args: &LaunchArgs, launch: &Launch, built: &Built, dir: &Path) -> Re
 }
 
 fn run_in_process(args: &LaunchArgs, built: Built, recorder: Option<Recorder>) -> Result<Reporter> {
-    let session = if args.transport.listen.is_empty() && args.transport.connect.is_empty() {
+    let session = if args.transport.listen.is_empty()
+        && args.transport.connect.is_empty()
+        && args.transport.ros_router.is_none()
+    {
         None
     } else {
         Some(
@@ -467,12 +470,18 @@ fn run_in_process(args: &LaunchArgs, built: Built, recorder: Option<Recorder>) -
     let mirror = match &session {
         Some(session) => {
             let all: Vec<&'static str> = topics::CATALOGUE.iter().map(|t| t.name).collect();
-            let style = match args.ros_domain_id {
-                Some(domain_id) => KeyStyle::RmwZenoh { domain_id },
-                None => KeyStyle::Nrslam,
+            let namespace = &args.transport.namespace;
+            let publisher = match args.ros_domain_id {
+                // Every node of the graph is a ROS 2 node on rmw_zenoh (tokens, GIDs).
+                Some(domain_id) => {
+                    let nodes = built.nodes.iter().map(|(name, node)| {
+                        RosNode::from_catalogue(name, &node.outputs(), &node.inputs())
+                    });
+                    let nodes = nodes.collect::<Result<Vec<_>, _>>()?;
+                    TopicPublisher::with_ros_nodes(session, namespace, domain_id, &nodes)?
+                }
+                None => TopicPublisher::with_style(session, namespace, &all, KeyStyle::Nrslam)?,
             };
-            let publisher =
-                TopicPublisher::with_style(session, &args.transport.namespace, &all, style)?;
             // Give outside subscribers that are already connected a moment to be matched.
             std::thread::sleep(Duration::from_millis(500));
             Some(publisher)

@@ -66,6 +66,12 @@ pub struct TransportArgs {
     /// --connect replaces its connect endpoints; the session's role stays nrslam's.
     #[arg(long = "zenoh-config", value_name = "FILE")]
     pub zenoh_config: Option<std::path::PathBuf>,
+    /// Join ROS 2 through this rmw_zenohd router, e.g. tcp/localhost:7447 (`ros2 run
+    /// rmw_zenoh_cpp rmw_zenohd`): the session becomes the router's client, as rmw_zenoh asks of
+    /// non-ROS sessions (a router forwards a client's data and tokens to its ROS nodes, not a
+    /// peer's). With --ros-domain-id: `ros2 topic list` and `ros2 node list` show the graph.
+    #[arg(long = "ros-router", value_name = "ENDPOINT")]
+    pub ros_router: Option<String>,
     /// What a received sample that cannot be used (bad CDR, NaN where a number is needed, a
     /// stamp older than the last on its topic, ...) does: `drop` counts it (summary.json
     /// "dropped", /diagnostics) and goes on; `fail` stops with an error naming it.
@@ -91,12 +97,16 @@ impl TransportArgs {
         &self,
         mode: nrslam_runtime::transport::SessionMode,
     ) -> nrslam_runtime::transport::TransportConfig {
-        nrslam_runtime::transport::TransportConfig {
+        let config = nrslam_runtime::transport::TransportConfig {
             mode,
             listen: self.listen.clone(),
             connect: self.connect.clone(),
             namespace: self.namespace.clone(),
             config_file: self.zenoh_config.clone(),
+        };
+        match &self.ros_router {
+            Some(router) => config.via_ros_router(router),
+            None => config,
         }
     }
 }

@@ -14,6 +14,7 @@
 use crate::merge::Merger;
 use crate::node::{Node, NodeError, Outbox, Tick};
 use crate::receive::{diagnostics, Delivery, Drops, Inbox, InboxOptions, ReceiveError};
+pub use crate::rmw_zenoh::graph::{RosEndpoint, RosGraph, RosNode};
 use nrslam_msgs::{topics, Message};
 use std::collections::BTreeMap;
 use std::sync::mpsc;
@@ -79,6 +80,27 @@ impl Default for TransportConfig {
             namespace: String::new(),
             config_file: None,
         }
+    }
+}
+
+impl TransportConfig {
+    /// This configuration joined to an `rmw_zenohd` router at `endpoint` (`--ros-router`): the
+    /// router first among the endpoints to connect to and, for a peer, the client role.
+    ///
+    /// Why a client: rmw_zenoh's sessions are peers that learn each other from the router by
+    /// gossip and then talk peer to peer, and its router does not forward data between peers
+    /// (rmw_zenoh README, "Connecting to the Zenoh router on another host": "switch the remote
+    /// node into the client mode to make Zenoh router forward messages"). A client's
+    /// publications, subscriptions and liveliness tokens are routed by the router to every ROS
+    /// node, with no listening port and no gossip on nrslam's side. A router or client session
+    /// (a processes-mode launcher, its node processes) keeps its role and also connects.
+    pub fn via_ros_router(mut self, endpoint: &str) -> Self {
+        if self.mode == SessionMode::Peer {
+            self.mode = SessionMode::Client;
+        }
+        self.connect.retain(|e| e != endpoint);
+        self.connect.insert(0, endpoint.to_owned());
+        self
     }
 }
 
@@ -237,20 +259,20 @@ pub fn ready_key(namespace: &str, name: &str) -> String {
 }
 
 /// Publishes messages of a graph onto zenoh; used by node adapters and by the launcher to mirror
-/// an in-process graph for outside subscribers.
+/// an in-process graph for outside subscribers. Topics are named as the graph names them
+/// (`/map`); any type can be published as CDR bytes ([`TopicPublisher::declare_raw`],
+/// [`TopicPublisher::publish_raw`]).
 pub struct TopicPublisher {
     session: Session,
     namespace: String,
-    publishers: BTreeMap<&'static str, zenoh::pubsub::Publisher<'static>>,
-    rmw_zenoh: Option<RmwZenohKeys>,
+    publishers: BTreeMap<String, zenoh::pubsub::Publisher<'static>>,
+    /// With [`KeyStyle::RmwZenoh`]: the ROS 2 graph (tokens and data publishers) instead.
+    ros: Option<RosGraph>,
 }
 
-/// Publishing as rmw_zenoh does (see [`crate::rmw_zenoh`]): per-topic sequence numbers and GIDs.
-struct RmwZenohKeys {
-    domain_id: u32,
-    sequence: BTreeMap<&'static str, i64>,
-    gid_prefix: String,
-}
+/// The node that owns topics published through a [`TopicPublisher`] of style
+/// [`KeyStyle::RmwZenoh`] that no declared node publishes (e.g. `bag play`'s).
+pub const DEFAULT_ROS_NODE: &str = "nrslam";
 
 /// How topics map to key expressions.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -259,8 +281,10 @@ pub enum KeyStyle {
     /// the end of each stream.
     #[default]
     Nrslam,
-    /// rmw_zenoh's, in ROS domain `domain_id`: `<domain>/<topic>/<DDS type>/<RIHS01 hash>`, every
-    /// sample with rmw_zenoh's attachment; no end-of-stream marker (ROS 2 has none).
+    /// rmw_zenoh's, in ROS domain `domain_id` ([`crate::rmw_zenoh`]): data on
+    /// `<domain>/<topic>/<DDS type>/<RIHS01 hash>` with rmw_zenoh's attachment, liveliness tokens
+    /// for the nodes and their publishers, transient-local topics cached for late joiners; no
+    /// end-of-stream marker (ROS 2 has none).
     RmwZenoh {
         /// ROS domain id (`ROS_DOMAIN_ID`).
         domain_id: u32,
@@ -277,71 +301,102 @@ impl TopicPublisher {
         Self::with_style(session, namespace, topics, KeyStyle::Nrslam)
     }
 
-    /// Declares one publisher per topic, with key expressions in `style`.
+    /// Declares one publisher per catalogue topic, with key expressions in `style`. With
+    /// [`KeyStyle::RmwZenoh`] they are the publishers of one ROS node, [`DEFAULT_ROS_NODE`].
     pub fn with_style(
         session: &Session,
         namespace: &str,
         topics: &[&'static str],
         style: KeyStyle,
     ) -> Result<Self, TransportError> {
-        let rmw_zenoh = match style {
-            KeyStyle::Nrslam => None,
-            KeyStyle::RmwZenoh { domain_id } => Some(RmwZenohKeys {
-                domain_id,
-                sequence: BTreeMap::new(),
-                gid_prefix: session.zid().to_string(),
-            }),
-        };
-        let mut publisher = Self {
-            session: session.clone(),
-            namespace: namespace.to_owned(),
-            publishers: BTreeMap::new(),
-            rmw_zenoh,
-        };
-        for &topic in topics {
-            publisher.declare(topic)?;
-        }
-        Ok(publisher)
-    }
-
-    fn key_expr(&self, topic: &'static str) -> Result<String, TransportError> {
-        match &self.rmw_zenoh {
-            None => Ok(topics::key_expr(&self.namespace, topic)),
-            Some(keys) => {
-                let spec = topics::spec(topic).ok_or_else(|| TransportError::Decode {
-                    topic: topic.into(),
-                    reason: "not in the topic catalogue".into(),
-                })?;
-                let name = if self.namespace.trim_matches('/').is_empty() {
-                    topic.to_owned()
-                } else {
-                    format!("/{}{topic}", self.namespace.trim_matches('/'))
+        match style {
+            KeyStyle::Nrslam => {
+                let mut publisher = Self {
+                    session: session.clone(),
+                    namespace: namespace.to_owned(),
+                    publishers: BTreeMap::new(),
+                    ros: None,
                 };
-                crate::rmw_zenoh::key_expr(keys.domain_id, &name, spec.type_name).map_err(|e| {
-                    TransportError::Decode {
-                        topic: topic.into(),
-                        reason: e.to_string(),
-                    }
-                })
+                for &topic in topics {
+                    publisher.declare(topic)?;
+                }
+                Ok(publisher)
+            }
+            KeyStyle::RmwZenoh { domain_id } => {
+                let node = RosNode::from_catalogue(DEFAULT_ROS_NODE, topics, &[])?;
+                Self::with_ros_nodes(session, namespace, domain_id, &[node])
             }
         }
     }
 
-    fn declare(&mut self, topic: &'static str) -> Result<(), TransportError> {
+    /// The publishers of a graph of ROS 2 `nodes` on rmw_zenoh in ROS domain `domain_id`: each
+    /// node's liveliness tokens (`NN`, `MP` per published topic, `MS` per subscribed topic) and
+    /// one data publisher per published topic ([`RosGraph`]). `namespace` is the nodes' ROS
+    /// namespace (`robot1` → `/robot1`).
+    pub fn with_ros_nodes(
+        session: &Session,
+        namespace: &str,
+        domain_id: u32,
+        nodes: &[RosNode],
+    ) -> Result<Self, TransportError> {
+        let mut graph = RosGraph::new(session, domain_id, namespace);
+        for node in nodes {
+            graph.declare_node(node)?;
+        }
+        Ok(Self {
+            session: session.clone(),
+            namespace: namespace.to_owned(),
+            publishers: BTreeMap::new(),
+            ros: Some(graph),
+        })
+    }
+
+    /// The ROS 2 graph, with [`KeyStyle::RmwZenoh`].
+    pub fn ros_graph(&self) -> Option<&RosGraph> {
+        self.ros.as_ref()
+    }
+
+    /// Declares a publisher for `endpoint`, of any type (e.g. a bag's topic outside the
+    /// catalogue; with [`KeyStyle::RmwZenoh`] its `type_hash` must be given unless the type is
+    /// one of `nrslam_msgs::schema`'s). Nothing happens if the topic already has one.
+    pub fn declare_raw(&mut self, endpoint: &RosEndpoint) -> Result<(), TransportError> {
+        match &mut self.ros {
+            Some(graph) if graph.publishes(&endpoint.topic) => Ok(()),
+            Some(graph) => graph.declare_node(&RosNode {
+                name: DEFAULT_ROS_NODE.into(),
+                publishes: vec![endpoint.clone()],
+                subscribes: Vec::new(),
+            }),
+            None => self.declare_key(&endpoint.topic),
+        }
+    }
+
+    fn declare(&mut self, topic: &str) -> Result<(), TransportError> {
+        match &self.ros {
+            Some(graph) if graph.publishes(topic) => Ok(()),
+            Some(_) => self.declare_raw(&RosEndpoint::catalogue(topic)?),
+            None => self.declare_key(topic),
+        }
+    }
+
+    fn declare_key(&mut self, topic: &str) -> Result<(), TransportError> {
         if !self.publishers.contains_key(topic) {
             let publisher = self
                 .session
-                .declare_publisher(self.key_expr(topic)?)
+                .declare_publisher(topics::key_expr(&self.namespace, topic))
                 .congestion_control(CongestionControl::Block)
                 .wait()
                 .map_err(zerr)?;
-            self.publishers.insert(topic, publisher);
+            self.publishers.insert(topic.to_owned(), publisher);
         }
         Ok(())
     }
 
     /// Whether every declared publisher has at least one matching subscriber.
     pub fn all_matched(&self) -> bool {
+        if let Some(graph) = &self.ros {
+            return graph.all_matched();
+        }
         self.publishers.values().all(|p| {
             p.matching_status()
                 .wait()
@@ -363,12 +418,18 @@ impl TopicPublisher {
         self.put(topic, bytes)
     }
 
-    /// Publishes bytes already in CDR (e.g. read from a bag) on `topic`.
+    /// Publishes bytes already in CDR (e.g. read from a bag) on catalogue topic `topic`.
     pub fn publish_cdr(
         &mut self,
         topic: &'static str,
         bytes: Vec<u8>,
     ) -> Result<(), TransportError> {
+        self.publish_raw(topic, bytes)
+    }
+
+    /// Publishes CDR `bytes` on `topic`: a catalogue topic, or one declared with
+    /// [`TopicPublisher::declare_raw`].
+    pub fn publish_raw(&mut self, topic: &str, bytes: Vec<u8>) -> Result<(), TransportError> {
         if bytes.is_empty() {
             return Err(TransportError::Decode {
                 topic: topic.into(),
@@ -380,33 +441,18 @@ impl TopicPublisher {
 
     /// Marks the end of `topic`'s stream.
     /// (With [`KeyStyle::RmwZenoh`]: nothing, ROS 2 has no end-of-stream.)
-    pub fn end(&mut self, topic: &'static str) -> Result<(), TransportError> {
-        if self.rmw_zenoh.is_some() {
+    pub fn end(&mut self, topic: &str) -> Result<(), TransportError> {
+        if self.ros.is_some() {
             return Ok(());
         }
         self.put(topic, Vec::new())
     }
 
-    fn put(&mut self, topic: &'static str, bytes: Vec<u8>) -> Result<(), TransportError> {
+    fn put(&mut self, topic: &str, bytes: Vec<u8>) -> Result<(), TransportError> {
         self.declare(topic)?;
-        let publisher = &self.publishers[topic];
-        match &mut self.rmw_zenoh {
-            None => publisher.put(bytes).wait().map_err(zerr),
-            Some(keys) => {
-                let sequence = keys.sequence.entry(topic).or_insert(0);
-                *sequence += 1;
-                let now_ns = std::time::SystemTime::now()
-                    .duration_since(std::time::UNIX_EPOCH)
-                    .map(|d| d.as_nanos() as i64)
-                    .unwrap_or(0);
-                let gid = crate::rmw_zenoh::gid_for(&format!("{}{topic}", keys.gid_prefix));
-                let attachment = crate::rmw_zenoh::attachment(*sequence, now_ns, &gid);
-                publisher
-                    .put(bytes)
-                    .attachment(attachment)
-                    .wait()
-                    .map_err(zerr)
-            }
+        match &mut self.ros {
+            Some(graph) => graph.put(topic, bytes),
+            None => self.publishers[topic].put(bytes).wait().map_err(zerr),
         }
     }
 }
