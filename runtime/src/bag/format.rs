@@ -30,7 +30,8 @@ pub(crate) const RECORD_PREFIX: u64 = 9;
 pub(crate) const CHUNK_FIXED: u64 = 8 + 8 + 8 + 4 + 4 + 8;
 /// A footer record's body.
 pub(crate) const FOOTER_BODY: u64 = 8 + 8 + 4;
-/// Longest compression name accepted ("zstd", "lz4", "" in practice).
+/// Longest compression name accepted ("zstd", "lz4", "" in practice; others are refused by the
+/// reader by name).
 pub(crate) const MAX_COMPRESSION_NAME: u32 = 64;
 
 /// Whether `opcode` is one the MCAP specification defines.
@@ -119,20 +120,28 @@ impl<'a> Cursor<'a> {
     }
 }
 
-/// A Schema record (its data is not needed: the type name is the ROS 2 type).
+/// A Schema record: the ROS 2 type name, its encoding (`ros2msg`, `ros2idl`) and definition,
+/// kept so a topic of a type outside the catalogue can be played and re-recorded as it was.
 pub(crate) struct Schema<'a> {
     pub id: u16,
     pub name: &'a str,
+    pub encoding: &'a str,
+    pub data: &'a [u8],
 }
 
 pub(crate) fn schema(body: &[u8]) -> ParseResult<Schema<'_>> {
     let mut c = Cursor::new(body);
     let id = c.u16("schema id")?;
     let name = c.string("schema name")?;
-    c.string("schema encoding")?;
+    let encoding = c.string("schema encoding")?;
     let data_len = c.u32("schema data")?;
-    c.take(u64::from(data_len), "schema data")?;
-    Ok(Schema { id, name })
+    let data = c.take(u64::from(data_len), "schema data")?;
+    Ok(Schema {
+        id,
+        name,
+        encoding,
+        data,
+    })
 }
 
 /// A Channel record.
@@ -140,6 +149,9 @@ pub(crate) struct Channel<'a> {
     pub id: u16,
     pub schema_id: u16,
     pub topic: &'a str,
+    pub message_encoding: &'a str,
+    /// `offered_qos_profiles`, `topic_type_hash`, ... as rosbag2 writes them.
+    pub metadata: std::collections::BTreeMap<String, String>,
 }
 
 pub(crate) fn channel(body: &[u8]) -> ParseResult<Channel<'_>> {
@@ -147,16 +159,20 @@ pub(crate) fn channel(body: &[u8]) -> ParseResult<Channel<'_>> {
     let id = c.u16("channel id")?;
     let schema_id = c.u16("channel schema id")?;
     let topic = c.string("channel topic")?;
-    c.string("channel message encoding")?;
+    let message_encoding = c.string("channel message encoding")?;
     let mut map = c.region("channel metadata")?;
+    let mut metadata = std::collections::BTreeMap::new();
     while !map.is_empty() {
-        map.string("channel metadata key")?;
-        map.string("channel metadata value")?;
+        let key = map.string("channel metadata key")?;
+        let value = map.string("channel metadata value")?;
+        metadata.insert(key.to_owned(), value.to_owned());
     }
     Ok(Channel {
         id,
         schema_id,
         topic,
+        message_encoding,
+        metadata,
     })
 }
 

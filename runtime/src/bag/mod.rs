@@ -1,17 +1,23 @@
-//! Topic bags: rosbag2 directories with one MCAP file, written and read once here for every verb
+//! Topic bags: rosbag2 directories with MCAP storage, written and read once here for every verb
 //! and node that needs them (`launch --record`, `bag record/info/play`, the `bag` source node of
 //! `launch/replay.toml`).
 //!
-//! A bag is what `ros2 bag record -s mcap` writes, so standard ROS 2 tools open it:
+//! A bag is what `ros2 bag record -s mcap` writes, so standard ROS 2 tools open it, and what they
+//! write opens here:
 //!
-//! - `DIR/metadata.yaml`: `rosbag2_bagfile_information` version 8 (storage `mcap`, per-topic type,
-//!   `cdr`, QoS, RIHS01 `type_description_hash`, counts, start and duration), written when the
-//!   recording finishes; `custom_data` carries the recorded run's identity (launch, arguments,
-//!   seed) so a replay can reproduce its `summary.json`.
-//! - `DIR/<DIR name>_0.mcap`: profile `ros2`, one `ros2msg` schema per type (dependencies
-//!   appended), channels with message encoding `cdr`, messages in uncompressed chunks with message
-//!   indexes, chunk indexes and statistics in the summary. Log and publish times are the header
-//!   stamps (simulated clock, which starts at 1 s, never 0).
+//! - `DIR/metadata.yaml`: `rosbag2_bagfile_information` version 9 (storage `mcap`, per-topic
+//!   type, `cdr`, QoS as a list, RIHS01 `type_description_hash`, counts, start and duration, one
+//!   `files` entry per storage file), written when the recording finishes; versions 4 to 9 are
+//!   read. `custom_data` carries the recorded run's identity (launch, arguments, seed) so a
+//!   replay can reproduce its `summary.json`.
+//! - `DIR/<DIR name>_0.mcap`, `_1.mcap`, ...: profile `ros2`, one schema per type (`ros2msg`,
+//!   dependencies appended), channels with message encoding `cdr`, messages in chunks
+//!   (uncompressed, zstd or lz4) with message indexes, chunk indexes and statistics in the
+//!   summary. A new file starts when one reaches `--max-bag-size` or `--max-bag-duration`; a
+//!   split bag is read file after file in metadata.yaml's order. Log and publish times are the
+//!   header stamps (simulated clock, which starts at 1 s, never 0).
+//! - Topics of types outside nrslam's catalogue are read, played and written again as raw CDR
+//!   with the schema they were recorded with ([`RecordedType`]).
 //!
 //! Crash safety: the writer cuts a chunk every `chunk_size_bytes` of message data and flushes it
 //! to the operating system, so a recorder killed mid-run loses at most the chunk it was filling;
@@ -19,25 +25,31 @@
 //! last complete chunk, and skips a damaged chunk in the middle of a file, reporting each loss.
 //!
 //! Reading streams ([`Bag::messages`]): memory holds one chunk at a time, whatever the size of the
-//! file, and no length read from the file is trusted before it is checked against the bytes
-//! present (see the `reader` module docs).
+//! files, and no length read from a file is trusted before it is checked against the bytes
+//! present, nor a compressed chunk's declared size before it is checked against a limit and
+//! against what the decompressor produces (see the `reader` and `decompress` module docs).
 
 mod crc;
+mod decompress;
 mod format;
 mod metadata;
+mod open;
 mod reader;
 mod source;
 mod writer;
 
+pub use decompress::{Compression, MAX_DECOMPRESSED_CHUNK_BYTES};
 pub use metadata::{
-    BagInfo, FileInfo, MetadataFile, Nanoseconds, StartingTime, TopicMetadata, TopicWithCount,
+    qos_yaml, BagInfo, FileInfo, MetadataFile, Nanoseconds, QosProfile, QosTime, StartingTime,
+    TopicMetadata, TopicWithCount,
 };
+pub use open::{Bag, Messages};
 pub use reader::{
-    open, Bag, BagContents, BagMessage, ChunkLoss, ChunkSpan, Messages, ReadMode, ReadReport,
+    open, BagContents, BagMessage, ChunkLoss, ChunkSpan, ReadMode, ReadReport, RecordedType,
     Summary, TopicSummary, IN_MEMORY_CHUNK_BYTES, MAX_RECORD_BYTES, MAX_SUMMARY_BYTES,
 };
 pub use source::{BagSource, SourceParams};
-pub use writer::{BagWriter, WriterOptions};
+pub use writer::{BagWriter, StorageOptions, WriterOptions};
 
 use std::path::PathBuf;
 
@@ -105,19 +117,27 @@ pub enum BagError {
     },
 }
 
-/// rosbag2's offered QoS string (metadata.yaml version 8: numeric enums) for a catalogue QoS:
-/// reliable, keep-all history, volatile or transient-local durability, automatic liveliness,
-/// infinite deadline, lifespan and lease.
-pub fn offered_qos_profiles(qos: &nrslam_msgs::topics::Qos) -> String {
+/// rosbag2's offered QoS profile (metadata.yaml version 9) for a catalogue QoS: reliable,
+/// keep-all history, volatile or transient-local durability, automatic liveliness, infinite
+/// deadline, lifespan and lease.
+pub fn offered_qos_profiles(qos: &nrslam_msgs::topics::Qos) -> Vec<QosProfile> {
     use nrslam_msgs::topics::Durability;
-    const INFINITE: &str = "\n    sec: 9223372036\n    nsec: 854775807";
-    let durability = match qos.durability {
-        Durability::TransientLocal => 1,
-        Durability::Volatile => 2,
-    };
-    format!(
-        "- history: 2\n  depth: 0\n  reliability: 1\n  durability: {durability}\n  deadline:{INFINITE}\n  lifespan:{INFINITE}\n  liveliness: 1\n  liveliness_lease_duration:{INFINITE}\n  avoid_ros_namespace_conventions: false"
-    )
+    vec![QosProfile {
+        history: "keep_all".into(),
+        depth: 0,
+        // Every topic of the graph is reliable (see `topics::Qos`).
+        reliability: "reliable".into(),
+        durability: match qos.durability {
+            Durability::TransientLocal => "transient_local",
+            Durability::Volatile => "volatile",
+        }
+        .into(),
+        deadline: QosTime::INFINITE,
+        lifespan: QosTime::INFINITE,
+        liveliness: "automatic".into(),
+        liveliness_lease_duration: QosTime::INFINITE,
+        avoid_ros_namespace_conventions: false,
+    }]
 }
 
 /// The `custom_data` of a bag (the recorded run's identity), from metadata.yaml without reading

@@ -38,17 +38,26 @@
 //! last, partial chunk the same way, with [`ReadReport::stopped`] set.
 //!
 //! Not checked: the data-section CRC (chunk CRCs cover every message; message indexes are only
-//! used to count losses). Compressed chunks are not supported (nrslam writes uncompressed ones,
-//! as `ros2 bag record` does by default): strictly they are an error, recovered they are a loss.
+//! used to count losses).
+//!
+//! # Compression
+//!
+//! zstd and lz4 chunks are read whole: the compressed bytes (at most [`MAX_RECORD_BYTES`]) and
+//! the decompressed records, whose declared size is checked against
+//! [`super::MAX_DECOMPRESSED_CHUNK_BYTES`] and against what the decompressor produces (see the
+//! `decompress` module: a decompression bomb is an error after at most the declared size). Their
+//! CRC covers the decompressed records. Another compression is damage, as above.
 
 use super::crc::{crc32, Crc32};
 use super::format::{self, op, ChunkIndex, CHUNK_FIXED, MAGIC, RECORD_PREFIX};
-use super::metadata::{BagInfo, MetadataFile};
+use super::metadata::BagInfo;
+use super::open::Bag;
 use super::{BagError, MCAP_METADATA_NAME};
 use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
 use std::io::{BufReader, Read};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// Largest single record accepted (a message, a schema, a metadata record), and largest
 /// decompressed size a compressed chunk may declare.
@@ -71,6 +80,32 @@ pub enum ReadMode {
     Recover,
 }
 
+/// What the bag recorded about a channel's type: enough to play its messages as raw bytes and to
+/// record them again as they were, whether or not the type is in nrslam's catalogue.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct RecordedType {
+    /// ROS 2 type name (the MCAP schema name), e.g. `radar_msgs/msg/RadarScan`.
+    pub type_name: String,
+    /// Schema encoding: `ros2msg` or `ros2idl`.
+    pub schema_encoding: String,
+    /// The schema: the type's definition with its dependencies.
+    pub schema: Vec<u8>,
+    /// Message encoding: `cdr`.
+    pub message_encoding: String,
+    /// The channel's metadata (`offered_qos_profiles`, `topic_type_hash`, ...).
+    pub channel_metadata: BTreeMap<String, String>,
+}
+
+impl RecordedType {
+    /// The RIHS01 type hash the recorder wrote in the channel metadata (`topic_type_hash`), if any.
+    pub fn type_hash(&self) -> Option<&str> {
+        self.channel_metadata
+            .get("topic_type_hash")
+            .map(String::as_str)
+            .filter(|h| !h.is_empty())
+    }
+}
+
 /// One recorded message.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BagMessage {
@@ -82,6 +117,8 @@ pub struct BagMessage {
     pub log_time_ns: u64,
     /// CDR bytes with the encapsulation header.
     pub data: Vec<u8>,
+    /// The channel's recorded type and schema (shared by its messages).
+    pub recorded: Arc<RecordedType>,
 }
 
 impl BagMessage {
@@ -105,6 +142,8 @@ pub struct TopicSummary {
 /// Where a chunk ends in the MCAP file and how many messages it holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ChunkSpan {
+    /// Index of its storage file among the bag's ([`Bag::mcap_paths`]).
+    pub file: usize,
     /// Byte offset just past the chunk record.
     pub end_byte: u64,
     /// Messages in it.
@@ -114,6 +153,8 @@ pub struct ChunkSpan {
 /// A part of the file skipped by [`ReadMode::Recover`].
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ChunkLoss {
+    /// Index of its storage file among the bag's ([`Bag::mcap_paths`]).
+    pub file: usize,
     /// First byte skipped (the damaged record's start).
     pub start_byte: u64,
     /// Where reading resumed (the end of the file if it did not).
@@ -283,7 +324,38 @@ pub fn open(dir: &Path, mode: ReadMode) -> Result<BagContents, BagError> {
 #[derive(Debug, Clone)]
 struct ChannelInfo {
     topic: String,
-    type_name: String,
+    recorded: Arc<RecordedType>,
+}
+
+/// A schema record's content, by id, until channels refer to it.
+#[derive(Debug, Clone)]
+struct SchemaInfo {
+    name: String,
+    encoding: String,
+    data: Vec<u8>,
+}
+
+impl SchemaInfo {
+    fn from_record(s: &format::Schema<'_>) -> Self {
+        Self {
+            name: s.name.to_owned(),
+            encoding: s.encoding.to_owned(),
+            data: s.data.to_vec(),
+        }
+    }
+}
+
+fn channel_info(ch: format::Channel<'_>, schema: &SchemaInfo) -> ChannelInfo {
+    ChannelInfo {
+        topic: ch.topic.to_owned(),
+        recorded: Arc::new(RecordedType {
+            type_name: schema.name.clone(),
+            schema_encoding: schema.encoding.clone(),
+            schema: schema.data.clone(),
+            message_encoding: ch.message_encoding.to_owned(),
+            channel_metadata: ch.metadata,
+        }),
+    }
 }
 
 /// Damage found at a byte offset.
@@ -419,266 +491,66 @@ impl Source {
     }
 }
 
-/// A bag folder opened for reading: metadata.yaml, the MCAP file's summary when intact, and the
-/// recorded run's identity. [`Bag::messages`] streams its messages.
+/// One MCAP file of a bag, opened: its length, its summary when intact (or why not).
 #[derive(Debug, Clone)]
-pub struct Bag {
-    dir: PathBuf,
-    mcap_path: PathBuf,
-    metadata: Option<BagInfo>,
-    mode: ReadMode,
-    file_bytes: u64,
-    summary: Option<Summary>,
-    summary_note: Option<String>,
-    custom_data: BTreeMap<String, String>,
-    in_memory_chunk_bytes: u64,
+pub(super) struct FilePart {
+    pub path: PathBuf,
+    pub bytes: u64,
+    pub summary: Option<Summary>,
+    pub note: Option<String>,
 }
 
-fn find_mcap(dir: &Path, metadata: Option<&BagInfo>) -> Result<PathBuf, BagError> {
-    if let Some(info) = metadata {
-        return match info.relative_file_paths.as_slice() {
-            [one] => Ok(dir.join(one)),
-            [] => Err(BagError::NotABag {
-                path: dir.to_owned(),
-                reason: "metadata.yaml lists no storage file".into(),
-            }),
-            _ => Err(BagError::NotABag {
-                path: dir.to_owned(),
-                reason: "bags split over several files are not supported".into(),
-            }),
-        };
-    }
-    let mut found: Vec<PathBuf> = std::fs::read_dir(dir)
-        .map_err(|source| BagError::Io {
-            path: dir.to_owned(),
-            source,
-        })?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|e| e == "mcap"))
-        .collect();
-    found.sort();
-    match found.len() {
-        1 => Ok(found.remove(0)),
-        0 => Err(BagError::NotABag {
-            path: dir.to_owned(),
-            reason: "no .mcap file in it".into(),
-        }),
-        _ => Err(BagError::NotABag {
-            path: dir.to_owned(),
-            reason: "several .mcap files and no metadata.yaml".into(),
-        }),
-    }
-}
-
-impl Bag {
-    /// Opens the bag folder `dir` (or, if `dir` is an `.mcap` file, that file alone): reads
-    /// metadata.yaml, checks the MCAP magic and reads the summary section (Strict mode: it must be
-    /// intact; Recover mode: a damaged or missing one is noted and not used).
-    pub fn open(dir: &Path, mode: ReadMode) -> Result<Self, BagError> {
-        if !dir.exists() {
-            return Err(BagError::Io {
-                path: dir.to_owned(),
-                source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file or folder"),
-            });
-        }
-        let (folder, metadata, mcap_path) = if dir.is_file() {
-            let folder = dir.parent().map(Path::to_owned).unwrap_or_default();
-            (folder, None, dir.to_owned())
-        } else {
-            let metadata_path = dir.join("metadata.yaml");
-            let metadata = match std::fs::read_to_string(&metadata_path) {
-                Ok(text) => Some(
-                    MetadataFile::from_yaml(&text)
-                        .map_err(|e| BagError::Corrupt {
-                            path: metadata_path.clone(),
-                            reason: format!("not rosbag2 metadata: {e}"),
-                        })?
-                        .rosbag2_bagfile_information,
-                ),
-                Err(_) if mode == ReadMode::Recover => None,
-                Err(_) => {
-                    return Err(BagError::NotABag {
-                        path: dir.to_owned(),
-                        reason: "no metadata.yaml (a recording cut off? try --recover)".into(),
-                    })
-                }
-            };
-            if let Some(info) = &metadata {
-                if info.storage_identifier != "mcap" {
-                    return Err(BagError::NotABag {
-                        path: dir.to_owned(),
-                        reason: format!(
-                            "storage {:?} is not supported (only mcap)",
-                            info.storage_identifier
-                        ),
-                    });
-                }
-            }
-            let mcap_path = find_mcap(dir, metadata.as_ref())?;
-            (dir.to_owned(), metadata, mcap_path)
-        };
+impl FilePart {
+    /// Opens `path`: checks the MCAP magic and reads the summary section (Strict mode: it must be
+    /// intact; Recover mode: a damaged or missing one is noted and not used). Also returns the
+    /// `nrslam` metadata record, if the file has one.
+    pub fn open(
+        path: &Path,
+        mode: ReadMode,
+    ) -> Result<(Self, Option<BTreeMap<String, String>>), BagError> {
         let io = |source| BagError::Io {
-            path: mcap_path.clone(),
+            path: path.to_owned(),
             source,
         };
-        let mut src = Source::open(&mcap_path).map_err(io)?;
+        let mut src = Source::open(path).map_err(io)?;
         let mut magic = [0u8; 8];
         if src.read_at(0, &mut magic).is_err() || &magic != MAGIC {
             return Err(BagError::Corrupt {
-                path: mcap_path.clone(),
+                path: path.to_owned(),
                 reason: "not an MCAP file (no MCAP magic at its start)".into(),
             });
         }
-        let (summary, summary_note) = match read_summary(&mut src) {
+        let (summary, note) = match read_summary(&mut src) {
             Ok(Ok(summary)) => (Some(summary), None),
             Ok(Err(note)) => (None, Some(note)),
             Err(Fail::Io(e)) => return Err(io(e)),
             Err(Fail::Damage(d)) if mode == ReadMode::Strict => {
-                return Err(corrupt(&mcap_path, mode, &d))
+                return Err(corrupt(path, mode, &d))
             }
             Err(Fail::Damage(d)) => (None, Some(format!("at byte {}: {}", d.offset, d.reason))),
         };
-        let mut custom_data = metadata
-            .as_ref()
-            .map(|m| m.custom_data.clone())
-            .unwrap_or_default();
-        if custom_data.is_empty() {
-            custom_data = first_metadata_record(&mut src, summary.as_ref()).unwrap_or_default();
-        }
-        Ok(Self {
-            dir: folder,
-            mcap_path,
-            metadata,
-            mode,
-            file_bytes: src.len,
-            summary,
-            summary_note,
-            custom_data,
-            in_memory_chunk_bytes: IN_MEMORY_CHUNK_BYTES,
-        })
+        let custom = first_metadata_record(&mut src, summary.as_ref());
+        Ok((
+            Self {
+                path: path.to_owned(),
+                bytes: src.len,
+                summary,
+                note,
+            },
+            custom,
+        ))
     }
 
-    /// The folder.
-    pub fn dir(&self) -> &Path {
-        &self.dir
-    }
-
-    /// The MCAP file.
-    pub fn mcap_path(&self) -> &Path {
-        &self.mcap_path
-    }
-
-    /// metadata.yaml, when present.
-    pub fn metadata(&self) -> Option<&BagInfo> {
-        self.metadata.as_ref()
-    }
-
-    /// How it is read.
-    pub fn mode(&self) -> ReadMode {
-        self.mode
-    }
-
-    /// Size of the MCAP file (bytes).
-    pub fn file_bytes(&self) -> u64 {
-        self.file_bytes
-    }
-
-    /// The MCAP summary section, when present and intact.
-    pub fn summary(&self) -> Option<&Summary> {
-        self.summary.as_ref()
-    }
-
-    /// Why there is no summary (missing, damaged, too large), if there is none.
-    pub fn summary_note(&self) -> Option<&str> {
-        self.summary_note.as_deref()
-    }
-
-    /// The recorded run's identity (metadata.yaml `custom_data`, or the MCAP `nrslam` metadata
-    /// record at the start of the file).
-    pub fn custom_data(&self) -> &BTreeMap<String, String> {
-        &self.custom_data
-    }
-
-    /// The bag's topics without reading its messages: from the summary's channels and statistics,
-    /// else from metadata.yaml; `None` when neither is there (see [`Bag::survey`]).
-    pub fn topics(&self) -> Option<Vec<TopicSummary>> {
-        if let Some(summary) = &self.summary {
-            return Some(summary.topics.clone());
-        }
-        let info = self.metadata.as_ref()?;
-        Some(
-            info.topics_with_message_count
-                .iter()
-                .map(|t| TopicSummary {
-                    name: t.topic_metadata.name.clone(),
-                    type_name: t.topic_metadata.type_name.clone(),
-                    count: t.message_count,
-                })
-                .collect(),
-        )
-    }
-
-    /// Sets the size above which chunks are read record by record instead of whole (tests).
-    #[doc(hidden)]
-    pub fn set_in_memory_chunk_bytes(&mut self, bytes: u64) {
-        self.in_memory_chunk_bytes = bytes;
-    }
-
-    /// Streams every message, in file order.
-    pub fn messages(&self) -> Result<Messages, BagError> {
-        self.stream(None, false)
-    }
-
-    /// Streams the messages of `topics` (all if empty), in file order. A topic the bag does not
-    /// hold is an error when the bag's topics are known without reading ([`Bag::topics`]).
-    pub fn messages_on(&self, topics: &[String]) -> Result<Messages, BagError> {
-        if topics.is_empty() {
-            return self.messages();
-        }
-        if let Some(known) = self.topics() {
-            check_topics(topics, &known)?;
-        }
-        self.stream(Some(topics.to_vec()), false)
-    }
-
-    /// One pass over the file that counts messages per topic without handing them out.
-    pub fn survey(&self) -> Result<ReadReport, BagError> {
-        let mut stream = self.stream(None, true)?;
-        for item in stream.by_ref() {
-            item?;
-        }
-        Ok(stream.into_report())
-    }
-
-    /// Every message in memory, with the report of the pass.
-    pub fn read_all(&self) -> Result<BagContents, BagError> {
-        let mut stream = self.messages()?;
-        let mut messages = Vec::new();
-        for message in stream.by_ref() {
-            messages.push(message?);
-        }
-        let report = stream.into_report();
-        let mut custom_data = self.custom_data.clone();
-        if custom_data.is_empty() {
-            custom_data = report.custom_data;
-        }
-        Ok(BagContents {
-            dir: self.dir.clone(),
-            mcap_path: self.mcap_path.clone(),
-            metadata: self.metadata.clone(),
-            messages,
-            topics: report.topics,
-            chunks: report.chunks,
-            losses: report.losses,
-            custom_data,
-            file_bytes: self.file_bytes,
-            stopped: report.stopped,
-        })
-    }
-
-    fn stream(&self, filter: Option<Vec<String>>, count_only: bool) -> Result<Messages, BagError> {
-        let src = Source::open(&self.mcap_path).map_err(|source| BagError::Io {
-            path: self.mcap_path.clone(),
+    /// Streams this file's messages.
+    pub fn messages(
+        &self,
+        mode: ReadMode,
+        filter: Option<Vec<String>>,
+        count_only: bool,
+        in_memory_chunk_bytes: u64,
+    ) -> Result<FileMessages, BagError> {
+        let src = Source::open(&self.path).map_err(|source| BagError::Io {
+            path: self.path.clone(),
             source,
         })?;
         let (channels, chunk_indexes, data_end, expected) = match &self.summary {
@@ -690,10 +562,10 @@ impl Bag {
             ),
             None => (HashMap::new(), Vec::new(), src.len, None),
         };
-        Ok(Messages {
+        Ok(FileMessages {
             src,
-            path: self.mcap_path.clone(),
-            mode: self.mode,
+            path: self.path.clone(),
+            mode,
             filter,
             count_only,
             schemas: HashMap::new(),
@@ -706,13 +578,62 @@ impl Bag {
             chunk: None,
             done: false,
             open_loss: None,
-            in_memory_chunk_bytes: self.in_memory_chunk_bytes,
+            in_memory_chunk_bytes,
             scratch: Vec::new(),
             partial: 0,
             chunked: self.summary.as_ref().is_some_and(|s| s.chunk_count > 0),
             report: ReadReport::default(),
         })
     }
+}
+
+impl Summary {
+    /// The figures of several files' summaries together (per-file indexes left out).
+    pub(super) fn merged<'a>(parts: impl IntoIterator<Item = &'a Summary>) -> Summary {
+        let mut out = Summary {
+            topics: Vec::new(),
+            message_count: Some(0),
+            time_range_ns: None,
+            chunk_count: 0,
+            channels: HashMap::new(),
+            chunk_indexes: Vec::new(),
+            metadata: Vec::new(),
+            start: 0,
+        };
+        for s in parts {
+            for topic in &s.topics {
+                match out.topics.iter_mut().find(|t| t.name == topic.name) {
+                    Some(t) => t.count += topic.count,
+                    None => out.topics.push(topic.clone()),
+                }
+            }
+            out.message_count = out.message_count.zip(s.message_count).map(|(a, b)| a + b);
+            out.time_range_ns = match (out.time_range_ns, s.time_range_ns) {
+                (Some((a, b)), Some((c, d))) => Some((a.min(c), b.max(d))),
+                (a, b) => a.or(b),
+            };
+            out.chunk_count += s.chunk_count;
+        }
+        out
+    }
+}
+
+/// A chunk's records (uncompressed) against the CRC its header records (0: none recorded).
+fn check_crc(at: u64, header: &format::ChunkHeader, records: &[u8]) -> Result<(), Fail> {
+    if header.uncompressed_crc == 0 {
+        return Ok(());
+    }
+    let crc = crc32(records);
+    if crc != header.uncompressed_crc {
+        return Err(damage(
+            at,
+            format!(
+                "chunk CRC mismatch (recorded {:08x}, computed {crc:08x})",
+                header.uncompressed_crc
+            ),
+        ));
+    }
+    Ok(())
 }
 
 fn corrupt(path: &Path, mode: ReadMode, d: &Damage) -> BagError {
@@ -775,8 +696,8 @@ fn read_summary(src: &mut Source) -> Result<Result<Summary, String>, Fail> {
             return Err(damage(summary_start, "summary section CRC mismatch"));
         }
     }
-    let mut schemas = HashMap::new();
-    let mut channels: Vec<(u16, u16, String)> = Vec::new();
+    let mut schemas: HashMap<u16, SchemaInfo> = HashMap::new();
+    let mut channels: Vec<(u16, ChannelInfo)> = Vec::new();
     let mut statistics = None;
     let mut chunk_indexes = Vec::new();
     let mut metadata = Vec::new();
@@ -790,11 +711,18 @@ fn read_summary(src: &mut Source) -> Result<Result<Summary, String>, Fail> {
         match opcode {
             op::SCHEMA => {
                 let s = format::schema(body).map_err(bad)?;
-                schemas.insert(s.id, s.name.to_owned());
+                schemas.insert(s.id, SchemaInfo::from_record(&s));
             }
             op::CHANNEL => {
                 let ch = format::channel(body).map_err(bad)?;
-                channels.push((ch.id, ch.schema_id, ch.topic.to_owned()));
+                let (id, topic) = (ch.id, ch.topic.to_owned());
+                let schema = schemas.get(&ch.schema_id).ok_or_else(|| {
+                    damage(
+                        summary_start,
+                        format!("summary: channel {topic} has no schema"),
+                    )
+                })?;
+                channels.push((id, channel_info(ch, schema)));
             }
             op::STATISTICS => statistics = Some(format::statistics(body).map_err(bad)?),
             op::CHUNK_INDEX => chunk_indexes.push(format::chunk_index(body).map_err(bad)?),
@@ -820,13 +748,8 @@ fn read_summary(src: &mut Source) -> Result<Result<Summary, String>, Fail> {
     channels.sort_by_key(|c| c.0);
     let mut infos = HashMap::new();
     let mut topics: Vec<TopicSummary> = Vec::new();
-    for (id, schema_id, topic) in channels {
-        let type_name = schemas.get(&schema_id).cloned().ok_or_else(|| {
-            damage(
-                summary_start,
-                format!("summary: channel {topic} has no schema"),
-            )
-        })?;
+    for (id, info) in channels {
+        let (topic, type_name) = (info.topic.clone(), info.recorded.type_name.clone());
         let count = statistics.as_ref().map_or(0, |s: &format::Statistics| {
             s.channel_message_counts
                 .iter()
@@ -842,7 +765,7 @@ fn read_summary(src: &mut Source) -> Result<Result<Summary, String>, Fail> {
                 count,
             }),
         }
-        infos.insert(id, ChannelInfo { topic, type_name });
+        infos.insert(id, info);
     }
     Ok(Ok(Summary {
         topics,
@@ -917,15 +840,15 @@ enum OpenChunk {
     },
 }
 
-/// The messages of a bag, streamed in file order (see the module docs); an error ends the stream.
-/// [`Messages::report`] tells what was read, skipped and lost.
-pub struct Messages {
+/// The messages of one MCAP file, streamed in file order (see the module docs); an error ends the
+/// stream. [`FileMessages::report`] tells what was read, skipped and lost.
+pub(super) struct FileMessages {
     src: Source,
     path: PathBuf,
     mode: ReadMode,
     filter: Option<Vec<String>>,
     count_only: bool,
-    schemas: HashMap<u16, String>,
+    schemas: HashMap<u16, SchemaInfo>,
     channels: HashMap<u16, ChannelInfo>,
     chunk_indexes: Vec<ChunkIndex>,
     data_end: u64,
@@ -952,7 +875,7 @@ enum Step {
     End,
 }
 
-impl Iterator for Messages {
+impl Iterator for FileMessages {
     type Item = Result<BagMessage, BagError>;
 
     fn next(&mut self) -> Option<Self::Item> {
@@ -990,12 +913,7 @@ impl Iterator for Messages {
     }
 }
 
-impl Messages {
-    /// What has been read so far (all of it once the stream has ended).
-    pub fn report(&self) -> &ReadReport {
-        &self.report
-    }
-
+impl FileMessages {
     /// The report, once done.
     pub fn into_report(self) -> ReadReport {
         self.report
@@ -1018,22 +936,24 @@ impl Messages {
     fn take_message(&mut self, channel: u16, log_time: u64, data: &[u8]) -> Option<BagMessage> {
         let info = self.channels.get(&channel)?;
         self.seen_messages += 1;
-        self.report.count(&info.topic, &info.type_name, log_time);
+        self.report
+            .count(&info.topic, &info.recorded.type_name, log_time);
         if !self.wanted(&info.topic) {
             return None;
         }
         self.report.messages += 1;
         Some(BagMessage {
             topic: info.topic.clone(),
-            type_name: info.type_name.clone(),
+            type_name: info.recorded.type_name.clone(),
             log_time_ns: log_time,
             data: data.to_vec(),
+            recorded: info.recorded.clone(),
         })
     }
 
     fn register_schema(&mut self, body: &[u8]) -> Result<(), String> {
         let s = format::schema(body)?;
-        self.schemas.insert(s.id, s.name.to_owned());
+        self.schemas.insert(s.id, SchemaInfo::from_record(&s));
         Ok(())
     }
 
@@ -1042,18 +962,13 @@ impl Messages {
         if self.channels.contains_key(&ch.id) {
             return Ok(());
         }
-        let type_name = self
+        let schema = self
             .schemas
             .get(&ch.schema_id)
-            .ok_or_else(|| format!("channel {} has no schema", ch.topic))?
-            .clone();
-        self.channels.insert(
-            ch.id,
-            ChannelInfo {
-                topic: ch.topic.to_owned(),
-                type_name,
-            },
-        );
+            .ok_or_else(|| format!("channel {} has no schema", ch.topic))?;
+        let id = ch.id;
+        let info = channel_info(ch, schema);
+        self.channels.insert(id, info);
         Ok(())
     }
 
@@ -1154,17 +1069,12 @@ impl Messages {
         let body_at = at + RECORD_PREFIX;
         let end_byte = body_at + len;
         let header = self.chunk_header(at, len)?;
-        if !header.compression.is_empty() {
-            return Err(damage(
-                at,
-                format!(
-                    "chunk compressed with {:?} ({} bytes uncompressed): only uncompressed chunks are read",
-                    header.compression, header.uncompressed_size
-                ),
-            ));
-        }
         let records_at = body_at + header.header_len;
         let records_len = header.records_len;
+        if !header.compression.is_empty() {
+            let buf = self.decompressed_chunk(at, &header)?;
+            return self.parse_chunk(at, end_byte, buf);
+        }
         if records_len > self.in_memory_chunk_bytes {
             if header.uncompressed_crc != 0 {
                 let crc = self.crc_of(records_at, records_len)?;
@@ -1188,18 +1098,50 @@ impl Messages {
         }
         let mut buf = Vec::new();
         self.src.read_into(records_at, records_len, &mut buf)?;
-        if header.uncompressed_crc != 0 {
-            let crc = crc32(&buf);
-            if crc != header.uncompressed_crc {
-                return Err(damage(
-                    at,
-                    format!(
-                        "chunk CRC mismatch (recorded {:08x}, computed {crc:08x})",
-                        header.uncompressed_crc
-                    ),
-                ));
-            }
+        check_crc(at, &header, &buf)?;
+        self.parse_chunk(at, end_byte, buf)
+    }
+
+    /// A compressed chunk's records: the compressed bytes (at most [`MAX_RECORD_BYTES`]) read
+    /// whole, decompressed within the declared size (see the `decompress` module), CRC checked.
+    fn decompressed_chunk(
+        &mut self,
+        at: u64,
+        header: &format::ChunkHeader,
+    ) -> Result<Vec<u8>, Fail> {
+        let records_at = at + RECORD_PREFIX + header.header_len;
+        if header.records_len > MAX_RECORD_BYTES {
+            return Err(damage(
+                at,
+                format!(
+                    "compressed chunk of {} bytes is over the {MAX_RECORD_BYTES}-byte limit",
+                    header.records_len
+                ),
+            ));
         }
+        let mut compressed = std::mem::take(&mut self.scratch);
+        let read = self
+            .src
+            .read_into(records_at, header.records_len, &mut compressed);
+        let mut buf = Vec::new();
+        let result = read.and_then(|()| {
+            super::decompress::decompress(
+                &header.compression,
+                &compressed,
+                header.uncompressed_size,
+                &mut buf,
+            )
+            .map_err(|e| damage(at, e))
+        });
+        compressed.clear();
+        self.scratch = compressed;
+        result?;
+        check_crc(at, header, &buf)?;
+        Ok(buf)
+    }
+
+    /// Parses a chunk's records (read whole and checked) and makes it the open chunk.
+    fn parse_chunk(&mut self, at: u64, end_byte: u64, buf: Vec<u8>) -> Result<OpenChunk, Fail> {
         // Every record must parse before any message is handed out; schemas and channels are
         // taken only then.
         let mut schemas = Vec::new();
@@ -1216,28 +1158,23 @@ impl Messages {
             match opcode {
                 op::SCHEMA => {
                     let s = format::schema(body).map_err(fail)?;
-                    schemas.push((s.id, s.name.to_owned()));
+                    schemas.push((s.id, SchemaInfo::from_record(&s)));
                 }
                 op::CHANNEL => {
                     let ch = format::channel(body).map_err(fail)?;
                     let known = self.channels.contains_key(&ch.id)
                         || channels.iter().any(|(id, _)| *id == ch.id);
                     if !known {
-                        let type_name = schemas
+                        let schema = schemas
                             .iter()
                             .rev()
                             .find(|(id, _)| *id == ch.schema_id)
                             .map(|(_, n)| n)
                             .or_else(|| self.schemas.get(&ch.schema_id))
-                            .ok_or_else(|| fail(format!("channel {} has no schema", ch.topic)))?
-                            .clone();
-                        channels.push((
-                            ch.id,
-                            ChannelInfo {
-                                topic: ch.topic.to_owned(),
-                                type_name,
-                            },
-                        ));
+                            .ok_or_else(|| fail(format!("channel {} has no schema", ch.topic)))?;
+                        let id = ch.id;
+                        let info = channel_info(ch, schema);
+                        channels.push((id, info));
                     }
                 }
                 op::MESSAGE => {
@@ -1264,6 +1201,7 @@ impl Messages {
         self.schemas.extend(schemas);
         self.channels.extend(channels);
         self.report.chunks.push(ChunkSpan {
+            file: 0,
             end_byte,
             messages: messages.len() as u64,
         });
@@ -1364,6 +1302,7 @@ impl Messages {
                 }
                 self.partial = 0;
                 self.report.chunks.push(ChunkSpan {
+                    file: 0,
                     end_byte: *end_byte,
                     messages: *count,
                 });
@@ -1413,6 +1352,7 @@ impl Messages {
         };
         let end_byte = resume.unwrap_or(self.src.len);
         let loss = ChunkLoss {
+            file: 0,
             start_byte: d.offset,
             end_byte,
             messages: messages.map(|m| m.saturating_sub(handed_out)),
@@ -1541,7 +1481,7 @@ impl Messages {
     }
 
     /// Whether a chunk at `at` has a consistent header and a matching CRC (records parsing is
-    /// left to reading it).
+    /// left to reading it); a compressed one must also decompress to its declared size.
     fn chunk_checks(&mut self, at: u64, limit: u64) -> Result<bool, Fail> {
         let Ok((op::CHUNK, len)) = self.src.record_within(at, limit) else {
             return Ok(false);
@@ -1550,7 +1490,11 @@ impl Messages {
             return Ok(false);
         };
         if !header.compression.is_empty() {
-            return Ok(false);
+            return match self.decompressed_chunk(at, &header) {
+                Ok(_) => Ok(true),
+                Err(Fail::Damage(_)) => Ok(false),
+                Err(io) => Err(io),
+            };
         }
         if header.uncompressed_crc == 0 {
             return Ok(true);
