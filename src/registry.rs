@@ -6,7 +6,7 @@ use nrslam_runtime::{parse_params, Node, NodeContext, NodeError, ParamsError};
 #[derive(Debug, thiserror::Error)]
 pub enum BuildError {
     /// No such kind.
-    #[error("unknown node kind {0:?} (known: radar, estimator, association, mapper, segmenter, evaluator, bag)")]
+    #[error("unknown node kind {0:?} (known: radar, estimator, association, mapper, segmenter, evaluator, sensor_adapter, viz, bag)")]
     UnknownKind(String),
     /// Bad parameters.
     #[error(transparent)]
@@ -40,12 +40,43 @@ pub fn build(
         "segmenter" => build_kind!(nrslam_segmenter, table, ctx),
         "evaluator" => build_kind!(nrslam_evaluator, table, ctx),
         "estimator" => build_kind!(nrslam_estimator, table, ctx),
+        "sensor_adapter" => build_kind!(nrslam_sensor_adapter, table, ctx),
+        "viz" => build_kind!(nrslam_viz, table, ctx),
         "bag" => {
+            let mut table = table;
+            let remap = bag_remap(table.remove("remap"))?;
             let params: nrslam_runtime::bag::SourceParams = parse_params(table)?;
-            Box::new(nrslam_runtime::bag::BagSource::new(&params)?)
+            let source = Box::new(nrslam_runtime::bag::BagSource::new(&params)?);
+            if remap.is_empty() {
+                source
+            } else {
+                Box::new(
+                    nrslam_sensor_adapter::RemapOutputs::new(source, &remap)
+                        .map_err(ParamsError::from)?,
+                )
+            }
         }
         other => return Err(BuildError::UnknownKind(other.to_owned())),
     })
+}
+
+/// A `bag` node's `remap = { "/from" = "/to", ... }` (outputs renamed, see
+/// [`nrslam_sensor_adapter::remap`]), as (from, to) pairs; none if absent.
+fn bag_remap(value: Option<toml::Value>) -> Result<Vec<(String, String)>, ParamsError> {
+    let Some(value) = value else {
+        return Ok(Vec::new());
+    };
+    let bad = || {
+        ParamsError::Parse(
+            "remap: expected a table of topic names, e.g. remap = { \"/slam/pose\" = \"/ground_truth/pose\" }"
+                .into(),
+        )
+    };
+    let table = value.as_table().ok_or_else(bad)?;
+    table
+        .iter()
+        .map(|(from, to)| Ok((from.clone(), to.as_str().ok_or_else(bad)?.to_owned())))
+        .collect()
 }
 
 /// Frames the radar of a launch will produce, for the progress bar (None if unknown).
