@@ -327,6 +327,11 @@ fn message_json(message: &nrslam_msgs::Message) -> Result<String> {
         M::KeyframePoses(m) => serde_json::to_string(m)?,
         M::AssociationStats(m) => serde_json::to_string(m)?,
         M::DiagnosticArray(m) => serde_json::to_string(m)?,
+        M::RadarScan(m) => serde_json::to_string(m)?,
+        M::PointCloud2(m) => serde_json::to_string(m)?,
+        M::TFMessage(m) => serde_json::to_string(m)?,
+        M::Path(m) => serde_json::to_string(m)?,
+        M::MarkerArray(m) => serde_json::to_string(m)?,
     })
 }
 
