@@ -139,7 +139,8 @@ fn read_bounded(reader: impl Read, declared: u64, out: &mut Vec<u8>) -> std::io:
     let mut limited = reader.take(declared + 1);
     loop {
         if out.len() == out.capacity() {
-            let want = (out.capacity() * 2).clamp(STEP, cap);
+            // Never `clamp(STEP, cap)`: a chunk smaller than STEP has cap < STEP.
+            let want = (out.capacity() * 2).max(STEP).min(cap);
             if want <= out.len() {
                 return Ok(());
             }
@@ -201,6 +202,19 @@ mod tests {
             let mut out = Vec::new();
             decompress(c.mcap_name(), &packed, data.len() as u64, &mut out).unwrap();
             assert_eq!(out, data, "{c}");
+        }
+    }
+
+    #[test]
+    fn chunks_of_every_size_round_trip_including_those_under_one_growth_step() {
+        let data = sample();
+        for len in [0, 1, 2, 100, 4357, 65_535, 65_536, 65_537, 200_001] {
+            for c in [Compression::Zstd, Compression::Lz4] {
+                let packed = compress(c, &data[..len]);
+                let mut out = Vec::new();
+                decompress(c.mcap_name(), &packed, len as u64, &mut out).unwrap();
+                assert_eq!(out, &data[..len], "{c} {len}");
+            }
         }
     }
 
