@@ -26,7 +26,9 @@ use std::time::{Duration, Instant};
 pub struct LaunchArgs {
     /// Launch file (TOML), e.g. launch/paper-ideal.toml.
     pub file: PathBuf,
-    /// Launch arguments as name:=value, e.g. range_std_m:=0.1 angle_std_deg:=5.
+    /// Launch arguments as name:=value, e.g. range_std_m:=0.1 angle_std_deg:=5, and node
+    /// parameters as node.param:=value (nested: node.table.key:=value; the value is read as
+    /// TOML, e.g. association.scan_matching:=false mapper.resolution_m:=0.2). See docs/launch.md.
     #[arg(value_name = "NAME:=VALUE")]
     pub assignments: Vec<String>,
     /// Run seed: every random stream of every node derives from it (0 to 2^64 − 1).
@@ -176,10 +178,15 @@ pub(crate) fn build_all(launch: &Launch, seed: u64) -> Result<Built> {
         let ctx = NodeContext {
             name: decl.name.clone(),
             seed,
-            base_dir: launch.base_dir.clone(),
+            base_dir: decl.base_dir.clone(),
         };
-        let node = registry::build(&decl.kind, decl.params.clone(), &ctx)
-            .map_err(|e| anyhow!("{}: node {}: {e}", launch.path.display(), decl.name))?;
+        let node = registry::build(&decl.kind, decl.params.clone(), &ctx).map_err(|e| {
+            anyhow!(
+                "{}: {}: {e}",
+                launch.path.display(),
+                decl.describe(&launch.path)
+            )
+        })?;
         expected_frames =
             expected_frames.or_else(|| registry::expected_frames(&decl.kind, &decl.params, &ctx));
         nodes.push((decl.name.clone(), node));
@@ -642,14 +649,15 @@ fn run_processes(
     let params_dir = out.join("params");
     std::fs::create_dir_all(&params_dir)
         .with_context(|| format!("cannot create {}", params_dir.display()))?;
-    let base_dir = std::fs::canonicalize(&launch.base_dir)
-        .with_context(|| format!("resolving {}", launch.base_dir.display()))?;
     let exe = std::env::current_exe().context("locating the nrslam executable")?;
     let mut specs = Vec::new();
     for (decl, restart) in launch.nodes.iter().zip(policies) {
         let file = params_dir.join(format!("{}.toml", decl.name));
         std::fs::write(&file, toml::to_string(&decl.params)?)
             .with_context(|| format!("cannot write {}", file.display()))?;
+        // An included node's relative paths resolve against its own file's folder.
+        let base_dir = std::fs::canonicalize(&decl.base_dir)
+            .with_context(|| format!("resolving {}", decl.base_dir.display()))?;
         specs.push(ProcessSpec {
             name: decl.name.clone(),
             program: exe.clone(),

@@ -28,7 +28,8 @@ const METRICS: [&str; 4] = ["etgospa", "gospa", "position_error_m", "estimated_t
 pub struct MonteCarloArgs {
     /// Launch file (run in-process for every trial).
     pub file: PathBuf,
-    /// Launch arguments as name:=value.
+    /// Launch arguments as name:=value, and node parameters as node.param:=value (nested:
+    /// node.table.key:=value; the value is read as TOML, e.g. association.scan_matching:=false).
     #[arg(value_name = "NAME:=VALUE")]
     pub assignments: Vec<String>,
     /// Number of trials in the whole study (the paper: 500), 1 to 100000: every trial's per-step

@@ -39,6 +39,24 @@
 //! stays relative and so resolves against the file's folder like every other path there.
 //! [`Launch::arguments`] keeps the values as typed (what a run's summary records), the node
 //! parameters get the resolved ones.
+//!
+//! Includes and overrides (docs/launch.md has the full format): `[[include]] file = "x.toml"`
+//! adds another launch file's nodes, passing it arguments (its arguments the includer does not
+//! set become the includer's), with `[include.params.NODE]` changing its nodes' parameters and
+//! `drop` removing nodes; `node.param:=value` on the command line sets one node parameter.
+
+mod file;
+mod include;
+mod overrides;
+mod substitute;
+#[cfg(test)]
+mod tests;
+#[cfg(test)]
+mod tests_include;
+
+pub use include::MAX_INCLUDE_DEPTH;
+pub use overrides::{parse_param_assignment, ParamAssignment};
+pub use substitute::{MAX_SUBSTITUTED_BYTES, MAX_SUBSTITUTION_DEPTH};
 
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -68,7 +86,9 @@ impl std::str::FromStr for Mode {
     }
 }
 
-#[derive(Debug, Deserialize)]
+/// `[launch]`: what the file runs and how. Only the top file's counts; an included file's is
+/// read (and checked) but not used.
+#[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct Header {
     #[serde(default)]
@@ -106,7 +126,7 @@ pub struct NodeDecl {
     /// Run the node only when each named argument has one of the listed values, e.g.
     /// `when = { fidelity = ["spectral", "waveform"] }` (as ROS 2 launch's `IfCondition`).
     #[serde(default)]
-    pub when: std::collections::BTreeMap<String, Vec<String>>,
+    pub when: BTreeMap<String, Vec<String>>,
     /// In a processes-mode launch: start the node's process again when it dies (ROS 2 launch's
     /// `respawn`). Only for nodes with inputs: a source would start its stream over.
     #[serde(default)]
@@ -117,6 +137,35 @@ pub struct NodeDecl {
     /// Respawns allowed before a death stops the graph, 0–1000.
     #[serde(default = "default_max_restarts")]
     pub max_restarts: u32,
+    /// The launch file that declares the node (for an included node, the included file).
+    #[serde(skip)]
+    pub file: PathBuf,
+    /// Folder that relative paths in its parameters resolve against: `file`'s folder.
+    #[serde(skip)]
+    pub base_dir: PathBuf,
+    /// What changed its parameters after `file` set them, in order: an including file's
+    /// `[include.params.NAME]`, a command-line `NAME.param:=value`.
+    #[serde(skip)]
+    pub set_by: Vec<String>,
+}
+
+impl NodeDecl {
+    /// `node NAME`, with where it was declared when that is not `top` (the launch file run) and
+    /// what changed its parameters: for errors about its parameters.
+    pub fn describe(&self, top: &Path) -> String {
+        let mut notes = Vec::new();
+        if self.file != top && !self.file.as_os_str().is_empty() {
+            notes.push(format!("declared in {}", self.file.display()));
+        }
+        if !self.set_by.is_empty() {
+            notes.push(format!("parameters set by {}", self.set_by.join(", ")));
+        }
+        if notes.is_empty() {
+            format!("node {}", self.name)
+        } else {
+            format!("node {} ({})", self.name, notes.join("; "))
+        }
+    }
 }
 
 fn default_respawn_delay_s() -> f64 {
@@ -127,34 +176,28 @@ fn default_max_restarts() -> u32 {
     3
 }
 
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawLaunch {
-    launch: Option<Header>,
-    #[serde(default)]
-    arguments: BTreeMap<String, Argument>,
-    #[serde(default)]
-    node: Vec<NodeDecl>,
-}
-
 /// A launch file with its arguments applied.
 #[derive(Debug, Clone)]
 pub struct Launch {
     /// The file it came from.
     pub path: PathBuf,
-    /// Folder of the file: relative paths in parameters resolve against it.
+    /// Folder of the file: relative paths in its own nodes' parameters resolve against it (an
+    /// included node's resolve against [`NodeDecl::base_dir`]).
     pub base_dir: PathBuf,
     /// What it runs.
     pub description: String,
     /// Mode the file asks for.
     pub mode: Mode,
-    /// Declared arguments.
+    /// Arguments settable on the command line: the file's own and those of included files it
+    /// does not set (re-exported).
     pub declared: BTreeMap<String, Argument>,
-    /// Every argument's effective value (defaults overridden by `name:=value`), as typed: a
-    /// `path = true` argument's command-line value before it is made absolute, so that a run's
-    /// record does not depend on the directory it was started from.
+    /// Every settable argument's effective value (defaults overridden by `name:=value`), as
+    /// typed: a `path = true` argument's command-line value before it is made absolute, so that
+    /// a run's record does not depend on the directory it was started from. Each command-line
+    /// node-parameter override is recorded too, as `node.param` (the run depends on it).
     pub arguments: BTreeMap<String, toml::Value>,
-    /// The nodes, parameters substituted.
+    /// The nodes, parameters substituted: included files' nodes first, in include order, then
+    /// the file's own.
     pub nodes: Vec<NodeDecl>,
 }
 
@@ -197,9 +240,39 @@ pub enum LaunchError {
         /// What is wrong.
         problem: String,
     },
+    /// An `[[include]]` problem: its file, its arguments, the nodes it names, a cycle.
+    #[error("{path}: include {file}: {problem}")]
+    Include {
+        /// The including file.
+        path: PathBuf,
+        /// The `file` of the include, as written.
+        file: String,
+        /// What is wrong.
+        problem: String,
+    },
+    /// An error inside an included file, with the include that brought it in.
+    #[error("{path}: include {file}: {source}")]
+    Included {
+        /// The including file.
+        path: PathBuf,
+        /// The `file` of the include, as written.
+        file: String,
+        /// The included file's error (naming that file).
+        source: Box<LaunchError>,
+    },
+    /// A command-line `node.param:=value` that cannot be applied.
+    #[error("{path}: {assignment}: {problem}")]
+    Override {
+        /// The launch file run.
+        path: PathBuf,
+        /// The assignment as typed.
+        assignment: String,
+        /// What is wrong.
+        problem: String,
+    },
 }
 
-/// Splits `name:=value`.
+/// Splits `name:=value` (a launch argument: letters, digits, `_`).
 pub fn parse_assignment(text: &str) -> Option<(String, String)> {
     let (name, value) = text.split_once(":=")?;
     let name = name.trim();
@@ -233,168 +306,9 @@ fn typed_like(default: &toml::Value, text: &str) -> Option<toml::Value> {
     }
 }
 
-/// Deepest chain of arguments whose values name other arguments (`a` = "$(var b)", `b` =
-/// "$(var c)", ...) that is expanded.
-pub const MAX_SUBSTITUTION_DEPTH: usize = 32;
-
-/// Longest string a substitution may produce, in bytes: with references nested, each level can
-/// double the text (`a` = "$(var b)$(var b)"), so without a bound 32 levels would ask for 4 GiB.
-pub const MAX_SUBSTITUTED_BYTES: usize = 1 << 20;
-
-/// Why a `$(var ...)` could not be expanded.
-#[derive(Debug, Clone, PartialEq)]
-enum SubstitutionError {
-    Undeclared(String),
-    Unterminated(String),
-    /// The arguments of the cycle, the first repeated at the end.
-    Cycle(Vec<String>),
-    /// The chain that went past [`MAX_SUBSTITUTION_DEPTH`].
-    TooDeep(Vec<String>),
-    TooLong,
-}
-
-impl std::fmt::Display for SubstitutionError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Self::Undeclared(name) => write!(f, "uses undeclared argument {name:?}"),
-            Self::Unterminated(text) => write!(f, "unterminated $(var ...) in {text:?}"),
-            Self::Cycle(chain) => write!(f, "substitution cycle: {}", chain.join(" -> ")),
-            Self::TooDeep(chain) => write!(
-                f,
-                "substitution nested deeper than {MAX_SUBSTITUTION_DEPTH} arguments: {} -> ...",
-                chain.join(" -> ")
-            ),
-            Self::TooLong => write!(
-                f,
-                "substitution makes a string longer than {MAX_SUBSTITUTED_BYTES} bytes"
-            ),
-        }
-    }
-}
-
-/// `text` with every `$(var NAME)` replaced by the text of `lookup(NAME)`, left to right; the
-/// replacements are not scanned again (they come already expanded).
-fn expand_text(
-    text: &str,
-    mut lookup: impl FnMut(&str) -> Result<toml::Value, SubstitutionError>,
-) -> Result<String, SubstitutionError> {
-    let mut out = String::with_capacity(text.len());
-    let mut rest = text;
-    while let Some(start) = rest.find("$(var ") {
-        out.push_str(&rest[..start]);
-        let after = &rest[start + 6..];
-        let end = after
-            .find(')')
-            .ok_or_else(|| SubstitutionError::Unterminated(text.to_owned()))?;
-        match lookup(after[..end].trim())? {
-            toml::Value::String(s) => out.push_str(&s),
-            other => out.push_str(&other.to_string()),
-        }
-        if out.len() > MAX_SUBSTITUTED_BYTES {
-            return Err(SubstitutionError::TooLong);
-        }
-        rest = &after[end + 1..];
-    }
-    out.push_str(rest);
-    if out.len() > MAX_SUBSTITUTED_BYTES {
-        return Err(SubstitutionError::TooLong);
-    }
-    Ok(out)
-}
-
-/// Every argument's value with the `$(var ...)` in string values expanded (an argument may name
-/// others, e.g. `out_dir` = "runs/$(var label)"). Each argument is expanded once (memoised), a
-/// cycle is reported with its arguments, and depth and length are bounded
-/// ([`MAX_SUBSTITUTION_DEPTH`], [`MAX_SUBSTITUTED_BYTES`]). `Err` names the argument.
-fn expand_arguments(
-    arguments: &BTreeMap<String, toml::Value>,
-) -> Result<BTreeMap<String, toml::Value>, (String, SubstitutionError)> {
-    fn expand(
-        name: &str,
-        arguments: &BTreeMap<String, toml::Value>,
-        done: &mut BTreeMap<String, toml::Value>,
-        stack: &mut Vec<String>,
-    ) -> Result<toml::Value, SubstitutionError> {
-        if let Some(value) = done.get(name) {
-            return Ok(value.clone());
-        }
-        if let Some(at) = stack.iter().position(|n| n == name) {
-            let mut chain = stack[at..].to_vec();
-            chain.push(name.to_owned());
-            return Err(SubstitutionError::Cycle(chain));
-        }
-        if stack.len() >= MAX_SUBSTITUTION_DEPTH {
-            return Err(SubstitutionError::TooDeep(stack.clone()));
-        }
-        let value = arguments
-            .get(name)
-            .ok_or_else(|| SubstitutionError::Undeclared(name.to_owned()))?;
-        let expanded = match value {
-            toml::Value::String(text) if text.contains("$(var ") => {
-                stack.push(name.to_owned());
-                let text = expand_text(text, |inner| expand(inner, arguments, done, stack));
-                stack.pop();
-                toml::Value::String(text?)
-            }
-            other => other.clone(),
-        };
-        done.insert(name.to_owned(), expanded.clone());
-        Ok(expanded)
-    }
-    let mut done = BTreeMap::new();
-    for name in arguments.keys() {
-        let mut stack = Vec::new();
-        expand(name, arguments, &mut done, &mut stack).map_err(|e| (name.clone(), e))?;
-    }
-    Ok(done)
-}
-
-/// Substitutes the (already expanded) `arguments` into a node parameter.
-fn substitute(
-    value: &mut toml::Value,
-    arguments: &BTreeMap<String, toml::Value>,
-    path: &Path,
-    node: &str,
-) -> Result<(), LaunchError> {
-    let error = |e: SubstitutionError| LaunchError::Node {
-        path: path.to_owned(),
-        node: node.to_owned(),
-        problem: e.to_string(),
-    };
-    let lookup = |name: &str| {
-        arguments
-            .get(name)
-            .cloned()
-            .ok_or_else(|| SubstitutionError::Undeclared(name.to_owned()))
-    };
-    match value {
-        toml::Value::String(text) => {
-            if let Some(name) = text
-                .strip_prefix("$(var ")
-                .and_then(|t| t.strip_suffix(')'))
-            {
-                if !name.contains("$(") && !name.contains(')') {
-                    *value = lookup(name.trim()).map_err(error)?;
-                    return Ok(());
-                }
-            }
-            if text.contains("$(var ") {
-                *text = expand_text(text, lookup).map_err(error)?;
-            }
-            Ok(())
-        }
-        toml::Value::Array(items) => items
-            .iter_mut()
-            .try_for_each(|v| substitute(v, arguments, path, node)),
-        toml::Value::Table(table) => table
-            .iter_mut()
-            .try_for_each(|(_, v)| substitute(v, arguments, path, node)),
-        _ => Ok(()),
-    }
-}
-
 impl Launch {
-    /// Reads `path` and applies `overrides` (`name:=value` strings).
+    /// Reads `path` and applies `overrides` (`name:=value` arguments, `node.param:=value` node
+    /// parameters).
     pub fn load(path: &Path, overrides: &[String]) -> Result<Launch, LaunchError> {
         let text = std::fs::read_to_string(path).map_err(|source| LaunchError::Read {
             path: path.to_owned(),
@@ -412,167 +326,74 @@ impl Launch {
 
     /// As [`Launch::parse`], with the directory that relative command-line values of
     /// `path = true` arguments resolve against given (`None`: unknown, an error if one is needed).
+    /// Included files are read from disk, relative to `path`'s folder.
     pub fn parse_in(
         path: &Path,
         text: &str,
         overrides: &[String],
         cwd: Option<&Path>,
     ) -> Result<Launch, LaunchError> {
-        let raw: RawLaunch = toml::from_str(text).map_err(|e| LaunchError::Parse {
-            path: path.to_owned(),
-            message: e.message().to_owned() + &location(text, e.span()),
-        })?;
-        let header = raw.launch.unwrap_or(Header {
-            description: String::new(),
-            mode: Mode::default(),
-        });
-        for (name, argument) in &raw.arguments {
-            if argument.path && !argument.default.is_str() {
+        let mut given = BTreeMap::new();
+        let mut params = Vec::new();
+        for assignment in overrides {
+            if let Some(param) = parse_param_assignment(assignment) {
+                params.push(param);
+            } else if let Some((name, value)) = parse_assignment(assignment) {
+                given.insert(name, file::Given::command_line(value));
+            } else {
                 return Err(LaunchError::Argument {
                     path: path.to_owned(),
-                    name: name.clone(),
-                    problem: format!(
-                        "path = true needs a string default, got {}",
-                        type_name(&argument.default)
-                    ),
+                    name: assignment.clone(),
+                    problem: "expected name:=value (a launch argument) or node.param:=value \
+                              (a node parameter)"
+                        .into(),
                 });
             }
         }
-        let mut arguments: BTreeMap<String, toml::Value> = raw
-            .arguments
-            .iter()
-            .map(|(name, argument)| (name.clone(), argument.default.clone()))
-            .collect();
-        // What the node parameters receive: `arguments` with relative command-line paths made
-        // absolute against the current directory.
-        let mut resolved = arguments.clone();
-        for text in overrides {
-            let (name, value) = parse_assignment(text).ok_or_else(|| LaunchError::Argument {
+        let expanded = file::expand_file(&file::Ctx { cwd }, path, text, &given, &[])?;
+        if let Some(name) = given.keys().find(|n| !expanded.consumed.contains(*n)) {
+            let declared: Vec<&str> = expanded.exported.keys().map(String::as_str).collect();
+            return Err(LaunchError::Argument {
                 path: path.to_owned(),
-                name: text.clone(),
-                problem: "expected name:=value".into(),
-            })?;
-            let declared = raw
-                .arguments
-                .get(&name)
-                .ok_or_else(|| LaunchError::Argument {
-                    path: path.to_owned(),
-                    name: name.clone(),
-                    problem: format!(
-                        "not declared (declared: {})",
-                        if raw.arguments.is_empty() {
-                            "none".to_owned()
-                        } else {
-                            raw.arguments.keys().cloned().collect::<Vec<_>>().join(", ")
-                        }
-                    ),
-                })?;
-            let typed =
-                typed_like(&declared.default, &value).ok_or_else(|| LaunchError::Argument {
-                    path: path.to_owned(),
-                    name: name.clone(),
-                    problem: format!("{value:?} is not {}", type_name(&declared.default)),
-                })?;
-            let effective = match &typed {
-                toml::Value::String(text) if declared.path && !text.is_empty() => {
-                    let given = Path::new(text);
-                    if given.is_absolute() {
-                        typed.clone()
+                name: name.clone(),
+                problem: format!(
+                    "not declared (declared: {})",
+                    if declared.is_empty() {
+                        "none".to_owned()
                     } else {
-                        let cwd = cwd.ok_or_else(|| LaunchError::Argument {
-                            path: path.to_owned(),
-                            name: name.clone(),
-                            problem: format!(
-                                "{text:?} is relative and the current directory is unknown; \
-                                 give an absolute path"
-                            ),
-                        })?;
-                        toml::Value::String(cwd.join(given).display().to_string())
+                        declared.join(", ")
                     }
-                }
-                _ => typed.clone(),
-            };
-            resolved.insert(name.clone(), effective);
-            arguments.insert(name, typed);
-        }
-        let mut nodes = raw.node;
-        if nodes.is_empty() {
-            return Err(LaunchError::Parse {
-                path: path.to_owned(),
-                message: "no [[node]] declared".into(),
+                ),
             });
         }
-        for (index, node) in nodes.iter().enumerate() {
-            if nodes[..index].iter().any(|other| other.name == node.name) {
-                return Err(LaunchError::Node {
-                    path: path.to_owned(),
-                    node: node.name.clone(),
-                    problem: "name used twice".into(),
-                });
-            }
-        }
-        for node in &nodes {
-            if !(node.respawn_delay_s.is_finite() && (0.0..=3600.0).contains(&node.respawn_delay_s))
-                || node.max_restarts > 1000
-            {
-                return Err(LaunchError::Node {
-                    path: path.to_owned(),
-                    node: node.name.clone(),
-                    problem: format!(
-                        "respawn_delay_s = {} and max_restarts = {} (allowed: 0 to 3600 s, 0 to 1000)",
-                        node.respawn_delay_s, node.max_restarts
-                    ),
-                });
-            }
-            for (argument, allowed) in &node.when {
-                if !arguments.contains_key(argument) {
-                    return Err(LaunchError::Node {
-                        path: path.to_owned(),
-                        node: node.name.clone(),
-                        problem: format!("`when` names undeclared argument {argument:?}"),
-                    });
-                }
-                if allowed.is_empty() {
-                    return Err(LaunchError::Node {
-                        path: path.to_owned(),
-                        node: node.name.clone(),
-                        problem: format!("`when.{argument}` lists no value"),
-                    });
-                }
-            }
-        }
-        nodes.retain(|node| {
-            node.when.iter().all(|(argument, allowed)| {
-                let value = match &arguments[argument] {
-                    toml::Value::String(text) => text.clone(),
-                    other => other.to_string(),
-                };
-                allowed.contains(&value)
-            })
-        });
-        let resolved =
-            expand_arguments(&resolved).map_err(|(name, problem)| LaunchError::Argument {
+        if expanded.nodes.is_empty() {
+            return Err(LaunchError::Parse {
                 path: path.to_owned(),
-                name,
-                problem: problem.to_string(),
-            })?;
-        for node in &mut nodes {
-            let name = node.name.clone();
-            for (_, value) in node.params.iter_mut() {
-                substitute(value, &resolved, path, &name)?;
-            }
+                message: "no node runs with these arguments (every node's or include's `when` \
+                          is false)"
+                    .into(),
+            });
         }
-        let base_dir = path.parent().map(Path::to_owned).unwrap_or_default();
+        let mut nodes = expanded.nodes;
+        let mut arguments: BTreeMap<String, toml::Value> = expanded
+            .exported
+            .iter()
+            .map(|(name, e)| (name.clone(), e.value.clone()))
+            .collect();
+        for param in &params {
+            overrides::apply(path, &mut nodes, &expanded.declared_nodes, param)?;
+            arguments.insert(param.key(), param.value.clone());
+        }
         Ok(Launch {
             path: path.to_owned(),
-            base_dir: if base_dir.as_os_str().is_empty() {
-                PathBuf::from(".")
-            } else {
-                base_dir
-            },
-            description: header.description,
-            mode: header.mode,
-            declared: raw.arguments,
+            base_dir: file::folder_of(path),
+            description: expanded.header.description,
+            mode: expanded.header.mode,
+            declared: expanded
+                .exported
+                .into_iter()
+                .map(|(name, e)| (name, e.argument))
+                .collect(),
             arguments,
             nodes,
         })
@@ -585,347 +406,4 @@ fn location(text: &str, span: Option<std::ops::Range<usize>>) -> String {
         format!(" (line {line})")
     })
     .unwrap_or_default()
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    const FILE: &str = r#"
-[launch]
-description = "test"
-[arguments.angle_std_deg]
-default = 1.0
-[arguments.label]
-default = "run"
-[[node]]
-name = "radar"
-kind = "radar"
-[node.params]
-angle_std_deg = "$(var angle_std_deg)"
-name = "x-$(var label)-y"
-"#;
-
-    fn load(overrides: &[&str]) -> Result<Launch, LaunchError> {
-        let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
-        Launch::parse(Path::new("launch/test.toml"), FILE, &overrides)
-    }
-
-    #[test]
-    fn defaults_and_overrides_are_substituted_with_their_types() {
-        let launch = load(&[]).unwrap();
-        assert_eq!(
-            launch.nodes[0].params["angle_std_deg"],
-            toml::Value::Float(1.0)
-        );
-        assert_eq!(
-            launch.nodes[0].params["name"],
-            toml::Value::String("x-run-y".into())
-        );
-        let launch = load(&["angle_std_deg:=5", "label:=b"]).unwrap();
-        assert_eq!(
-            launch.nodes[0].params["angle_std_deg"],
-            toml::Value::Float(5.0)
-        );
-        assert_eq!(
-            launch.nodes[0].params["name"],
-            toml::Value::String("x-b-y".into())
-        );
-        assert_eq!(launch.base_dir, Path::new("launch"));
-    }
-
-    #[test]
-    fn bad_arguments_name_the_file_and_the_argument() {
-        let error = load(&["angle_std_deg:=abc"]).unwrap_err().to_string();
-        assert!(
-            error.contains("launch/test.toml")
-                && error.contains("angle_std_deg")
-                && error.contains("number"),
-            "{error}"
-        );
-        let error = load(&["nope:=1"]).unwrap_err().to_string();
-        assert!(
-            error.contains("nope") && error.contains("angle_std_deg, label"),
-            "{error}"
-        );
-        let error = load(&["angle_std_deg=1"]).unwrap_err().to_string();
-        assert!(error.contains("name:=value"), "{error}");
-        assert!(load(&["angle_std_deg:=inf"]).is_err());
-    }
-
-    #[test]
-    fn path_arguments_resolve_command_line_values_against_the_current_directory() {
-        let text = r#"
-[arguments.scene]
-default = "../config/hall.toml"
-path = true
-[arguments.label]
-default = "out/x.toml"
-[[node]]
-name = "radar"
-kind = "radar"
-[node.params]
-scene = "$(var scene)"
-label = "$(var label)"
-"#;
-        let cwd = Path::new("/home/user/work");
-        let parse = |overrides: &[&str]| {
-            let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
-            Launch::parse_in(Path::new("launch/l.toml"), text, &overrides, Some(cwd))
-        };
-        let param =
-            |launch: &Launch, key: &str| launch.nodes[0].params[key].as_str().unwrap().to_owned();
-        // The default is written in the file: it stays relative, for the launch file's folder.
-        let launch = parse(&[]).unwrap();
-        assert_eq!(param(&launch, "scene"), "../config/hall.toml");
-        assert_eq!(launch.base_dir, Path::new("launch"));
-        // Typed on the command line: against the current directory; the record keeps the text.
-        let launch = parse(&["scene:=out/s1.toml", "label:=out/y.toml"]).unwrap();
-        assert_eq!(param(&launch, "scene"), "/home/user/work/out/s1.toml");
-        assert_eq!(launch.arguments["scene"].as_str(), Some("out/s1.toml"));
-        // Only `path = true` arguments are paths.
-        assert_eq!(param(&launch, "label"), "out/y.toml");
-        let launch = parse(&["scene:=/data/s2.toml"]).unwrap();
-        assert_eq!(param(&launch, "scene"), "/data/s2.toml");
-        // No current directory: a relative path is an error naming the argument, not a guess.
-        let error = Launch::parse_in(
-            Path::new("l.toml"),
-            text,
-            &["scene:=s.toml".to_owned()],
-            None,
-        )
-        .unwrap_err()
-        .to_string();
-        assert!(
-            error.contains("argument scene") && error.contains("absolute"),
-            "{error}"
-        );
-        // A path argument needs a string default.
-        let bad = text.replace("default = \"../config/hall.toml\"", "default = 3");
-        let error = Launch::parse_in(Path::new("l.toml"), &bad, &[], Some(cwd))
-            .unwrap_err()
-            .to_string();
-        assert!(
-            error.contains("argument scene") && error.contains("string"),
-            "{error}"
-        );
-    }
-
-    #[test]
-    fn when_conditions_select_nodes_by_argument_value() {
-        let text = r#"
-[arguments.fidelity]
-default = "spectral"
-[[node]]
-name = "radar"
-kind = "radar"
-[[node]]
-name = "estimator"
-kind = "estimator"
-when = { fidelity = ["spectral", "waveform"] }
-"#;
-        let names = |overrides: &[&str]| {
-            let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
-            Launch::parse(Path::new("l.toml"), text, &overrides)
-                .unwrap()
-                .nodes
-                .into_iter()
-                .map(|n| n.name)
-                .collect::<Vec<_>>()
-        };
-        assert_eq!(names(&[]), ["radar", "estimator"]);
-        assert_eq!(names(&["fidelity:=waveform"]), ["radar", "estimator"]);
-        assert_eq!(names(&["fidelity:=ideal"]), ["radar"]);
-        let bad = text.replace("when = { fidelity", "when = { fidel");
-        let error = Launch::parse(Path::new("l.toml"), &bad, &[])
-            .unwrap_err()
-            .to_string();
-        assert!(
-            error.contains("node estimator") && error.contains("fidel"),
-            "{error}"
-        );
-    }
-
-    fn substitution(arguments: &[(&str, &str)], param: &str) -> Result<Launch, LaunchError> {
-        let mut text = String::new();
-        for (name, default) in arguments {
-            text.push_str(&format!("[arguments.{name}]\ndefault = {default:?}\n"));
-        }
-        text.push_str(&format!(
-            "[[node]]\nname = \"n\"\nkind = \"k\"\n[node.params]\nx = {param:?}\n"
-        ));
-        Launch::parse(Path::new("s.toml"), &text, &[])
-    }
-
-    #[test]
-    fn arguments_may_name_other_arguments() {
-        let launch = substitution(
-            &[
-                ("label", "b"),
-                ("out", "runs/$(var label)/x"),
-                ("n", "$(var out)"),
-            ],
-            "$(var n)-$(var label)",
-        )
-        .unwrap();
-        assert_eq!(launch.nodes[0].params["x"].as_str(), Some("runs/b/x-b"));
-        // The record keeps the values as typed.
-        assert_eq!(
-            launch.arguments["out"].as_str(),
-            Some("runs/$(var label)/x")
-        );
-        // A whole-value reference to a string argument that names another.
-        let launch = substitution(&[("a", "$(var b)"), ("b", "z")], "$(var a)").unwrap();
-        assert_eq!(launch.nodes[0].params["x"].as_str(), Some("z"));
-    }
-
-    #[test]
-    fn substitution_cycles_are_reported_with_their_arguments() {
-        let error = substitution(&[("a", "$(var b)"), ("b", "x$(var a)")], "$(var a)")
-            .unwrap_err()
-            .to_string();
-        assert!(
-            error.starts_with("s.toml: argument a: ")
-                && error.contains("substitution cycle: a -> b -> a"),
-            "{error}"
-        );
-        let error = substitution(&[("a", "$(var a)")], "y")
-            .unwrap_err()
-            .to_string();
-        assert!(error.contains("substitution cycle: a -> a"), "{error}");
-        // A cycle entered through the command line is caught too.
-        let text = "[arguments.a]\ndefault = \"1\"\n[arguments.b]\ndefault = \"$(var a)\"\n\
-                    [[node]]\nname = \"n\"\nkind = \"k\"\n[node.params]\nx = \"$(var b)\"\n";
-        let error = Launch::parse(Path::new("s.toml"), text, &["a:=-$(var b)-".to_owned()])
-            .unwrap_err()
-            .to_string();
-        assert!(error.contains("substitution cycle: a -> b -> a"), "{error}");
-    }
-
-    #[test]
-    fn substitution_depth_and_length_are_bounded() {
-        // A chain longer than the depth bound.
-        let names: Vec<String> = (0..=MAX_SUBSTITUTION_DEPTH + 1)
-            .map(|i| format!("a{i:02}"))
-            .collect();
-        let defaults: Vec<String> = (0..names.len())
-            .map(|i| match names.get(i + 1) {
-                Some(next) => format!("$(var {next})"),
-                None => "end".to_owned(),
-            })
-            .collect();
-        let arguments: Vec<(&str, &str)> = names
-            .iter()
-            .zip(&defaults)
-            .map(|(n, d)| (n.as_str(), d.as_str()))
-            .collect();
-        let error = substitution(&arguments, "$(var a00)")
-            .unwrap_err()
-            .to_string();
-        assert!(
-            error.contains(&format!("deeper than {MAX_SUBSTITUTION_DEPTH}")),
-            "{error}"
-        );
-        // A chain within the bound expands.
-        let short = &arguments[arguments.len() - MAX_SUBSTITUTION_DEPTH..];
-        let launch = substitution(short, &format!("$(var {})", short[0].0)).unwrap();
-        assert_eq!(launch.nodes[0].params["x"].as_str(), Some("end"));
-        // Doubling at each of 30 levels would make 2^30 copies: refused, quickly.
-        let names: Vec<String> = (0..30).map(|i| format!("d{i:02}")).collect();
-        let defaults: Vec<String> = (0..30)
-            .map(|i| match names.get(i + 1) {
-                Some(next) => format!("$(var {next})$(var {next})"),
-                None => "xxxxxxxx".to_owned(),
-            })
-            .collect();
-        let arguments: Vec<(&str, &str)> = names
-            .iter()
-            .zip(&defaults)
-            .map(|(n, d)| (n.as_str(), d.as_str()))
-            .collect();
-        let started = std::time::Instant::now();
-        let error = substitution(&arguments, "$(var d00)")
-            .unwrap_err()
-            .to_string();
-        assert!(
-            error.contains(&format!("longer than {MAX_SUBSTITUTED_BYTES} bytes")),
-            "{error}"
-        );
-        assert!(started.elapsed().as_secs_f64() < 5.0);
-        // An unterminated reference in an argument's value names the argument.
-        let error = substitution(&[("a", "$(var b")], "y")
-            .unwrap_err()
-            .to_string();
-        assert!(
-            error.contains("argument a") && error.contains("unterminated"),
-            "{error}"
-        );
-    }
-
-    #[test]
-    fn respawn_is_declared_per_node_and_its_bounds_are_checked() {
-        let text = "[[node]]\nname=\"a\"\nkind=\"mapper\"\nrespawn = true\nrespawn_delay_s = 0.5\n";
-        let launch = Launch::parse(Path::new("f.toml"), text, &[]).unwrap();
-        let node = &launch.nodes[0];
-        assert!(node.respawn);
-        assert_eq!((node.respawn_delay_s, node.max_restarts), (0.5, 3));
-        let plain = Launch::parse(
-            Path::new("f.toml"),
-            "[[node]]\nname=\"a\"\nkind=\"b\"\n",
-            &[],
-        )
-        .unwrap();
-        assert!(!plain.nodes[0].respawn);
-        for bad in [
-            "respawn_delay_s = -1.0",
-            "respawn_delay_s = 1e19",
-            "max_restarts = 5000",
-        ] {
-            let error = Launch::parse(
-                Path::new("f.toml"),
-                &format!("[[node]]\nname=\"a\"\nkind=\"b\"\n{bad}\n"),
-                &[],
-            )
-            .unwrap_err()
-            .to_string();
-            assert!(
-                error.contains("node a") && error.contains("allowed: 0 to 3600 s"),
-                "{bad}: {error}"
-            );
-        }
-    }
-
-    #[test]
-    fn unknown_fields_and_duplicates_are_refused_with_a_line() {
-        let error = Launch::parse(
-            Path::new("f.toml"),
-            "[launch]\nmode = \"in-process\"\nspeed = 3\n[[node]]\nname=\"a\"\nkind=\"b\"\n",
-            &[],
-        )
-        .unwrap_err()
-        .to_string();
-        assert!(
-            error.starts_with("f.toml:") && error.contains("speed") && error.contains("line 3"),
-            "{error}"
-        );
-        let error = Launch::parse(
-            Path::new("f.toml"),
-            "[[node]]\nname=\"a\"\nkind=\"b\"\n[[node]]\nname=\"a\"\nkind=\"c\"\n",
-            &[],
-        )
-        .unwrap_err()
-        .to_string();
-        assert!(
-            error.contains("node a") && error.contains("twice"),
-            "{error}"
-        );
-        let error = Launch::parse(
-            Path::new("f.toml"),
-            "[[node]]\nname=\"a\"\nkind=\"b\"\n[node.params]\nx=\"$(var y)\"\n",
-            &[],
-        )
-        .unwrap_err()
-        .to_string();
-        assert!(error.contains("undeclared argument \"y\""), "{error}");
-    }
 }

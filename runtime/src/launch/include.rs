@@ -1,0 +1,279 @@
+//! `[[include]]`: another launch file's nodes added to the graph, so a variant of a launch file
+//! is the few lines that differ, not a copy that drifts.
+//!
+//! An included file's argument takes, in order: the value of the include's `arguments` table
+//! (which may use the includer's `$(var ...)`); else the includer's argument of the same name
+//! (ROS 2 launch's scoping: an included file sees its includer's configuration); else it becomes
+//! an argument of the includer (re-exported: settable as `name:=value` on the command line and
+//! recorded with the run). `[include.params.NODE]` is merged over that node's parameters (tables
+//! key by key, other values replaced) and `drop` removes nodes, e.g. to declare a replacement.
+//! Relative paths in an included file keep resolving against its own folder; a relative path
+//! passed into it from a file in another folder is made absolute first.
+
+use super::file::{
+    check_when, expand_file, when_holds, Ctx, Expanded, Exported, Given, GivenValue,
+};
+use super::substitute::{substitute, whole_reference};
+use super::{Argument, LaunchError};
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Deepest chain of includes: the file run includes one (depth 1), which includes another
+/// (depth 2), and so on up to this.
+pub const MAX_INCLUDE_DEPTH: usize = 8;
+
+/// One `[[include]]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct IncludeDecl {
+    /// The launch file, relative to the including file's folder.
+    pub file: String,
+    /// Include only when each named argument (of the includer) has one of the listed values.
+    #[serde(default)]
+    when: BTreeMap<String, Vec<String>>,
+    /// Values for the included file's arguments.
+    #[serde(default)]
+    arguments: toml::Table,
+    /// Per included node: parameters merged over the included file's.
+    #[serde(default)]
+    params: BTreeMap<String, toml::Table>,
+    /// Included nodes not to run.
+    #[serde(default)]
+    drop: Vec<String>,
+}
+
+/// The including file, as far as its includes need it.
+pub(super) struct Includer<'a> {
+    pub path: &'a Path,
+    pub dir: &'a Path,
+    pub declared: &'a BTreeMap<String, Argument>,
+    /// Its arguments as typed (what `when` compares).
+    pub arguments: &'a BTreeMap<String, toml::Value>,
+    /// Its arguments resolved and expanded (what is substituted and passed down).
+    pub resolved: &'a BTreeMap<String, toml::Value>,
+    /// What it was given (passed on to its includes for arguments it does not declare).
+    pub given: &'a BTreeMap<String, Given>,
+    /// The files from the one run down to this one.
+    pub chain: &'a [PathBuf],
+}
+
+/// Expands `decl` of `includer`: `None` when its `when` does not hold.
+pub(super) fn expand(
+    ctx: &Ctx,
+    includer: &Includer,
+    decl: &IncludeDecl,
+) -> Result<Option<Expanded>, LaunchError> {
+    let error = |problem: String| LaunchError::Include {
+        path: includer.path.to_owned(),
+        file: decl.file.clone(),
+        problem,
+    };
+    check_when(&decl.when, includer.arguments).map_err(error)?;
+    if decl.file.trim().is_empty() {
+        return Err(error("`file` is empty".into()));
+    }
+    let path = includer.dir.join(&decl.file);
+    if !when_holds(&decl.when, includer.arguments) {
+        // Not included with these arguments; a missing file is still reported now.
+        return match path.is_file() {
+            true => Ok(None),
+            false => Err(error(format!("no such file {}", path.display()))),
+        };
+    }
+    check_chain(includer.chain, &path).map_err(error)?;
+    let text = std::fs::read_to_string(&path)
+        .map_err(|e| error(format!("cannot read {}: {e}", path.display())))?;
+    let given = given_to(includer, decl).map_err(error)?;
+    let mut expanded =
+        expand_file(ctx, &path, &text, &given, includer.chain).map_err(|source| {
+            LaunchError::Included {
+                path: includer.path.to_owned(),
+                file: decl.file.clone(),
+                source: Box::new(source),
+            }
+        })?;
+    if let Some(name) = decl
+        .arguments
+        .keys()
+        .find(|n| !expanded.consumed.contains(*n))
+    {
+        let mut names: Vec<&str> = expanded
+            .exported
+            .keys()
+            .chain(&expanded.consumed)
+            .map(String::as_str)
+            .collect();
+        names.sort_unstable();
+        names.dedup();
+        return Err(error(format!(
+            "arguments.{name}: {} declares no such argument (its arguments: {})",
+            path.display(),
+            list(&names)
+        )));
+    }
+    // Upwards, what was consumed of what the includer passed on from its own givers.
+    expanded.consumed.retain(|name| {
+        !includer.declared.contains_key(name)
+            && !decl.arguments.contains_key(name)
+            && includer.given.contains_key(name)
+    });
+    let nodes = expanded.declared_nodes.clone();
+    let unknown = |what: &str, node: &str| {
+        error(format!(
+            "{what}: {} declares no node {node} (its nodes: {})",
+            path.display(),
+            list(&nodes)
+        ))
+    };
+    for node in &decl.drop {
+        if !nodes.contains(node) {
+            return Err(unknown("drop", node));
+        }
+    }
+    expanded.nodes.retain(|n| !decl.drop.contains(&n.name));
+    expanded.declared_nodes.retain(|n| !decl.drop.contains(n));
+    for (node, params) in &decl.params {
+        if !nodes.contains(node) {
+            return Err(unknown(&format!("params.{node}"), node));
+        }
+        if decl.drop.contains(node) {
+            return Err(error(format!(
+                "params.{node}: the node is in this include's `drop`"
+            )));
+        }
+        let mut params = toml::Value::Table(params.clone());
+        substitute(&mut params, includer.resolved)
+            .map_err(|e| error(format!("params.{node}: {e}")))?;
+        // A node its own `when` leaves out is not running: nothing to change.
+        if let (Some(target), toml::Value::Table(params)) =
+            (expanded.nodes.iter_mut().find(|n| n.name == *node), &params)
+        {
+            merge(&mut target.params, params);
+            target.set_by.push(format!(
+                "{} [include.params.{node}]",
+                includer.path.display()
+            ));
+        }
+    }
+    Ok(Some(expanded))
+}
+
+/// Refuses `path` when it is already in `chain` (a cycle) or `chain` is already
+/// [`MAX_INCLUDE_DEPTH`] includes deep.
+fn check_chain(chain: &[PathBuf], path: &Path) -> Result<(), String> {
+    let identity = |p: &Path| std::fs::canonicalize(p).unwrap_or_else(|_| p.to_owned());
+    let show = |files: &[PathBuf]| {
+        files
+            .iter()
+            .chain([&path.to_owned()])
+            .map(|p| p.display().to_string())
+            .collect::<Vec<_>>()
+            .join(" -> ")
+    };
+    let me = identity(path);
+    if let Some(at) = chain.iter().position(|p| identity(p) == me) {
+        return Err(format!("include cycle: {}", show(&chain[at..])));
+    }
+    if chain.len() > MAX_INCLUDE_DEPTH {
+        return Err(format!(
+            "includes nested deeper than {MAX_INCLUDE_DEPTH}: {}",
+            show(chain)
+        ));
+    }
+    Ok(())
+}
+
+/// What the included file is given: what the includer was given for arguments it does not
+/// declare, the includer's own arguments by name, and the include's `arguments`.
+fn given_to(includer: &Includer, decl: &IncludeDecl) -> Result<BTreeMap<String, Given>, String> {
+    let mut given: BTreeMap<String, Given> = includer
+        .given
+        .iter()
+        .filter(|(name, _)| !includer.declared.contains_key(*name))
+        .map(|(name, given)| (name.clone(), given.clone()))
+        .collect();
+    for (name, argument) in includer.declared {
+        given.insert(
+            name.clone(),
+            Given {
+                value: GivenValue::Value(includer.resolved[name].clone()),
+                written_in: Some(includer.dir.to_owned()),
+                is_path: argument.path,
+            },
+        );
+    }
+    for (name, value) in &decl.arguments {
+        let mut value = value.clone();
+        // `$(var scene)` of a path argument passes a path, to be resolved where it was written.
+        let is_path = value
+            .as_str()
+            .and_then(whole_reference)
+            .and_then(|n| includer.declared.get(n))
+            .is_some_and(|a| a.path);
+        substitute(&mut value, includer.resolved).map_err(|e| format!("arguments.{name}: {e}"))?;
+        given.insert(
+            name.clone(),
+            Given {
+                value: GivenValue::Value(value),
+                written_in: Some(includer.dir.to_owned()),
+                is_path,
+            },
+        );
+    }
+    Ok(given)
+}
+
+/// Merges `over` into `base`: tables key by key, anything else replaced.
+pub(super) fn merge(base: &mut toml::Table, over: &toml::Table) {
+    for (key, value) in over {
+        match (base.get_mut(key), value) {
+            (Some(toml::Value::Table(inner)), toml::Value::Table(over)) => merge(inner, over),
+            _ => {
+                base.insert(key.clone(), value.clone());
+            }
+        }
+    }
+}
+
+/// Adds an included file's settable argument to the includer's; two includes re-exporting one
+/// name must agree on its value (else which one the record shows would be a guess).
+pub(super) fn merge_exported(
+    path: &Path,
+    file: &str,
+    exported: &mut BTreeMap<String, Exported>,
+    name: String,
+    argument: Exported,
+) -> Result<(), LaunchError> {
+    match exported.get(&name) {
+        None => {
+            exported.insert(name, argument);
+            Ok(())
+        }
+        Some(first) if first.value == argument.value => Ok(()),
+        Some(first) => Err(LaunchError::Include {
+            path: path.to_owned(),
+            file: file.to_owned(),
+            problem: format!(
+                "argument {name} is declared by {} (default {}) and by {} (default {}); declare \
+                 it in {} to give both one value",
+                first.file.display(),
+                first.value,
+                argument.file.display(),
+                argument.value,
+                path.display()
+            ),
+        }),
+    }
+}
+
+fn list<S: AsRef<str>>(names: &[S]) -> String {
+    if names.is_empty() {
+        return "none".into();
+    }
+    names
+        .iter()
+        .map(AsRef::as_ref)
+        .collect::<Vec<_>>()
+        .join(", ")
+}

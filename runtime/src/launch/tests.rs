@@ -1,0 +1,339 @@
+use super::*;
+
+const FILE: &str = r#"
+[launch]
+description = "test"
+[arguments.angle_std_deg]
+default = 1.0
+[arguments.label]
+default = "run"
+[[node]]
+name = "radar"
+kind = "radar"
+[node.params]
+angle_std_deg = "$(var angle_std_deg)"
+name = "x-$(var label)-y"
+"#;
+
+fn load(overrides: &[&str]) -> Result<Launch, LaunchError> {
+    let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
+    Launch::parse(Path::new("launch/test.toml"), FILE, &overrides)
+}
+
+#[test]
+fn defaults_and_overrides_are_substituted_with_their_types() {
+    let launch = load(&[]).unwrap();
+    assert_eq!(
+        launch.nodes[0].params["angle_std_deg"],
+        toml::Value::Float(1.0)
+    );
+    assert_eq!(
+        launch.nodes[0].params["name"],
+        toml::Value::String("x-run-y".into())
+    );
+    let launch = load(&["angle_std_deg:=5", "label:=b"]).unwrap();
+    assert_eq!(
+        launch.nodes[0].params["angle_std_deg"],
+        toml::Value::Float(5.0)
+    );
+    assert_eq!(
+        launch.nodes[0].params["name"],
+        toml::Value::String("x-b-y".into())
+    );
+    assert_eq!(launch.base_dir, Path::new("launch"));
+}
+
+#[test]
+fn bad_arguments_name_the_file_and_the_argument() {
+    let error = load(&["angle_std_deg:=abc"]).unwrap_err().to_string();
+    assert!(
+        error.contains("launch/test.toml")
+            && error.contains("angle_std_deg")
+            && error.contains("number"),
+        "{error}"
+    );
+    let error = load(&["nope:=1"]).unwrap_err().to_string();
+    assert!(
+        error.contains("nope") && error.contains("angle_std_deg, label"),
+        "{error}"
+    );
+    let error = load(&["angle_std_deg=1"]).unwrap_err().to_string();
+    assert!(error.contains("name:=value"), "{error}");
+    assert!(load(&["angle_std_deg:=inf"]).is_err());
+}
+
+#[test]
+fn path_arguments_resolve_command_line_values_against_the_current_directory() {
+    let text = r#"
+[arguments.scene]
+default = "../config/hall.toml"
+path = true
+[arguments.label]
+default = "out/x.toml"
+[[node]]
+name = "radar"
+kind = "radar"
+[node.params]
+scene = "$(var scene)"
+label = "$(var label)"
+"#;
+    let cwd = Path::new("/home/user/work");
+    let parse = |overrides: &[&str]| {
+        let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
+        Launch::parse_in(Path::new("launch/l.toml"), text, &overrides, Some(cwd))
+    };
+    let param =
+        |launch: &Launch, key: &str| launch.nodes[0].params[key].as_str().unwrap().to_owned();
+    // The default is written in the file: it stays relative, for the launch file's folder.
+    let launch = parse(&[]).unwrap();
+    assert_eq!(param(&launch, "scene"), "../config/hall.toml");
+    assert_eq!(launch.base_dir, Path::new("launch"));
+    // Typed on the command line: against the current directory; the record keeps the text.
+    let launch = parse(&["scene:=out/s1.toml", "label:=out/y.toml"]).unwrap();
+    assert_eq!(param(&launch, "scene"), "/home/user/work/out/s1.toml");
+    assert_eq!(launch.arguments["scene"].as_str(), Some("out/s1.toml"));
+    // Only `path = true` arguments are paths.
+    assert_eq!(param(&launch, "label"), "out/y.toml");
+    let launch = parse(&["scene:=/data/s2.toml"]).unwrap();
+    assert_eq!(param(&launch, "scene"), "/data/s2.toml");
+    // No current directory: a relative path is an error naming the argument, not a guess.
+    let error = Launch::parse_in(
+        Path::new("l.toml"),
+        text,
+        &["scene:=s.toml".to_owned()],
+        None,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        error.contains("argument scene") && error.contains("absolute"),
+        "{error}"
+    );
+    // A path argument needs a string default.
+    let bad = text.replace("default = \"../config/hall.toml\"", "default = 3");
+    let error = Launch::parse_in(Path::new("l.toml"), &bad, &[], Some(cwd))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("argument scene") && error.contains("string"),
+        "{error}"
+    );
+}
+
+#[test]
+fn when_conditions_select_nodes_by_argument_value() {
+    let text = r#"
+[arguments.fidelity]
+default = "spectral"
+[[node]]
+name = "radar"
+kind = "radar"
+[[node]]
+name = "estimator"
+kind = "estimator"
+when = { fidelity = ["spectral", "waveform"] }
+"#;
+    let names = |overrides: &[&str]| {
+        let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
+        Launch::parse(Path::new("l.toml"), text, &overrides)
+            .unwrap()
+            .nodes
+            .into_iter()
+            .map(|n| n.name)
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(names(&[]), ["radar", "estimator"]);
+    assert_eq!(names(&["fidelity:=waveform"]), ["radar", "estimator"]);
+    assert_eq!(names(&["fidelity:=ideal"]), ["radar"]);
+    let bad = text.replace("when = { fidelity", "when = { fidel");
+    let error = Launch::parse(Path::new("l.toml"), &bad, &[])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("node estimator") && error.contains("fidel"),
+        "{error}"
+    );
+}
+
+fn substitution(arguments: &[(&str, &str)], param: &str) -> Result<Launch, LaunchError> {
+    let mut text = String::new();
+    for (name, default) in arguments {
+        text.push_str(&format!("[arguments.{name}]\ndefault = {default:?}\n"));
+    }
+    text.push_str(&format!(
+        "[[node]]\nname = \"n\"\nkind = \"k\"\n[node.params]\nx = {param:?}\n"
+    ));
+    Launch::parse(Path::new("s.toml"), &text, &[])
+}
+
+#[test]
+fn arguments_may_name_other_arguments() {
+    let launch = substitution(
+        &[
+            ("label", "b"),
+            ("out", "runs/$(var label)/x"),
+            ("n", "$(var out)"),
+        ],
+        "$(var n)-$(var label)",
+    )
+    .unwrap();
+    assert_eq!(launch.nodes[0].params["x"].as_str(), Some("runs/b/x-b"));
+    // The record keeps the values as typed.
+    assert_eq!(
+        launch.arguments["out"].as_str(),
+        Some("runs/$(var label)/x")
+    );
+    // A whole-value reference to a string argument that names another.
+    let launch = substitution(&[("a", "$(var b)"), ("b", "z")], "$(var a)").unwrap();
+    assert_eq!(launch.nodes[0].params["x"].as_str(), Some("z"));
+}
+
+#[test]
+fn substitution_cycles_are_reported_with_their_arguments() {
+    let error = substitution(&[("a", "$(var b)"), ("b", "x$(var a)")], "$(var a)")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.starts_with("s.toml: argument a: ")
+            && error.contains("substitution cycle: a -> b -> a"),
+        "{error}"
+    );
+    let error = substitution(&[("a", "$(var a)")], "y")
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("substitution cycle: a -> a"), "{error}");
+    // A cycle entered through the command line is caught too.
+    let text = "[arguments.a]\ndefault = \"1\"\n[arguments.b]\ndefault = \"$(var a)\"\n\
+                [[node]]\nname = \"n\"\nkind = \"k\"\n[node.params]\nx = \"$(var b)\"\n";
+    let error = Launch::parse(Path::new("s.toml"), text, &["a:=-$(var b)-".to_owned()])
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("substitution cycle: a -> b -> a"), "{error}");
+}
+
+#[test]
+fn substitution_depth_and_length_are_bounded() {
+    // A chain longer than the depth bound.
+    let names: Vec<String> = (0..=MAX_SUBSTITUTION_DEPTH + 1)
+        .map(|i| format!("a{i:02}"))
+        .collect();
+    let defaults: Vec<String> = (0..names.len())
+        .map(|i| match names.get(i + 1) {
+            Some(next) => format!("$(var {next})"),
+            None => "end".to_owned(),
+        })
+        .collect();
+    let arguments: Vec<(&str, &str)> = names
+        .iter()
+        .zip(&defaults)
+        .map(|(n, d)| (n.as_str(), d.as_str()))
+        .collect();
+    let error = substitution(&arguments, "$(var a00)")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains(&format!("deeper than {MAX_SUBSTITUTION_DEPTH}")),
+        "{error}"
+    );
+    // A chain within the bound expands.
+    let short = &arguments[arguments.len() - MAX_SUBSTITUTION_DEPTH..];
+    let launch = substitution(short, &format!("$(var {})", short[0].0)).unwrap();
+    assert_eq!(launch.nodes[0].params["x"].as_str(), Some("end"));
+    // Doubling at each of 30 levels would make 2^30 copies: refused, quickly.
+    let names: Vec<String> = (0..30).map(|i| format!("d{i:02}")).collect();
+    let defaults: Vec<String> = (0..30)
+        .map(|i| match names.get(i + 1) {
+            Some(next) => format!("$(var {next})$(var {next})"),
+            None => "xxxxxxxx".to_owned(),
+        })
+        .collect();
+    let arguments: Vec<(&str, &str)> = names
+        .iter()
+        .zip(&defaults)
+        .map(|(n, d)| (n.as_str(), d.as_str()))
+        .collect();
+    let started = std::time::Instant::now();
+    let error = substitution(&arguments, "$(var d00)")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains(&format!("longer than {MAX_SUBSTITUTED_BYTES} bytes")),
+        "{error}"
+    );
+    assert!(started.elapsed().as_secs_f64() < 5.0);
+    // An unterminated reference in an argument's value names the argument.
+    let error = substitution(&[("a", "$(var b")], "y")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("argument a") && error.contains("unterminated"),
+        "{error}"
+    );
+}
+
+#[test]
+fn respawn_is_declared_per_node_and_its_bounds_are_checked() {
+    let text = "[[node]]\nname=\"a\"\nkind=\"mapper\"\nrespawn = true\nrespawn_delay_s = 0.5\n";
+    let launch = Launch::parse(Path::new("f.toml"), text, &[]).unwrap();
+    let node = &launch.nodes[0];
+    assert!(node.respawn);
+    assert_eq!((node.respawn_delay_s, node.max_restarts), (0.5, 3));
+    let plain = Launch::parse(
+        Path::new("f.toml"),
+        "[[node]]\nname=\"a\"\nkind=\"b\"\n",
+        &[],
+    )
+    .unwrap();
+    assert!(!plain.nodes[0].respawn);
+    for bad in [
+        "respawn_delay_s = -1.0",
+        "respawn_delay_s = 1e19",
+        "max_restarts = 5000",
+    ] {
+        let error = Launch::parse(
+            Path::new("f.toml"),
+            &format!("[[node]]\nname=\"a\"\nkind=\"b\"\n{bad}\n"),
+            &[],
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            error.contains("node a") && error.contains("allowed: 0 to 3600 s"),
+            "{bad}: {error}"
+        );
+    }
+}
+
+#[test]
+fn unknown_fields_and_duplicates_are_refused_with_a_line() {
+    let error = Launch::parse(
+        Path::new("f.toml"),
+        "[launch]\nmode = \"in-process\"\nspeed = 3\n[[node]]\nname=\"a\"\nkind=\"b\"\n",
+        &[],
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        error.starts_with("f.toml:") && error.contains("speed") && error.contains("line 3"),
+        "{error}"
+    );
+    let error = Launch::parse(
+        Path::new("f.toml"),
+        "[[node]]\nname=\"a\"\nkind=\"b\"\n[[node]]\nname=\"a\"\nkind=\"c\"\n",
+        &[],
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        error.contains("node a") && error.contains("twice"),
+        "{error}"
+    );
+    let error = Launch::parse(
+        Path::new("f.toml"),
+        "[[node]]\nname=\"a\"\nkind=\"b\"\n[node.params]\nx=\"$(var y)\"\n",
+        &[],
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(error.contains("undeclared argument \"y\""), "{error}");
+}
