@@ -211,7 +211,7 @@ mod tests {
     fn elevation_projects_and_ranges_outside_the_window_drop() {
         let c = converter(0.0, 0.0, 0.0);
         let (d, counts) = c.radar_scan(&scan(&[
-            (10.0, 0.0, 1.0471976), // 60° up: 5 m on the plane
+            (10.0, 0.0, std::f32::consts::FRAC_PI_3), // 60° up: 5 m on the plane
             (0.2, 0.0, 0.0),
             (80.0, 0.0, 0.0),
             (f32::NAN, 0.0, 0.0),

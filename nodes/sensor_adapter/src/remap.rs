@@ -37,14 +37,20 @@ impl RemapOutputs {
                         outputs.join(", ")
                     ))
                 })?;
-            let to_spec = topics::spec(to)
-                .filter(|s| s.type_name == from_spec.type_name)
-                .ok_or_else(|| {
-                    bad(format!(
-                        "{to:?} is not a catalogue topic of type {}",
-                        from_spec.type_name
-                    ))
-                })?;
+            let to_spec = match topics::spec(to) {
+                Some(s) if s.type_name == from_spec.type_name => s,
+                Some(s) => {
+                    return Err(bad(format!(
+                        "{to:?} carries {}, not {from:?}'s {}",
+                        s.type_name, from_spec.type_name
+                    )))
+                }
+                None => {
+                    return Err(bad(format!(
+                        "{to:?} is not a catalogue topic (`nrslam topics` lists them)"
+                    )))
+                }
+            };
             resolved.push((from_spec.name, to_spec.name));
         }
         let wrapped = Self {
