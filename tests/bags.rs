@@ -80,7 +80,7 @@ fn a_recorded_run_is_counted_replayed_exactly_and_recovered_after_a_cut() {
     let metadata = read(&bag_dir.join("metadata.yaml"));
     assert!(
         metadata.contains("storage_identifier: mcap")
-            && metadata.contains("version: 8")
+            && metadata.contains("version: 9")
             && metadata.contains(
                 "type_description_hash: RIHS01_8d348150c12913a31ee0ec170fbf25089e4745d17035792a1ba94d6f0bc0cfc7"
             ),

@@ -267,6 +267,8 @@ pub(crate) struct ChunkIndex {
     /// Offsets of the chunk's Message Index records.
     pub message_index_offsets: Vec<u64>,
     pub message_index_length: u64,
+    /// The chunk's compression (`""`, `zstd`, `lz4`).
+    pub compression: String,
 }
 
 pub(crate) fn chunk_index(body: &[u8]) -> ParseResult<ChunkIndex> {
@@ -282,7 +284,7 @@ pub(crate) fn chunk_index(body: &[u8]) -> ParseResult<ChunkIndex> {
         message_index_offsets.push(map.u64("chunk index message index offset")?);
     }
     let message_index_length = c.u64("chunk index message index length")?;
-    c.string("chunk index compression")?;
+    let compression = c.string("chunk index compression")?.to_owned();
     c.u64("chunk index compressed size")?;
     c.u64("chunk index uncompressed size")?;
     Ok(ChunkIndex {
@@ -290,6 +292,7 @@ pub(crate) fn chunk_index(body: &[u8]) -> ParseResult<ChunkIndex> {
         length,
         message_index_offsets,
         message_index_length,
+        compression,
     })
 }
 

@@ -462,4 +462,9 @@ fn merge_report(into: &mut ReadReport, file: ReadReport, index: usize, path: &Pa
     if into.custom_data.is_empty() {
         into.custom_data = file.custom_data;
     }
+    for c in file.compressions {
+        if !into.compressions.contains(&c) {
+            into.compressions.push(c);
+        }
+    }
 }

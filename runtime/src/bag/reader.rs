@@ -200,6 +200,9 @@ pub struct ReadReport {
     pub time_range_ns: Option<(u64, u64)>,
     /// The MCAP `nrslam` metadata record, if one was read.
     pub custom_data: BTreeMap<String, String>,
+    /// Chunk compressions met (`""` for uncompressed chunks, `zstd`, `lz4`), in order of first
+    /// appearance.
+    pub compressions: Vec<String>,
 }
 
 impl ReadReport {
@@ -240,6 +243,8 @@ pub struct Summary {
     pub time_range_ns: Option<(u64, u64)>,
     /// Chunks according to the chunk indexes.
     pub chunk_count: usize,
+    /// Chunk compressions according to the chunk indexes (`""`: uncompressed), each once.
+    pub compressions: Vec<String>,
     channels: HashMap<u16, ChannelInfo>,
     chunk_indexes: Vec<ChunkIndex>,
     metadata: Vec<(u64, u64, String)>,
@@ -595,6 +600,7 @@ impl Summary {
             message_count: Some(0),
             time_range_ns: None,
             chunk_count: 0,
+            compressions: Vec::new(),
             channels: HashMap::new(),
             chunk_indexes: Vec::new(),
             metadata: Vec::new(),
@@ -613,6 +619,11 @@ impl Summary {
                 (a, b) => a.or(b),
             };
             out.chunk_count += s.chunk_count;
+            for c in &s.compressions {
+                if !out.compressions.contains(c) {
+                    out.compressions.push(c.clone());
+                }
+            }
         }
         out
     }
@@ -775,6 +786,12 @@ fn read_summary(src: &mut Source) -> Result<Result<Summary, String>, Fail> {
             .filter(|s| s.message_count > 0)
             .map(|s| (s.message_start_time, s.message_end_time)),
         chunk_count: chunk_indexes.len(),
+        compressions: chunk_indexes.iter().fold(Vec::new(), |mut out, c| {
+            if !out.contains(&c.compression) {
+                out.push(c.compression.clone());
+            }
+            out
+        }),
         channels: infos,
         chunk_indexes,
         metadata,
@@ -1069,6 +1086,9 @@ impl FileMessages {
         let body_at = at + RECORD_PREFIX;
         let end_byte = body_at + len;
         let header = self.chunk_header(at, len)?;
+        if !self.report.compressions.contains(&header.compression) {
+            self.report.compressions.push(header.compression.clone());
+        }
         let records_at = body_at + header.header_len;
         let records_len = header.records_len;
         if !header.compression.is_empty() {
