@@ -239,7 +239,7 @@ fn through_a_router_as_its_client() {
     let ros_side = open(SessionMode::Peer, &[], &[&router_endpoint]);
     let config = TransportConfig::default().via_ros_router(&router_endpoint);
     assert_eq!(config.mode, SessionMode::Client);
-    assert_eq!(config.connect, [router_endpoint.clone()]);
+    assert_eq!(config.connect, std::slice::from_ref(&router_endpoint));
     let graph_session = transport::open(&config).unwrap();
     let mut publisher = TopicPublisher::with_ros_nodes(&graph_session, "", 0, &nodes()).unwrap();
     let found = tokens(&ros_side, "@ros2_lv/0/**", 10);
