@@ -134,7 +134,11 @@ pub struct OccupancyMap {
     /// Resolution-cell footprint: (range extent m, boresight beam width rad), if enabled.
     footprint: Option<(f64, f64)>,
     log_odds: Vec<f64>,
-    observed: Vec<bool>,
+    /// Per cell, what the published grid says: −1 never observed, else round(100·p) of
+    /// `log_odds`. Kept up to date by every update, so publishing copies it rather than
+    /// converting every cell of the grid per keyframe (most cells do not change between two).
+    percent: Vec<i8>,
+    thresholds: &'static [f64; 100],
     /// Per cell, the last update that touched it: `3·update + 1` in the hit set, `+ 2` in the free
     /// set, `+ 3` hit and already applied. Membership tests for the per-keyframe sets in O(1),
     /// without sorting or a hash set; the stride of 3 keeps one update's marks apart from the
@@ -169,7 +173,8 @@ impl OccupancyMap {
                 .footprint
                 .then(|| (params.range_resolution_m, params.beamwidth_deg.to_radians())),
             log_odds: vec![0.0; cells],
-            observed: vec![false; cells],
+            percent: vec![-1; cells],
+            thresholds: percent_thresholds(),
             set_mark: vec![0; cells],
             updates: 0,
             out_of_grid_total: 0,
@@ -238,7 +243,7 @@ impl OccupancyMap {
             return None;
         }
         let index = row * self.width_cells + column;
-        self.observed[index].then(|| self.log_odds[index])
+        (self.percent[index] >= 0).then(|| self.log_odds[index])
     }
 
     /// Integrates one keyframe: the AGV pose estimate, the array boresight and the detections.
@@ -395,8 +400,12 @@ impl OccupancyMap {
                     (start[1].floor() as i64).clamp(0, self.height_cells as i64 - 1),
                 ];
                 let width_cells = self.width_cells;
-                let (set_mark, log_odds, observed) =
-                    (&mut self.set_mark, &mut self.log_odds, &mut self.observed);
+                let (set_mark, log_odds, percent, thresholds) = (
+                    &mut self.set_mark,
+                    &mut self.log_odds,
+                    &mut self.percent,
+                    self.thresholds,
+                );
                 let (miss, floor) = (self.miss_log_odds, self.min_log_odds);
                 walk_cells(start, end, start_cell, end_cell, |column, row| {
                     // The walk stays within the box spanned by two in-grid cells.
@@ -404,7 +413,7 @@ impl OccupancyMap {
                     if set_mark[index] != hit_mark && set_mark[index] != free_mark {
                         set_mark[index] = free_mark;
                         log_odds[index] = (log_odds[index] + miss).max(floor);
-                        observed[index] = true;
+                        percent[index] = occupancy_percent_from(thresholds, log_odds[index]);
                         report.free_cells += 1;
                     }
                 });
@@ -417,7 +426,7 @@ impl OccupancyMap {
                 self.set_mark[index] = applied_mark;
                 self.log_odds[index] =
                     (self.log_odds[index] + self.hit_log_odds).min(self.max_log_odds);
-                self.observed[index] = true;
+                self.percent[index] = occupancy_percent_from(self.thresholds, self.log_odds[index]);
             }
         }
         self.hit_scratch = hits;
@@ -427,18 +436,7 @@ impl OccupancyMap {
     /// The grid as `nav_msgs/OccupancyGrid` data: row-major from the origin cell, x fastest;
     /// −1 for never observed cells, else round(100·p).
     pub fn occupancy_data(&self) -> Vec<i8> {
-        let thresholds = percent_thresholds();
-        self.log_odds
-            .iter()
-            .zip(&self.observed)
-            .map(|(&l, &observed)| {
-                if observed {
-                    occupancy_percent_from(thresholds, l)
-                } else {
-                    -1
-                }
-            })
-            .collect()
+        self.percent.clone()
     }
 
     /// The whole grid as a message: frame "map", `map_load_time = stamp`, origin at the grid's

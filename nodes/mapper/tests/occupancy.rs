@@ -373,6 +373,46 @@ proptest! {
     }
 }
 
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(128))]
+
+    /// The published grid is kept up to date cell by cell as keyframes arrive; after any sequence
+    /// of keyframes it equals the definition applied to every cell's log-odds: −1 where never
+    /// observed, else round(100 / (1 + e^−l)).
+    #[test]
+    fn the_published_grid_equals_the_definition_after_any_keyframes(
+        keyframes in prop::collection::vec(
+            (-4.0f64..12.0, -4.0f64..10.0, -PI..PI,
+             prop::collection::vec((0.0f64..12.0, -1.6f64..1.6), 0..30)),
+            1..8),
+        free_space in any::<bool>(),
+    ) {
+        let mut map = OccupancyMap::new(&Params {
+            resolution_m: 0.5,
+            origin_x_m: 0.0,
+            origin_y_m: 0.0,
+            width_m: 8.0,
+            height_m: 6.0,
+            free_space,
+            ..Params::default()
+        }).unwrap();
+        for (x_m, y_m, yaw_rad, echoes) in keyframes {
+            let detections: Vec<Detection> = echoes.into_iter().map(|(r, a)| echo(r, a)).collect();
+            map.integrate_detections(Pose2 { x_m, y_m, yaw_rad }, 0.0, &detections).unwrap();
+        }
+        let data = map.occupancy_data();
+        prop_assert_eq!(data.len(), map.width_cells() * map.height_cells());
+        for row in 0..map.height_cells() {
+            for column in 0..map.width_cells() {
+                let expected = map
+                    .log_odds_at(column, row)
+                    .map_or(-1, nrslam_mapper::occupancy_percent);
+                prop_assert_eq!(data[row * map.width_cells() + column], expected, "cell ({}, {})", column, row);
+            }
+        }
+    }
+}
+
 #[test]
 fn the_footprint_covers_the_resolution_cell_and_widens_with_range() {
     let params = Params {

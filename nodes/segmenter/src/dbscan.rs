@@ -17,39 +17,25 @@
 //! - every other point is noise, labelled [`NOISE`] (−1).
 //!
 //! With these rules the labels depend only on the input order, never on the order in which the
-//! neighbour search returns points, so the k-d-tree implementation [`dbscan`] and the O(n²) oracle
+//! neighbour search returns points, so the grid implementation [`dbscan`] and the O(n²) oracle
 //! [`dbscan_brute_force`] agree label for label (a property test checks it).
 //!
-//! Distances are compared squared (`dx² + dy² ≤ eps_m²`, computed as `dx*dx + dy*dy`), in the same
-//! floating-point operations as kiddo's [`SquaredEuclidean`], so points lying exactly at `eps_m`
-//! are classified identically by both implementations.
+//! Distances are compared squared (`dx² + dy² ≤ eps_m²`, computed as `dx*dx + dy*dy`) by both
+//! implementations, so points lying exactly at `eps_m` are classified identically.
 //!
 //! # Cost
-//! [`dbscan`] builds one kiddo `ImmutableKdTree` (O(n log n)) and runs at most two radius queries
-//! per point: one bounded query that stops at `min_samples` neighbours to decide whether the point
-//! is core, and one full query for each core point when its cluster is grown. Neighbour lists are
-//! not stored, so memory stays O(n) plus one query result. Time is O(n log n + Σ neighbourhood
-//! sizes of core points); with all n points inside one ε-ball (e.g. all identical) that sum is n²,
-//! as in every DBSCAN that labels border points.
+//! [`dbscan`] sorts the points into square cells at least ε wide (O(n log n), [`crate::cells`])
+//! and runs at most two neighbourhood scans per point over the nine cells around it: one that
+//! stops at `min_samples` neighbours to decide whether the point is core, and one full scan for
+//! each core point when its cluster is grown. Neighbour lists are not stored, so memory stays O(n).
+//! Time is O(n log n + Σ points in the nine cells around each core point); with all n points inside
+//! one ε-ball (e.g. all identical) that sum is n², as in every DBSCAN that labels border points.
 
-use kiddo::immutable::float::kdtree::ImmutableKdTree as KiddoImmutable;
-use kiddo::SquaredEuclidean;
-use std::num::NonZero;
-
+use crate::cells::{squared_distance, CellIndex};
 use crate::SegmentError;
 
 /// Label of a noise point (not reachable from any core point).
 pub const NOISE: i32 = -1;
-
-/// Bucket size of the k-d tree leaves; kiddo's default.
-const BUCKET_SIZE: usize = 32;
-
-/// The k-d tree used for radius queries: f64 coordinates, point indices as items, 2-D.
-///
-/// The immutable tree is used rather than kiddo's mutable `KdTree` because occupied-cell centres
-/// share coordinates along whole grid rows and columns; the mutable tree cannot split a bucket whose
-/// points all share the split value, the immutable one can.
-type ImmutableKdTree = KiddoImmutable<f64, u64, 2, BUCKET_SIZE>;
 
 /// Result of a DBSCAN run: one label per input point, in input order.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
@@ -112,7 +98,8 @@ impl Dbscan {
         self.min_samples
     }
 
-    /// Clusters `points` (x, y in metres) with a k-d tree; see the module docs for the semantics.
+    /// Clusters `points` (x, y in metres) over a grid of ε-cells; see the module docs for the
+    /// semantics.
     ///
     /// # Errors
     /// [`SegmentError::NonFinitePoint`] if any coordinate is NaN or infinite (checked before any work,
@@ -122,7 +109,6 @@ impl Dbscan {
         if points.is_empty() {
             return Ok(Clustering::default());
         }
-        let eps_sq = self.eps_m * self.eps_m;
         let n = points.len();
         if self.min_samples > n {
             // No neighbourhood can be that large: all noise, and no query allocates a result
@@ -133,33 +119,23 @@ impl Dbscan {
                 cluster_count: 0,
             });
         }
-        let tree = ImmutableKdTree::new_from_slice(points);
-
-        // Being core only needs min_samples neighbours, not all of them: a bounded query stops
-        // collecting (and prunes the tree) once it holds that many, which keeps dense regions
-        // cheap. The count includes the point itself (distance 0 ≤ eps², inclusive query).
-        let wanted = NonZero::new(self.min_samples).unwrap_or(NonZero::<usize>::MIN);
-        let is_core: Vec<bool> = points
-            .iter()
-            .map(|point| {
-                tree.nearest_n_within::<SquaredEuclidean>(point, eps_sq, wanted, false)
-                    .len()
-                    >= self.min_samples
-            })
+        let index = CellIndex::new(points, self.eps_m);
+        // Being core only needs min_samples neighbours, not all of them: the count stops there,
+        // which keeps dense regions cheap. It includes the point itself (distance 0 ≤ eps²).
+        let is_core: Vec<bool> = (0..n)
+            .map(|i| index.count_neighbours_up_to(i, self.min_samples) >= self.min_samples)
             .collect();
 
-        Ok(expand_clusters(is_core, |index, neighbours| {
-            neighbours.extend(
-                tree.within_unsorted::<SquaredEuclidean>(&points[index], eps_sq)
-                    .into_iter()
-                    // Items are the indices the tree was built from, all < n.
-                    .map(|neighbour| neighbour.item as usize),
-            );
+        Ok(expand_clusters(is_core, |i, neighbours| {
+            index.for_each_neighbour(i, |j| {
+                neighbours.push(j);
+                true
+            });
         }))
     }
 }
 
-/// Clusters `points` with a k-d tree: `Dbscan::new(eps_m, min_samples)?.fit(points)`.
+/// Clusters `points`: `Dbscan::new(eps_m, min_samples)?.fit(points)`.
 pub fn dbscan(
     points: &[[f64; 2]],
     eps_m: f64,
@@ -226,14 +202,6 @@ pub fn dbscan_brute_force(
         is_core,
         cluster_count: cluster as usize,
     })
-}
-
-/// `dx*dx + dy*dy`, the same operations as kiddo's `SquaredEuclidean` (whose fold from 0.0 adds
-/// nothing), so boundary cases resolve identically in both implementations.
-fn squared_distance(a: [f64; 2], b: [f64; 2]) -> f64 {
-    let dx = a[0] - b[0];
-    let dy = a[1] - b[1];
-    dx * dx + dy * dy
 }
 
 fn check_points(points: &[[f64; 2]]) -> Result<(), SegmentError> {
@@ -304,7 +272,7 @@ mod tests {
     fn both(points: &[[f64; 2]], eps_m: f64, min_samples: usize) -> Clustering {
         let fast = dbscan(points, eps_m, min_samples).unwrap();
         let slow = dbscan_brute_force(points, eps_m, min_samples).unwrap();
-        assert_eq!(fast, slow, "kd-tree and brute force disagree");
+        assert_eq!(fast, slow, "grid and brute force disagree");
         fast
     }
 
@@ -325,7 +293,7 @@ mod tests {
 
     #[test]
     fn identical_points_form_one_cluster_even_with_eps_zero() {
-        // 100 coincident points: more than a k-d tree bucket share every coordinate.
+        // 100 coincident points: all in one cell, sharing every coordinate.
         let points = vec![[3.25, -1.5]; 100];
         for eps_m in [0.0, 0.5] {
             let c = both(&points, eps_m, 100);
@@ -441,7 +409,7 @@ mod tests {
     }
 
     #[test]
-    fn huge_but_finite_coordinates_do_not_break_the_tree() {
+    fn huge_but_finite_coordinates_do_not_break_the_grid() {
         // Differences overflow to infinity, which is never ≤ eps²: these points are each other's
         // strangers, but each is its own neighbour.
         let points = [[f64::MAX, 0.0], [-f64::MAX, 0.0], [f64::MAX, 0.0]];

@@ -4,7 +4,7 @@
 //! \[DBSCAN\]: the map's occupied points are clustered, each cluster being one target, and the
 //! clusters feed ET-GOPSA (Sec. IV-B). In nrslam this crate is that stage:
 //!
-//! - [`dbscan`](mod@dbscan): DBSCAN with scikit-learn's semantics on a kiddo k-d tree, and an O(n²) oracle
+//! - [`dbscan`](mod@dbscan): DBSCAN with scikit-learn's semantics on a grid of ε-cells, and an O(n²) oracle
 //!   [`dbscan_brute_force`] it is tested against;
 //! - [`grid`]: the centres of the occupied cells of an occupancy grid, the points to cluster;
 //! - [`Params`]: the node's parameters (`eps_m`, `min_samples`, `occupied_threshold`);
@@ -20,6 +20,7 @@
 //! ```
 #![warn(missing_docs)]
 
+mod cells;
 pub mod dbscan;
 pub mod grid;
 pub mod node;

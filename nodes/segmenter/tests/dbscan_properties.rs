@@ -1,4 +1,4 @@
-//! DBSCAN on a k-d tree against the O(n²) oracle, label for label, and at sizes the oracle cannot
+//! DBSCAN on a grid of ε-cells against the O(n²) oracle, label for label, and at sizes the oracle cannot
 //! reach.
 
 use nrslam_segmenter::{dbscan, dbscan_brute_force, Clustering, NOISE};
@@ -90,7 +90,7 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(512))]
 
     #[test]
-    fn kd_tree_matches_brute_force_on_lattice(
+    fn grid_matches_brute_force_on_lattice(
         points in lattice_points(120),
         eps_m in eps_values(),
         min_samples in 1usize..8,
@@ -102,7 +102,7 @@ proptest! {
     }
 
     #[test]
-    fn kd_tree_matches_brute_force_on_real_points(
+    fn grid_matches_brute_force_on_real_points(
         points in real_points(150),
         eps_m in eps_values(),
         min_samples in 1usize..8,
@@ -234,7 +234,7 @@ fn two_hundred_thousand_points_cluster_in_seconds() {
 #[test]
 fn all_identical_points_are_one_cluster() {
     // 1,000 coincident points: each neighbourhood is the whole input (the O(n²) worst case), and
-    // far more points than a k-d tree bucket (32) share each coordinate. (5,000 take 0.4 s in
+    // all of them share one cell. (5,000 take 0.4 s in
     // release but 15 s unoptimised.)
     let points = vec![[1.5, -2.5]; 1_000];
     for eps_m in [0.0, 1.0] {

@@ -1,0 +1,209 @@
+//! A uniform grid of square cells over planar points: DBSCAN's ε-neighbourhood queries in 2-D.
+//!
+//! Cells are at least ε wide, so every point within ε of a point lies in its cell or one of the
+//! eight around it; a query scans those nine cells and keeps the points at squared distance
+//! `≤ ε²` (the same test as the brute-force oracle). Points are stored cell by cell, so a query
+//! reads a few contiguous runs of memory instead of walking a tree, and the cell adjacency is
+//! found once, at construction.
+//!
+//! The cell coordinate of a point is `floor((x − x_min) / side)`. Its rounding error is bounded by
+//! keeping at most 2³⁰ cells along an axis (the side grows for very spread or very fine inputs) and
+//! making the side 0.1 % wider than ε: two points within ε then never land two cells apart. When
+//! the points' extent overflows to infinity, every point goes into one cell and the query is the
+//! brute-force scan, still exact.
+
+use std::collections::HashMap;
+
+/// Widening of the cell side over ε, so rounding in the cell coordinates never separates two
+/// neighbours by more than one cell.
+const SIDE_MARGIN: f64 = 1.001;
+
+/// At most this many cells along an axis: keeps the cell coordinates far from f64's precision
+/// limit (error below 2⁻²² cell) and inside u32.
+const MAX_CELLS_PER_AXIS: f64 = (1u64 << 30) as f64;
+
+/// Points grouped by cell, with each occupied cell's occupied neighbours.
+pub(crate) struct CellIndex {
+    /// Point indices (into the caller's slice), cell by cell.
+    order: Vec<u32>,
+    /// `points[order[k]]`, so that a cell's coordinates are contiguous.
+    sorted: Vec<[f64; 2]>,
+    /// Per cell c, its points are `order[cell_start[c]..cell_start[c + 1]]`.
+    cell_start: Vec<u32>,
+    /// Cell of each point, by the caller's index.
+    cell_of: Vec<u32>,
+    /// Position of each point in `order`, by the caller's index.
+    rank: Vec<u32>,
+    /// Per cell c, its occupied neighbour cells (itself included) are
+    /// `neighbours[neighbour_start[c]..neighbour_start[c + 1]]`.
+    neighbour_start: Vec<u32>,
+    neighbours: Vec<u32>,
+    eps_sq: f64,
+}
+
+impl CellIndex {
+    /// Indexes `points` (finite, fewer than 2³² − 1) for queries of radius `eps_m ≥ 0`.
+    pub(crate) fn new(points: &[[f64; 2]], eps_m: f64) -> Self {
+        let keys = cell_keys(points, eps_m);
+        let mut order: Vec<u32> = (0..points.len() as u32).collect();
+        order.sort_unstable_by_key(|&i| (keys[i as usize], i));
+
+        let mut cell_start = Vec::new();
+        let mut cell_keys_sorted = Vec::new();
+        let mut cell_of = vec![0u32; points.len()];
+        let mut rank = vec![0u32; points.len()];
+        for (k, &i) in order.iter().enumerate() {
+            rank[i as usize] = k as u32;
+            let key = keys[i as usize];
+            if cell_keys_sorted.last() != Some(&key) {
+                cell_keys_sorted.push(key);
+                cell_start.push(k as u32);
+            }
+            cell_of[i as usize] = (cell_keys_sorted.len() - 1) as u32;
+        }
+        cell_start.push(order.len() as u32);
+
+        let number: HashMap<(u32, u32), u32> = cell_keys_sorted
+            .iter()
+            .enumerate()
+            .map(|(c, &key)| (key, c as u32))
+            .collect();
+        let mut neighbour_start = Vec::with_capacity(cell_keys_sorted.len() + 1);
+        let mut neighbours = Vec::new();
+        for &(kx, ky) in &cell_keys_sorted {
+            neighbour_start.push(neighbours.len() as u32);
+            for dy in -1i64..=1 {
+                for dx in -1i64..=1 {
+                    let (Ok(x), Ok(y)) = (
+                        u32::try_from(i64::from(kx) + dx),
+                        u32::try_from(i64::from(ky) + dy),
+                    ) else {
+                        continue;
+                    };
+                    if let Some(&c) = number.get(&(x, y)) {
+                        neighbours.push(c);
+                    }
+                }
+            }
+        }
+        neighbour_start.push(neighbours.len() as u32);
+
+        let sorted = order.iter().map(|&i| points[i as usize]).collect();
+        Self {
+            order,
+            sorted,
+            cell_start,
+            cell_of,
+            rank,
+            neighbour_start,
+            neighbours,
+            eps_sq: eps_m * eps_m,
+        }
+    }
+
+    /// Calls `visit(j)` for every point j within ε of point `i` (i itself included), in no
+    /// particular order, until `visit` returns false.
+    pub(crate) fn for_each_neighbour(&self, i: usize, mut visit: impl FnMut(usize) -> bool) {
+        let centre = self.sorted[self.rank[i] as usize];
+        let cell = self.cell_of[i] as usize;
+        let cells = &self.neighbours
+            [self.neighbour_start[cell] as usize..self.neighbour_start[cell + 1] as usize];
+        for &c in cells {
+            let range = self.cell_start[c as usize] as usize..self.cell_start[c as usize + 1] as usize;
+            for (point, &j) in self.sorted[range.clone()].iter().zip(&self.order[range]) {
+                if squared_distance(centre, *point) <= self.eps_sq && !visit(j as usize) {
+                    return;
+                }
+            }
+        }
+    }
+
+    /// Number of points within ε of point `i` (itself included), counting no further than `limit`.
+    pub(crate) fn count_neighbours_up_to(&self, i: usize, limit: usize) -> usize {
+        let mut count = 0;
+        self.for_each_neighbour(i, |_| {
+            count += 1;
+            count < limit
+        });
+        count
+    }
+}
+
+/// `dx*dx + dy*dy`: the distance test of the module docs.
+pub(crate) fn squared_distance(a: [f64; 2], b: [f64; 2]) -> f64 {
+    let dx = a[0] - b[0];
+    let dy = a[1] - b[1];
+    dx * dx + dy * dy
+}
+
+/// (column, row) of each point's cell.
+fn cell_keys(points: &[[f64; 2]], eps_m: f64) -> Vec<(u32, u32)> {
+    let (mut low, mut high) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for p in points {
+        for axis in 0..2 {
+            low[axis] = low[axis].min(p[axis]);
+            high[axis] = high[axis].max(p[axis]);
+        }
+    }
+    let extent = (high[0] - low[0]).max(high[1] - low[1]);
+    let side = (eps_m * SIDE_MARGIN).max(extent / MAX_CELLS_PER_AXIS);
+    if points.is_empty() || !side.is_finite() || side <= 0.0 {
+        // No points, an extent that overflowed (one cell: the brute-force scan), or all points
+        // identical with ε = 0 (one cell holds them all).
+        return vec![(0, 0); points.len()];
+    }
+    let coordinate = |value: f64, axis: usize| ((value - low[axis]) / side).floor() as u32;
+    points
+        .iter()
+        .map(|p| (coordinate(p[0], 0), coordinate(p[1], 1)))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn neighbours(index: &CellIndex, i: usize) -> Vec<usize> {
+        let mut found = Vec::new();
+        index.for_each_neighbour(i, |j| {
+            found.push(j);
+            true
+        });
+        found.sort_unstable();
+        found
+    }
+
+    fn brute(points: &[[f64; 2]], i: usize, eps_m: f64) -> Vec<usize> {
+        (0..points.len())
+            .filter(|&j| squared_distance(points[i], points[j]) <= eps_m * eps_m)
+            .collect()
+    }
+
+    #[test]
+    fn a_spread_wider_than_the_cell_budget_widens_the_cells_and_stays_exact() {
+        // Extent 1e12 m with ε = 1 mm: 2³⁰ cells of 1 mm cannot span it, so cells are ~931 m.
+        let points = [[0.0, 0.0], [0.0009, 0.0], [1e12, 5.0], [1e12 - 0.001, 5.0], [500.0, 0.0]];
+        let index = CellIndex::new(&points, 0.001);
+        for i in 0..points.len() {
+            assert_eq!(neighbours(&index, i), brute(&points, i, 0.001), "point {i}");
+        }
+    }
+
+    #[test]
+    fn neighbours_exactly_eps_apart_across_a_cell_edge_are_found() {
+        // Spacing exactly ε on a line: each point's neighbours are the points either side.
+        let points: Vec<[f64; 2]> = (0..50).map(|k| [f64::from(k) * 0.5 - 7.0, 3.0]).collect();
+        let index = CellIndex::new(&points, 0.5);
+        for i in 0..points.len() {
+            assert_eq!(neighbours(&index, i), brute(&points, i, 0.5), "point {i}");
+        }
+    }
+
+    #[test]
+    fn counting_stops_at_the_limit() {
+        let points = vec![[1.0, 1.0]; 10];
+        let index = CellIndex::new(&points, 0.0);
+        assert_eq!(index.count_neighbours_up_to(3, 4), 4);
+        assert_eq!(index.count_neighbours_up_to(3, 100), 10);
+    }
+}
