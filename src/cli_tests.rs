@@ -117,6 +117,8 @@ const RANGES: &[(&str, &str, Range)] = &[
     // 0 (one file) or 1024 to 2^50 bytes: a gap this test's ranges cannot say.
     ("bag record", "--max-bag-size", Range::Unchecked),
     ("bag record", "--max-bag-duration", real(0.0, 604_800.0)),
+    ("launch", "--max-bag-size", Range::Unchecked),
+    ("launch", "--max-bag-duration", real(0.0, 604_800.0)),
     ("bag play", "--rate", Range::Unchecked),
     ("bag play", "--start-offset", real(0.0, 31_536_000.0)),
     ("bag play", "--clock", real(0.001, 10_000.0)),

@@ -65,6 +65,9 @@ pub struct LaunchArgs {
     pub record_topics: Vec<String>,
     #[command(flatten)]
     pub chunk: crate::bag::ChunkArgs,
+    /// With --record: chunk compression and file splitting, as `nrslam bag record`.
+    #[command(flatten)]
+    pub storage: crate::bag::StorageArgs,
     /// With --listen/--connect: publish the mirrored topics as rmw_zenoh does in this ROS domain
     /// (key `<domain>/<topic>/<type>/<RIHS01 hash>` plus rmw_zenoh's attachment), so ROS 2 nodes on
     /// rmw_zenoh receive them without a bridge (in-process mode). 0 to 232, ROS 2's range.
@@ -353,6 +356,16 @@ pub fn launch(args: LaunchArgs) -> Result<()> {
         serde_json::to_string_pretty(&run_info)? + "\n",
     )
     .with_context(|| format!("cannot write {}", out.join("run.json").display()))?;
+    if summary.metric_steps == 0 {
+        // No evaluator (a real sensor's bag): say what was built rather than a row of n/a.
+        outln!(
+            "{} keyframes, {} occupied map cells, no /metrics (no ground truth to score against); wrote {}",
+            summary.keyframes,
+            summary.occupied_cells.unwrap_or(0),
+            out.display()
+        );
+        return Ok(());
+    }
     outln!(
         "{} frames, final ET-GOPSA {}, GOSPA {}, pose RMSE {} m (final keyframe trajectory {} m); wrote {}",
         summary.frames,
@@ -451,12 +464,13 @@ fn recorder(args: &LaunchArgs, launch: &Launch, built: &Built, dir: &Path) -> Re
     } else {
         crate::bag::catalogue_topics(&args.record_topics)?
     };
-    let writer = BagWriter::create(
+    let writer = BagWriter::create_with(
         dir,
         WriterOptions {
             chunk_size_bytes: args.chunk.bytes()?,
             custom_data: run_identity(launch, args.seed)?,
         },
+        args.storage.options()?,
     )
     .context("--record")?;
     Ok(Recorder { writer, topics })

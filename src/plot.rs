@@ -41,6 +41,19 @@ fn bounds(report: &Reporter) -> (std::ops::Range<f64>, std::ops::Range<f64>) {
             ys.push(point.y);
         }
     }
+    // Occupied cells too: a bag of a real sensor has no truth, and its walls lie far from the path.
+    if let Some(grid) = &report.map {
+        let (x0, y0, yaw) = grid.info.origin.planar();
+        let (sin, cos) = yaw.sin_cos();
+        let resolution = f64::from(grid.info.resolution);
+        let width = (grid.info.width as usize).max(1);
+        for (index, _) in grid.data.iter().enumerate().filter(|(_, &v)| v >= 65) {
+            let u = ((index % width) as f64 + 0.5) * resolution;
+            let v = ((index / width) as f64 + 0.5) * resolution;
+            xs.push(x0 + cos * u - sin * v);
+            ys.push(y0 + sin * u + cos * v);
+        }
+    }
     let range = |values: &[f64]| {
         let lo = values
             .iter()

@@ -121,6 +121,11 @@ pub fn reproduce(args: ReproduceArgs) -> Result<()> {
             chunk: crate::bag::ChunkArgs {
                 chunk_size_kib: 768,
             },
+            storage: crate::bag::StorageArgs {
+                compression: nrslam_runtime::bag::Compression::None,
+                max_bag_size: 0,
+                max_bag_duration: 0.0,
+            },
             ros_domain_id: None,
             transport: TransportArgs::default(),
         })?;

@@ -19,7 +19,7 @@ use std::sync::Arc;
 
 pub use info::InfoArgs;
 pub use play::PlayArgs;
-pub use record::RecordArgs;
+pub use record::{RecordArgs, StorageArgs};
 
 /// `nrslam bag`.
 #[derive(Args, Debug)]
