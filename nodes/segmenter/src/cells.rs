@@ -109,7 +109,8 @@ impl CellIndex {
         let cells = &self.neighbours
             [self.neighbour_start[cell] as usize..self.neighbour_start[cell + 1] as usize];
         for &c in cells {
-            let range = self.cell_start[c as usize] as usize..self.cell_start[c as usize + 1] as usize;
+            let range =
+                self.cell_start[c as usize] as usize..self.cell_start[c as usize + 1] as usize;
             for (point, &j) in self.sorted[range.clone()].iter().zip(&self.order[range]) {
                 if squared_distance(centre, *point) <= self.eps_sq && !visit(j as usize) {
                     return;
@@ -182,7 +183,13 @@ mod tests {
     #[test]
     fn a_spread_wider_than_the_cell_budget_widens_the_cells_and_stays_exact() {
         // Extent 1e12 m with ε = 1 mm: 2³⁰ cells of 1 mm cannot span it, so cells are ~931 m.
-        let points = [[0.0, 0.0], [0.0009, 0.0], [1e12, 5.0], [1e12 - 0.001, 5.0], [500.0, 0.0]];
+        let points = [
+            [0.0, 0.0],
+            [0.0009, 0.0],
+            [1e12, 5.0],
+            [1e12 - 0.001, 5.0],
+            [500.0, 0.0],
+        ];
         let index = CellIndex::new(&points, 0.001);
         for i in 0..points.len() {
             assert_eq!(neighbours(&index, i), brute(&points, i, 0.001), "point {i}");
