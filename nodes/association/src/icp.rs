@@ -29,6 +29,7 @@
 //! larger than the sanity gate. No input makes it return a non-finite pose.
 
 use std::num::NonZero;
+use std::sync::OnceLock;
 
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 
@@ -117,8 +118,10 @@ pub struct LineFit {
 #[derive(Default)]
 pub struct PointMap {
     points_m: Vec<[f64; 2]>,
-    /// The line fitted around each point; empty when `line_fit` is `None`.
-    fits: Vec<LocalLine>,
+    /// The line fitted around each point, fitted the first time it is asked for: a scan is
+    /// matched against a few hundred of a map's thousands of points, and a loop candidate's
+    /// submap is built for one refinement. Empty when `line_fit` is `None`.
+    fits: Vec<OnceLock<LocalLine>>,
     line_fit: Option<LineFit>,
     tree: Option<ImmutableKdTree<f64, 2>>,
 }
@@ -172,27 +175,28 @@ impl PointMap {
             return;
         }
         let tree = ImmutableKdTree::new_from_slice(&self.points_m);
-        if let Some(fit) = self.line_fit {
-            // A point's fit changes only if a new point enters its neighbourhood, i.e. comes
+        if self.line_fit.is_some() {
+            // A fitted line changes only if a new point enters its neighbourhood, i.e. comes
             // closer than its current farthest neighbour (or within the radius while it has
-            // fewer than `neighbours`). In a dense map few old points pass that test.
+            // fewer than `neighbours`); such a fit is dropped and refitted when next asked for.
+            // Lines not fitted yet will be fitted on the new tree.
             let added: ImmutableKdTree<f64, 2> =
                 ImmutableKdTree::new_from_slice(&self.points_m[before..]);
             for index in 0..before {
+                let Some(line) = self.fits[index].get() else {
+                    continue;
+                };
                 let point = &self.points_m[index];
                 let nearest_new = added.nearest_one::<SquaredEuclidean>(point);
                 let enters = usize::try_from(nearest_new.item)
                     .ok()
                     .and_then(|i| self.points_m.get(before + i))
-                    .is_some_and(|q| squared_distance_m2(q, point) <= self.fits[index].reach_m2);
+                    .is_some_and(|q| squared_distance_m2(q, point) <= line.reach_m2);
                 if enters {
-                    self.fits[index] = fit_line(&tree, &self.points_m, point, fit);
+                    self.fits[index] = OnceLock::new();
                 }
             }
-            for index in before..self.points_m.len() {
-                let line = fit_line(&tree, &self.points_m, &self.points_m[index], fit);
-                self.fits.push(line);
-            }
+            self.fits.resize_with(self.points_m.len(), OnceLock::new);
         }
         self.tree = Some(tree);
     }
@@ -205,7 +209,12 @@ impl PointMap {
     /// The unit normal of the local line at map point `index`, if the map fits lines and the
     /// point's neighbourhood is one.
     pub fn normal(&self, index: usize) -> Option<[f64; 2]> {
-        self.fits.get(index).and_then(|f| f.normal)
+        let (fit, tree) = (self.line_fit?, self.tree.as_ref()?);
+        let point = self.points_m.get(index)?;
+        self.fits
+            .get(index)?
+            .get_or_init(|| fit_line(tree, &self.points_m, point, fit))
+            .normal
     }
 
     /// Number of map points.
