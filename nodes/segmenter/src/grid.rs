@@ -90,20 +90,32 @@ pub fn occupied_cell_centres(
 ) -> Result<Vec<[f64; 2]>, SegmentError> {
     geometry.check(data.len())?;
     let width = geometry.width_cells as usize;
-    let threshold = i16::from(occupied_threshold);
-    Ok(data
-        .iter()
-        .enumerate()
-        // i16 so that thresholds above 127 (never reached) compare without wrapping; −1 (unknown)
-        // is below every threshold ≥ 0.
-        .filter(|(_, &value)| value >= 0 && i16::from(value) >= threshold)
-        .map(|(index, _)| {
-            // index < width × height ≤ u32::MAX², so the quotient and remainder fit in u32.
-            let column = (index % width) as u32;
-            let row = (index / width) as u32;
-            geometry.cell_centre(column, row)
-        })
-        .collect())
+    // Above 127 no cell (at most 100 %) is occupied; −1 (unknown) is below every threshold ≥ 0.
+    let Ok(threshold) = i8::try_from(occupied_threshold) else {
+        return Ok(Vec::new());
+    };
+    if width == 0 {
+        return Ok(Vec::new());
+    }
+    // Most of a map is free or unknown: a block is looked into only if some cell of it is
+    // occupied, a test the compiler turns into a few vector compares per 64 cells.
+    const BLOCK: usize = 64;
+    let mut centres = Vec::new();
+    for (row, cells) in data.chunks_exact(width).enumerate() {
+        for (block_index, block) in cells.chunks(BLOCK).enumerate() {
+            if !block.iter().fold(false, |any, &v| any | (v >= threshold)) {
+                continue;
+            }
+            for (k, &value) in block.iter().enumerate() {
+                if value >= threshold {
+                    // column < width and row < height, both u32.
+                    let column = (block_index * BLOCK + k) as u32;
+                    centres.push(geometry.cell_centre(column, row as u32));
+                }
+            }
+        }
+    }
+    Ok(centres)
 }
 
 #[cfg(test)]
@@ -176,5 +188,36 @@ mod tests {
         assert!(occupied_cell_centres(&geometry(0, 0), &[], 65)
             .unwrap()
             .is_empty());
+    }
+
+    proptest::proptest! {
+        /// The block skipping finds exactly the cells the definition names, in row-major order,
+        /// for any width (blocks straddling row ends), value and threshold.
+        #[test]
+        fn every_cell_at_or_above_the_threshold_and_no_other(
+            width in 1u32..200,
+            height in 1u32..6,
+            threshold in 0u8..=255,
+            seed in proptest::prelude::any::<u64>(),
+            sparse in proptest::prelude::any::<bool>(),
+        ) {
+            let n = (width * height) as usize;
+            let mut state = seed | 1;
+            let data: Vec<i8> = (0..n)
+                .map(|_| {
+                    state ^= state << 13;
+                    state ^= state >> 7;
+                    state ^= state << 17;
+                    let v = (state % 102) as i8 - 1;
+                    if sparse && state % 97 != 0 { -1 } else { v }
+                })
+                .collect();
+            let g = geometry(width, height);
+            let expected: Vec<[f64; 2]> = (0..n)
+                .filter(|&i| data[i] >= 0 && i16::from(data[i]) >= i16::from(threshold))
+                .map(|i| g.cell_centre(i as u32 % width, i as u32 / width))
+                .collect();
+            proptest::prop_assert_eq!(occupied_cell_centres(&g, &data, threshold).unwrap(), expected);
+        }
     }
 }
