@@ -194,6 +194,12 @@ impl Reporter {
                     .get(9 * index..9 * index + 9)
                     .map(|omega| (0..9).map(|c| e[c / 3] * omega[c] * e[c % 3]).sum::<f64>())
                     .filter(|chi2| chi2.is_finite());
+                let weak_axis_information =
+                    k.loop_informations.get(9 * index..9 * index + 9).map(|o| {
+                        let h = [[o[0], o[1], o[2]], [o[3], o[4], o[5]], [o[6], o[7], o[8]]];
+                        let marginal = nrslam_association::loop_closure::translation_marginal(&h);
+                        nrslam_association::loop_closure::symmetric_eigen_2x2(&marginal).1
+                    });
                 error_m.is_finite().then_some(ScoredLoopEdge {
                     from: *from,
                     to: *to,
@@ -202,6 +208,7 @@ impl Reporter {
                     error_m,
                     error_rad: error_rad.abs(),
                     chi2,
+                    weak_axis_information,
                 })
             })
             .collect()
@@ -223,6 +230,7 @@ impl Reporter {
             "error_m",
             "error_rad",
             "chi2",
+            "weak_axis_information_per_m2",
         ])?;
         for e in self.scored_loop_edges() {
             writer.write_record([
@@ -237,6 +245,8 @@ impl Reporter {
                 e.error_m.to_string(),
                 e.error_rad.to_string(),
                 e.chi2.map_or_else(String::new, |c| c.to_string()),
+                e.weak_axis_information
+                    .map_or_else(String::new, |c| c.to_string()),
             ])?;
         }
         writer
@@ -375,6 +385,10 @@ pub struct ScoredLoopEdge {
     /// The error's squared Mahalanobis distance under the edge's own information
     /// (`loop_informations`), when the back end published it.
     pub chi2: Option<f64>,
+    /// The edge's information along its weakest translation direction (1/m², the smallest
+    /// eigenvalue of the translation marginal of `loop_informations`): small when the match
+    /// could slide along a wall.
+    pub weak_axis_information: Option<f64>,
 }
 
 /// `summary.json`: the same for a seed whatever the mode (no wall time in it).
