@@ -2,11 +2,16 @@
 //!
 //! This is how batch and Monte Carlo runs execute, and, because every node's inputs go through the
 //! same [`Merger`] as over zenoh, it produces exactly what the zenoh graph produces for a seed.
+//!
+//! A published message is moved into one [`Arc`] and shared by the observer and every subscriber:
+//! nothing is copied per subscriber (a waveform echo is megabytes). Nodes read it by reference
+//! ([`Node::on_message`] takes `&Message`), so a node copies only what it decides to keep.
 
 use crate::merge::Merger;
 use crate::node::{Node, NodeError, Outbox, Tick};
-use nrslam_msgs::Message;
-use std::collections::BTreeMap;
+use nrslam_msgs::{Clock, Message};
+use std::collections::{BTreeMap, VecDeque};
+use std::sync::Arc;
 
 /// A node failed while the graph ran.
 #[derive(Debug, thiserror::Error)]
@@ -21,9 +26,50 @@ pub struct GraphError {
 struct Slot {
     name: String,
     node: Box<dyn Node>,
+    /// Decides the delivery order. It holds a stand-in per message (see [`stand_in`]); the
+    /// messages themselves wait, shared, in `pending`.
     merger: Merger,
+    /// Per input topic, in the merger's input order: the shared messages not yet delivered,
+    /// in arrival order (the merger delivers one topic's messages in arrival order too).
+    pending: Vec<(&'static str, VecDeque<Arc<Message>>)>,
     is_source: bool,
     ended: bool,
+}
+
+/// What the merger queues in place of `message`: a clock message with the same stamp.
+///
+/// The merger orders by (stamp, input order) and tells latched inputs by topic, so a stand-in
+/// with the message's stamp is ordered exactly as the message itself would be, and costs no copy
+/// of the payload whatever its size.
+fn stand_in(message: &Message) -> Message {
+    Message::Clock(Clock {
+        clock: message.stamp(),
+    })
+}
+
+impl Slot {
+    /// Queues a shared message that arrived on `topic`.
+    fn push(&mut self, topic: &'static str, message: Arc<Message>) {
+        // Wiring comes from the node's own inputs, so the topic is always known.
+        if self.merger.push(topic, stand_in(&message)).is_ok() {
+            if let Some((_, queue)) = self.pending.iter_mut().find(|(t, _)| *t == topic) {
+                queue.push_back(message);
+            }
+        }
+    }
+
+    /// The next message to deliver, in the merger's order.
+    fn pop_ready(&mut self) -> Option<(&'static str, Arc<Message>)> {
+        let (topic, stand_in) = self.merger.pop_ready()?;
+        let message = self
+            .pending
+            .iter_mut()
+            .find(|(t, _)| *t == topic)
+            .and_then(|(_, queue)| queue.pop_front())
+            .expect("the merger released a message that was queued on its topic");
+        debug_assert_eq!(stand_in.stamp(), message.stamp());
+        Some((topic, message))
+    }
 }
 
 /// Nodes wired by topic name.
@@ -68,6 +114,7 @@ impl Graph {
                 Slot {
                     name,
                     merger: Merger::new(&inputs),
+                    pending: inputs.iter().map(|&t| (t, VecDeque::new())).collect(),
                     is_source: inputs.is_empty(),
                     node,
                     ended: false,
@@ -118,14 +165,15 @@ impl Graph {
         observer: &mut dyn Observer,
     ) -> Result<(), GraphError> {
         for (topic, message) in outbox.drain() {
+            // Moved, not copied: the observer and every subscriber share this one allocation.
+            let message = Arc::new(message);
             observer.observe(topic, &message).map_err(|e| GraphError {
                 node: "observer".into(),
                 error: NodeError::Algorithm(e),
             })?;
             if let Some(indices) = self.subscribers.get(topic) {
                 for &index in indices {
-                    // Wiring comes from the node's own inputs, so the topic is always known.
-                    let _ = self.slots[index].merger.push(topic, message.clone());
+                    self.slots[index].push(topic, Arc::clone(&message));
                 }
             }
         }
@@ -154,7 +202,7 @@ impl Graph {
                 if self.slots[index].ended || self.slots[index].is_source {
                     continue;
                 }
-                while let Some((topic, message)) = self.slots[index].merger.pop_ready() {
+                while let Some((topic, message)) = self.slots[index].pop_ready() {
                     progressed = true;
                     self.slots[index]
                         .node
@@ -163,6 +211,7 @@ impl Graph {
                     self.route(&mut outbox, observer)?;
                 }
                 if self.slots[index].merger.finished() {
+                    debug_assert!(self.slots[index].pending.iter().all(|(_, q)| q.is_empty()));
                     progressed = true;
                     self.slots[index]
                         .node
