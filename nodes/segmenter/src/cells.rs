@@ -45,8 +45,15 @@ impl CellIndex {
     /// Indexes `points` (finite, fewer than 2³² − 1) for queries of radius `eps_m ≥ 0`.
     pub(crate) fn new(points: &[[f64; 2]], eps_m: f64) -> Self {
         let keys = cell_keys(points, eps_m);
-        let mut order: Vec<u32> = (0..points.len() as u32).collect();
-        order.sort_unstable_by_key(|&i| (keys[i as usize], i));
+        // Sorting (key, index) pairs directly is several times faster than sorting indices by a
+        // looked-up key; the index breaks ties, so the order is the same either way.
+        let mut pairs: Vec<(u64, u32)> = keys
+            .iter()
+            .enumerate()
+            .map(|(i, &(kx, ky))| ((u64::from(kx) << 32) | u64::from(ky), i as u32))
+            .collect();
+        pairs.sort_unstable();
+        let order: Vec<u32> = pairs.iter().map(|&(_, i)| i).collect();
 
         let mut cell_start = Vec::new();
         let mut cell_keys_sorted = Vec::new();
@@ -63,26 +70,32 @@ impl CellIndex {
         }
         cell_start.push(order.len() as u32);
 
-        let number: HashMap<(u32, u32), u32> = cell_keys_sorted
-            .iter()
-            .enumerate()
-            .map(|(c, &key)| (key, c as u32))
-            .collect();
+        let number = CellNumbers::new(&cell_keys_sorted, points.len());
         let mut neighbour_start = Vec::with_capacity(cell_keys_sorted.len() + 1);
         let mut neighbours = Vec::new();
+        // The cell itself first: counting a dense point's neighbours then usually stops there.
+        const AROUND: [(i64, i64); 9] = [
+            (0, 0),
+            (-1, -1),
+            (0, -1),
+            (1, -1),
+            (-1, 0),
+            (1, 0),
+            (-1, 1),
+            (0, 1),
+            (1, 1),
+        ];
         for &(kx, ky) in &cell_keys_sorted {
             neighbour_start.push(neighbours.len() as u32);
-            for dy in -1i64..=1 {
-                for dx in -1i64..=1 {
-                    let (Ok(x), Ok(y)) = (
-                        u32::try_from(i64::from(kx) + dx),
-                        u32::try_from(i64::from(ky) + dy),
-                    ) else {
-                        continue;
-                    };
-                    if let Some(&c) = number.get(&(x, y)) {
-                        neighbours.push(c);
-                    }
+            for (dx, dy) in AROUND {
+                let (Ok(x), Ok(y)) = (
+                    u32::try_from(i64::from(kx) + dx),
+                    u32::try_from(i64::from(ky) + dy),
+                ) else {
+                    continue;
+                };
+                if let Some(c) = number.get(x, y) {
+                    neighbours.push(c);
                 }
             }
         }
@@ -127,6 +140,136 @@ impl CellIndex {
             count < limit
         });
         count
+    }
+}
+
+impl CellIndex {
+    /// Whether each point is core (at least `min_samples` points within ε, itself included), by
+    /// the caller's index. Points are visited cell by cell, so their neighbourhoods stay in cache.
+    pub(crate) fn core_points(&self, min_samples: usize) -> Vec<bool> {
+        let mut is_core = vec![false; self.order.len()];
+        for &i in &self.order {
+            is_core[i as usize] =
+                self.count_neighbours_up_to(i as usize, min_samples) >= min_samples;
+        }
+        is_core
+    }
+
+    /// DBSCAN's expansion: clusters numbered in the order of their first core point by the
+    /// caller's index, each taking every point density-reachable from it that no earlier cluster
+    /// took. Returns (label of each point by the caller's index, `unassigned` for noise; number of
+    /// clusters).
+    ///
+    /// Which points a cluster takes does not depend on the order it reaches them, so the search
+    /// works in the index's own order (contiguous memory) and skips a neighbour cell once every
+    /// point of it has a label: in a dense cluster most cells fill early and most of a core
+    /// point's neighbourhood is never looked at again.
+    pub(crate) fn expand_clusters(&self, is_core: &[bool], unassigned: i32) -> (Vec<i32>, usize) {
+        let n = self.order.len();
+        let core_by_rank: Vec<bool> = self.order.iter().map(|&i| is_core[i as usize]).collect();
+        let cell_by_rank: Vec<u32> = self
+            .order
+            .iter()
+            .map(|&i| self.cell_of[i as usize])
+            .collect();
+        let mut unlabelled: Vec<u32> = self.cell_start.windows(2).map(|w| w[1] - w[0]).collect();
+        let mut label_by_rank = vec![unassigned; n];
+        let mut frontier: Vec<usize> = Vec::new();
+        let mut cluster = 0i32;
+        for seed in 0..n {
+            let seed = self.rank[seed] as usize;
+            if label_by_rank[seed] != unassigned || !core_by_rank[seed] {
+                continue;
+            }
+            label_by_rank[seed] = cluster;
+            unlabelled[cell_by_rank[seed] as usize] -= 1;
+            frontier.push(seed);
+            while let Some(core) = frontier.pop() {
+                let centre = self.sorted[core];
+                let cell = cell_by_rank[core] as usize;
+                let around =
+                    self.neighbour_start[cell] as usize..self.neighbour_start[cell + 1] as usize;
+                for &c in &self.neighbours[around] {
+                    let c = c as usize;
+                    if unlabelled[c] == 0 {
+                        continue;
+                    }
+                    for k in self.cell_start[c] as usize..self.cell_start[c + 1] as usize {
+                        if label_by_rank[k] == unassigned
+                            && squared_distance(centre, self.sorted[k]) <= self.eps_sq
+                        {
+                            label_by_rank[k] = cluster;
+                            unlabelled[c] -= 1;
+                            if core_by_rank[k] {
+                                frontier.push(k);
+                            }
+                        }
+                    }
+                }
+            }
+            cluster += 1;
+        }
+        let labels = self
+            .rank
+            .iter()
+            .map(|&r| label_by_rank[r as usize])
+            .collect();
+        (labels, cluster as usize)
+    }
+}
+
+/// The number of each occupied cell by its (column, row): a dense table when the occupied cells'
+/// bounding box is at most a few times the point count (the common case), else a hash map.
+enum CellNumbers {
+    Dense {
+        columns: u64,
+        rows: u64,
+        /// Row-major, `u32::MAX` for an empty cell.
+        table: Vec<u32>,
+    },
+    Sparse(HashMap<(u32, u32), u32>),
+}
+
+impl CellNumbers {
+    fn new(keys: &[(u32, u32)], points: usize) -> Self {
+        let columns = keys.iter().map(|k| u64::from(k.0) + 1).max().unwrap_or(0);
+        let rows = keys.iter().map(|k| u64::from(k.1) + 1).max().unwrap_or(0);
+        if columns.saturating_mul(rows) <= 4 * points as u64 + 1024 {
+            let mut table = vec![u32::MAX; (columns * rows) as usize];
+            for (c, &(x, y)) in keys.iter().enumerate() {
+                table[(u64::from(y) * columns + u64::from(x)) as usize] = c as u32;
+            }
+            CellNumbers::Dense {
+                columns,
+                rows,
+                table,
+            }
+        } else {
+            CellNumbers::Sparse(
+                keys.iter()
+                    .enumerate()
+                    .map(|(c, &key)| (key, c as u32))
+                    .collect(),
+            )
+        }
+    }
+
+    fn get(&self, x: u32, y: u32) -> Option<u32> {
+        match self {
+            CellNumbers::Dense {
+                columns,
+                rows,
+                table,
+            } => {
+                let (x, y) = (u64::from(x), u64::from(y));
+                if x >= *columns || y >= *rows {
+                    return None;
+                }
+                let c = table[(y * columns + x) as usize];
+                (c != u32::MAX).then_some(c)
+            }
+            CellNumbers::Sparse(map) => map.get(&(x, y)).copied(),
+        }
     }
 }
 

@@ -122,16 +122,13 @@ impl Dbscan {
         let index = CellIndex::new(points, self.eps_m);
         // Being core only needs min_samples neighbours, not all of them: the count stops there,
         // which keeps dense regions cheap. It includes the point itself (distance 0 ≤ eps²).
-        let is_core: Vec<bool> = (0..n)
-            .map(|i| index.count_neighbours_up_to(i, self.min_samples) >= self.min_samples)
-            .collect();
-
-        Ok(expand_clusters(is_core, |i, neighbours| {
-            index.for_each_neighbour(i, |j| {
-                neighbours.push(j);
-                true
-            });
-        }))
+        let is_core = index.core_points(self.min_samples);
+        let (labels, cluster_count) = index.expand_clusters(&is_core, NOISE);
+        Ok(Clustering {
+            labels,
+            is_core,
+            cluster_count,
+        })
     }
 }
 
@@ -221,47 +218,6 @@ fn check_points(points: &[[f64; 2]]) -> Result<(), SegmentError> {
             y_m: points[index][1],
         }),
         None => Ok(()),
-    }
-}
-
-/// Grows clusters from core points in index order. `neighbours_of(i, buffer)` appends the indices
-/// of `i`'s ε-neighbourhood to `buffer`, in any order: a point is labelled the first time any
-/// cluster reaches it and never relabelled, and clusters are grown one at a time to completion, so
-/// the order inside a neighbourhood changes nothing.
-fn expand_clusters(
-    is_core: Vec<bool>,
-    mut neighbours_of: impl FnMut(usize, &mut Vec<usize>),
-) -> Clustering {
-    let n = is_core.len();
-    let mut labels = vec![NOISE; n];
-    let mut cluster = 0i32;
-    // Only core points are pushed, each once (they are labelled when pushed).
-    let mut frontier: Vec<usize> = Vec::new();
-    let mut neighbours: Vec<usize> = Vec::new();
-    for seed in 0..n {
-        if labels[seed] != NOISE || !is_core[seed] {
-            continue;
-        }
-        labels[seed] = cluster;
-        frontier.push(seed);
-        while let Some(core) = frontier.pop() {
-            neighbours.clear();
-            neighbours_of(core, &mut neighbours);
-            for &neighbour in &neighbours {
-                if labels[neighbour] == NOISE {
-                    labels[neighbour] = cluster;
-                    if is_core[neighbour] {
-                        frontier.push(neighbour);
-                    }
-                }
-            }
-        }
-        cluster += 1;
-    }
-    Clustering {
-        labels,
-        is_core,
-        cluster_count: cluster as usize,
     }
 }
 
