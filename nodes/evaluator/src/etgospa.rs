@@ -35,10 +35,11 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::assignment::{check_size, solve_bottleneck, solve_partial, CostMatrix};
+use crate::assignment::{check_size, solve_bottleneck, solve_partial, AssignmentError, CostMatrix};
 use crate::error::{InvalidMetricParam, MetricError};
-use crate::gospa::{pow_p, root_p, validate_c_p_alpha, GospaParams};
+use crate::gospa::{pow_p, root_p, validate_c_p_alpha, GospaParams, DENSE_BELOW_CELLS};
 use crate::point::{check_finite, distance_to_outline_m, Point2};
+use crate::sparse::{Box2, Components, Grid};
 
 /// What D_i measures the distance to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -207,6 +208,58 @@ pub fn etgospa(
     estimates: &[Point2],
     params: &EtGospaParams,
 ) -> Result<EtGospaResult, MetricError> {
+    check_inputs(targets, estimates, params)?;
+    let slots = targets
+        .iter()
+        .try_fold(0usize, |sum, t| sum.checked_add(t.slots))
+        .unwrap_or(usize::MAX);
+    if slots.max(targets.len()).saturating_mul(estimates.len()) <= DENSE_BELOW_CELLS {
+        return etgospa_dense_checked(targets, estimates, params);
+    }
+    etgospa_sparse_checked(targets, estimates, params)
+}
+
+/// ET-GOPSA by one dense assignment over all slots × estimates, at most
+/// [`MAX_CELLS`](crate::assignment::MAX_CELLS) cells: the reference [`etgospa`] is checked
+/// against, and what it uses for small inputs. Same value and decomposition as [`etgospa`]
+/// (which of several optimal assignments is reported may differ).
+///
+/// # Errors
+/// As [`etgospa`], and [`MetricError::Assignment`] past the cell limit.
+pub fn etgospa_dense(
+    targets: &[ExtendedTarget],
+    estimates: &[Point2],
+    params: &EtGospaParams,
+) -> Result<EtGospaResult, MetricError> {
+    check_inputs(targets, estimates, params)?;
+    etgospa_dense_checked(targets, estimates, params)
+}
+
+/// ET-GOPSA through the components of the graph of the (target, estimate) pairs worth taking,
+/// what [`etgospa`] uses for all but the smallest inputs; exposed for tests and benchmarks. The
+/// dense size limit applies to each component (slots of a target beyond the component's
+/// estimates are left out: they are identical rows). When a pair beyond the cut-off can be worth
+/// taking (α < 2 with an estimate whose nearest target is farther than about c(2 − 2/α)^{1/p}),
+/// the components do not separate and this is the dense solution.
+///
+/// # Errors
+/// As [`etgospa`]; [`MetricError::Assignment`] when a component is past the cell limit.
+#[doc(hidden)]
+pub fn etgospa_sparse(
+    targets: &[ExtendedTarget],
+    estimates: &[Point2],
+    params: &EtGospaParams,
+) -> Result<EtGospaResult, MetricError> {
+    check_inputs(targets, estimates, params)?;
+    etgospa_sparse_checked(targets, estimates, params)
+}
+
+/// The checks every entry point runs: parameters, finite coordinates, measured geometry present.
+fn check_inputs(
+    targets: &[ExtendedTarget],
+    estimates: &[Point2],
+    params: &EtGospaParams,
+) -> Result<(), MetricError> {
     params.validate()?;
     for (i, target) in targets.iter().enumerate() {
         check_finite(&target.samples, || format!("target {i} samples"))?;
@@ -224,6 +277,14 @@ pub fn etgospa(
     }
     check_finite(estimates, || "estimates".to_owned())?;
 
+    Ok(())
+}
+
+fn etgospa_dense_checked(
+    targets: &[ExtendedTarget],
+    estimates: &[Point2],
+    params: &EtGospaParams,
+) -> Result<EtGospaResult, MetricError> {
     let EtGospaParams { c, p, alpha, .. } = *params;
     let (n_targets, n_est) = (targets.len(), estimates.len());
     // The dense slots × estimates matrix (and the targets × estimates tables below, no larger)
@@ -278,29 +339,19 @@ pub fn etgospa(
         };
         let costs = CostMatrix::from_fn(n_slots, n_est, |r, j| pair_cost(slot_target[r], j))?;
         let matching = solve_bottleneck(&costs, c);
-        let k = matching.pairs.len();
-        let (missed_count, false_count) = (n_slots - k, n_est - k);
-        let localisation = matching.bottleneck.unwrap_or(0.0);
-        let missed = if missed_count > 0 { c } else { 0.0 };
-        let false_estimates = if false_count > 0 { c } else { 0.0 };
         let mut pairs: Vec<(usize, usize)> = matching
             .pairs
             .iter()
             .map(|&(r, j)| (slot_target[r], j))
             .collect();
         pairs.sort_unstable();
-        return Ok(EtGospaResult {
-            total: localisation.max(missed).max(false_estimates),
-            localisation,
-            confusion: 0.0,
-            missed,
-            false_estimates,
-            slot_count: n_slots,
-            assigned_count: k,
-            missed_count,
-            false_count,
+        return Ok(infinite_result(
             pairs,
-        });
+            n_slots,
+            n_est,
+            c,
+            matching.bottleneck,
+        ));
     }
 
     let c_pow_p = pow_p(c, p);
@@ -319,6 +370,58 @@ pub fn etgospa(
         .map(|(r, j)| (slot_target[r], j))
         .collect();
     pairs.sort_unstable();
+    Ok(finite_result(
+        pairs,
+        n_slots,
+        n_est,
+        params,
+        |i, j| clipped[i * n_est + j],
+        clipped_other,
+    ))
+}
+
+/// The p = ∞ result of a bottleneck matching, `pairs` (target, estimate) sorted.
+fn infinite_result(
+    pairs: Vec<(usize, usize)>,
+    n_slots: usize,
+    n_est: usize,
+    c: f64,
+    bottleneck: Option<f64>,
+) -> EtGospaResult {
+    let k = pairs.len();
+    let (missed_count, false_count) = (n_slots - k, n_est - k);
+    let localisation = bottleneck.unwrap_or(0.0);
+    let missed = if missed_count > 0 { c } else { 0.0 };
+    let false_estimates = if false_count > 0 { c } else { 0.0 };
+    EtGospaResult {
+        total: localisation.max(missed).max(false_estimates),
+        localisation,
+        confusion: 0.0,
+        missed,
+        false_estimates,
+        slot_count: n_slots,
+        assigned_count: k,
+        missed_count,
+        false_count,
+        pairs,
+    }
+}
+
+/// The 1 ≤ p < ∞ result of an optimal assignment, `pairs` (target, estimate) sorted, given
+/// min(c, δ_i(y_j)) and min(c, δ_{−i}(y_j)).
+fn finite_result(
+    pairs: Vec<(usize, usize)>,
+    n_slots: usize,
+    n_est: usize,
+    params: &EtGospaParams,
+    clipped: impl Fn(usize, usize) -> f64,
+    clipped_other: impl Fn(usize, usize) -> f64,
+) -> EtGospaResult {
+    let EtGospaParams { c, p, alpha, .. } = *params;
+    let c_pow_p = pow_p(c, p);
+    let unassigned_cost = c_pow_p / alpha;
+    let localisation_of = |i: usize, j: usize| pow_p(clipped(i, j), p);
+    let confusion_of = |i: usize, j: usize| c_pow_p - pow_p(clipped_other(i, j), p);
     let k = pairs.len();
     let localisation: f64 = pairs.iter().map(|&(i, j)| localisation_of(i, j)).sum();
     let confusion: f64 = pairs.iter().map(|&(i, j)| confusion_of(i, j)).sum();
@@ -329,12 +432,12 @@ pub fn etgospa(
     // D_i = δ_i^p and c^p − D_{−i} = (c (1 − (δ_{−i}/c)^p)^{1/p})^p; an unassigned item c^p/α.
     let mut bases: Vec<(f64, usize)> = Vec::with_capacity(2 * k + 1);
     for &(i, j) in &pairs {
-        bases.push((clipped[i * n_est + j], 1));
+        bases.push((clipped(i, j), 1));
         let other = pow_p(clipped_other(i, j) / c, p);
         bases.push((c * (1.0 - other).powf(1.0 / p), 1));
     }
     bases.push((c * alpha.powf(-1.0 / p), missed_count + false_count));
-    Ok(EtGospaResult {
+    EtGospaResult {
         total: root_p(
             localisation + confusion + missed + false_estimates,
             &bases,
@@ -349,7 +452,185 @@ pub fn etgospa(
         missed_count,
         false_count,
         pairs,
-    })
+    }
+}
+
+/// See [`etgospa_sparse`]. Every value (clipped distances, nearest other target, weights) is
+/// computed exactly as the dense path computes it, for the pairs closer than c; every other pair
+/// has min(c, δ_i) = c.
+fn etgospa_sparse_checked(
+    targets: &[ExtendedTarget],
+    estimates: &[Point2],
+    params: &EtGospaParams,
+) -> Result<EtGospaResult, MetricError> {
+    let (n_targets, n_est) = (targets.len(), estimates.len());
+    if n_targets.saturating_add(n_est) >= u32::MAX as usize {
+        return etgospa_dense_checked(targets, estimates, params);
+    }
+    let EtGospaParams { c, p, alpha, .. } = *params;
+    let Some(n_slots) = targets
+        .iter()
+        .try_fold(0usize, |sum, t| sum.checked_add(t.slots))
+    else {
+        return Err(AssignmentError::TooLarge {
+            rows: usize::MAX,
+            cols: n_est,
+        }
+        .into());
+    };
+    // The geometry δ measures to, as boxes; a point closer than c (δ) is within `radius` metres.
+    let radius = if params.squared_distance { c.sqrt() } else { c };
+    let boxes: Vec<Box2> = targets
+        .iter()
+        .map(|t| {
+            let geometry = match params.distance {
+                DistanceMode::Samples => &t.samples,
+                DistanceMode::Outline => &t.outline,
+            };
+            // Non-empty: checked by the caller.
+            Box2::of_points(geometry).unwrap_or(Box2::of_point(Point2::default()))
+        })
+        .collect();
+    let mut grid = Grid::new(&boxes, radius, Box2::of_points(estimates));
+    // near[near_start[j]..near_start[j + 1]]: the targets i with min(c, δ_i(y_j)) < c, by index,
+    // with that value.
+    let mut near: Vec<(u32, f64)> = Vec::new();
+    let mut near_start: Vec<usize> = Vec::with_capacity(n_est + 1);
+    for y in estimates {
+        let from = near.len();
+        near_start.push(from);
+        grid.near(*y, |i| {
+            let d = base_distance(&targets[i], y, params).min(c);
+            if d < c {
+                near.push((i as u32, d));
+            }
+        });
+        near[from..].sort_unstable_by_key(|&(i, _)| i);
+    }
+    near_start.push(near.len());
+    drop(grid);
+    let near_of = |j: usize| &near[near_start[j]..near_start[j + 1]];
+    let clipped = |i: usize, j: usize| match near_of(j).binary_search_by_key(&(i as u32), |e| e.0) {
+        Ok(at) => near_of(j)[at].1,
+        Err(_) => c,
+    };
+    // As the dense path: best and second best over the targets in index order (the others are c).
+    let nearest_two: Vec<(usize, f64, f64)> = (0..n_est)
+        .map(|j| {
+            let (mut best_at, mut best, mut second) = (usize::MAX, c, c);
+            for &(i, d) in near_of(j) {
+                if d < best {
+                    (best_at, best, second) = (i as usize, d, best);
+                } else if d < second {
+                    second = d;
+                }
+            }
+            (best_at, best, second)
+        })
+        .collect();
+    let clipped_other = |i: usize, j: usize| {
+        let (best_at, best, second) = nearest_two[j];
+        if i == best_at {
+            second
+        } else {
+            best
+        }
+    };
+
+    let infinite = p.is_infinite();
+    let c_pow_p = pow_p(c, p);
+    let unassigned_cost = c_pow_p / alpha;
+    let weight = |i: usize, j: usize| {
+        pow_p(clipped(i, j), p) + (c_pow_p - pow_p(clipped_other(i, j), p)) - 2.0 * unassigned_cost
+    };
+    let pair_cost = |i: usize, j: usize| {
+        let confusion = if clipped_other(i, j) < c { c } else { 0.0 };
+        clipped(i, j).max(confusion)
+    };
+    if !infinite && n_slots > 0 {
+        // A pair farther than c weighs c^p + (c^p − D_{−i}(y_j)) − 2c^p/α with D_{−i}(y_j) the
+        // nearest target's clipped distance: never negative for α = 2. If it can be, pairs
+        // beyond the cut-off matter and the problem does not split.
+        let far_can_help = nearest_two.iter().any(|&(_, best, _)| {
+            c_pow_p + (c_pow_p - pow_p(best, p)) - 2.0 * unassigned_cost < 0.0
+        });
+        if far_can_help {
+            return etgospa_dense_checked(targets, estimates, params);
+        }
+    }
+
+    let mut graph = Components::new(n_targets, n_est);
+    for j in 0..n_est {
+        for &(i, _) in near_of(j) {
+            let i = i as usize;
+            if targets[i].slots == 0 {
+                continue;
+            }
+            let useful = if infinite {
+                pair_cost(i, j) < c
+            } else {
+                weight(i, j) < 0.0
+            };
+            if useful {
+                graph.link(i, j);
+            }
+        }
+    }
+
+    let mut pairs: Vec<(usize, usize)> = Vec::new();
+    let mut bottleneck: Option<f64> = None;
+    for (tgts, cols) in graph.finish() {
+        if let ([i], [j]) = (tgts.as_slice(), cols.as_slice()) {
+            // One usable pair and nothing else competing for its slot or estimate: take it.
+            pairs.push((*i, *j));
+            if infinite {
+                let d = pair_cost(*i, *j);
+                bottleneck = Some(bottleneck.map_or(d, |b| b.max(d)));
+            }
+            continue;
+        }
+        // One row per slot; a target never fills more slots than the component has estimates.
+        let slot_target: Vec<usize> = tgts
+            .iter()
+            .flat_map(|&i| std::iter::repeat_n(i, targets[i].slots.min(cols.len())))
+            .collect();
+        if infinite {
+            let costs = CostMatrix::from_fn(slot_target.len(), cols.len(), |r, k| {
+                pair_cost(slot_target[r], cols[k])
+            })?;
+            let matching = solve_bottleneck(&costs, c);
+            if let Some(d) = matching.bottleneck {
+                bottleneck = Some(bottleneck.map_or(d, |b| b.max(d)));
+            }
+            pairs.extend(
+                matching
+                    .pairs
+                    .iter()
+                    .map(|&(r, k)| (slot_target[r], cols[k])),
+            );
+        } else {
+            let weights = CostMatrix::from_fn(slot_target.len(), cols.len(), |r, k| {
+                weight(slot_target[r], cols[k])
+            })?;
+            pairs.extend(
+                solve_partial(&weights)
+                    .into_iter()
+                    .map(|(r, k)| (slot_target[r], cols[k])),
+            );
+        }
+    }
+    pairs.sort_unstable();
+    if infinite {
+        return Ok(infinite_result(pairs, n_slots, n_est, c, bottleneck));
+    }
+    Ok(finite_result(
+        pairs,
+        n_slots,
+        n_est,
+        params,
+        clipped,
+        clipped_other,
+    ))
 }
 
 /// δ(y, target): Euclidean (or squared) distance to the nearest sample or to the outline.

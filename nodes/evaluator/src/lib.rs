@@ -39,13 +39,17 @@ pub mod node;
 mod params;
 mod point;
 pub mod representatives;
+mod sparse;
 
 pub use csv_io::{
     evaluate, evaluate_files, EvaluatorError, MetricParams, MetricReport, TruthTarget,
 };
 pub use error::{InvalidMetricParam, MetricError};
-pub use etgospa::{etgospa, DistanceMode, EtGospaParams, EtGospaResult, ExtendedTarget};
-pub use gospa::{gospa, GospaParams, GospaResult};
+pub use etgospa::{
+    etgospa, etgospa_dense, etgospa_sparse, DistanceMode, EtGospaParams, EtGospaResult,
+    ExtendedTarget,
+};
+pub use gospa::{gospa, gospa_dense, gospa_sparse, GospaParams, GospaResult};
 pub use node::{build, EvaluatorNode};
 pub use params::Params;
 pub use point::{distance_to_outline_m, Point2};

@@ -13,9 +13,10 @@
 //! The metrics change only when targets or segments do (once per keyframe), while poses come every
 //! frame, so the last metric result is cached and reused until one of them changes.
 //!
-//! **Maps too large to score.** The metrics use a dense assignment of at most
+//! **Maps too large to score.** The metrics split their assignment into independent components
+//! (the points closer than c to each other) and solve each with a dense assignment of at most
 //! [`MAX_CELLS`](crate::assignment::MAX_CELLS) cells (target slots or truth points × estimate
-//! points). A map whose estimates would need more is not scored: the evaluator publishes no
+//! points). A map whose estimates would need more in one component is not scored: the evaluator publishes no
 //! `/metrics` for those poses, counts them ([`EvaluatorNode::skipped_steps`]) and logs a warning
 //! when it starts and stops skipping, so the graph runs on (its other outputs, the map and the
 //! poses, are still good) and the run's summary shows fewer metric steps than frames. Any other
@@ -402,10 +403,11 @@ mod tests {
     fn a_map_too_large_to_score_skips_its_steps_instead_of_failing() {
         let mut node = EvaluatorNode::new(Params::default()).unwrap();
         let mut outbox = Outbox::new();
-        // One target with 2^20 sample points (slots), and 17 square clusters: 68 estimates,
+        // One target with 2^20 sample points (slots) along 1 m, and 17 overlapping square
+        // clusters: 68 estimates, all within c of each other, so GOSPA's one component has
         // 2^20 × 68 > 2^26 cells.
         let samples: Vec<Point> = (0..1 << 20)
-            .map(|k| Point::planar(f64::from(k) * 1e-3, 0.0))
+            .map(|k| Point::planar(f64::from(k) * 1e-6, 0.0))
             .collect();
         let big = Message::TargetSet(TargetSet {
             header: Header::default(),
@@ -420,7 +422,7 @@ mod tests {
             let mut points = Vec::new();
             let mut labels = Vec::new();
             for c in 0..count {
-                points.extend(square(0, f64::from(c) * 10.0).samples);
+                points.extend(square(0, f64::from(c) * 0.01).samples);
                 labels.extend([c; 4]);
             }
             Message::Segments(Segments {
