@@ -27,10 +27,11 @@ use thiserror::Error;
 pub const MAX_ABS_COST: f64 = 1e150;
 
 /// Most cells a dense cost matrix may have: 2^26 = 67 108 864 (512 MiB of f64). Both metrics
-/// build rows × columns matrices (target slots or truth points × estimates); past this they are
-/// refused with [`AssignmentError::TooLarge`] before anything is allocated, instead of asking
-/// the allocator for, say, the 320 GB of 200 000 × 200 000 points and aborting the process.
-/// A sparse assignment would lift the limit.
+/// build one rows × columns matrix per connected component of the pairs closer than c (target
+/// slots or truth points × estimates); past this a component is refused before anything is
+/// allocated, instead of asking the allocator for, say, the 320 GB of 200 000 × 200 000 points
+/// within c of one another and aborting the process. Points spread far wider than c form small
+/// components and are scored whatever their number.
 pub const MAX_CELLS: usize = 1 << 26;
 
 /// Checks that a `rows` × `cols` dense matrix stays within [`MAX_CELLS`].

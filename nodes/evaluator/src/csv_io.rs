@@ -17,9 +17,9 @@
 //! **Size.** A file is streamed, never read whole: one past [`MAX_CSV_BYTES`] bytes or
 //! [`MAX_CSV_ROWS`] rows is refused ([`EvaluatorError::TooLarge`]) as soon as the reader gets
 //! there, so a 10 GB file costs neither 10 GB of memory nor the time to read it all. Inputs that
-//! fit can still be too many points for the dense assignment behind both metrics
-//! ([`MAX_CELLS`](crate::assignment::MAX_CELLS) slots × estimates), which the metrics refuse
-//! before allocating.
+//! fit can still hold too many points within c of one another for the dense assignment of their
+//! component ([`MAX_CELLS`](crate::assignment::MAX_CELLS) slots × estimates per connected group),
+//! which the metrics refuse before allocating.
 
 use std::cell::RefCell;
 use std::collections::{HashMap, VecDeque};

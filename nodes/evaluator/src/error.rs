@@ -56,9 +56,57 @@ pub enum MetricError {
         /// `sample` or `outline`.
         geometry: &'static str,
     },
+    /// The points linked by pairs closer than c (one connected component of the assignment)
+    /// are too many for the dense solver of that component: `rows` × `cols` is more than
+    /// [`MAX_CELLS`](crate::assignment::MAX_CELLS) cells.
+    #[error(
+        "scoring {truth} truth points or slots against {estimates} estimates: {rows} × {cols} \
+         of them are linked by pairs closer than c, and their dense assignment of {rows} × \
+         {cols} = {} cells is more than the limit of {} cells (512 MiB); score fewer points or \
+         use a smaller c",
+        (*rows as u128) * (*cols as u128),
+        crate::assignment::MAX_CELLS
+    )]
+    ComponentTooLarge {
+        /// Truth points or target slots in the component.
+        rows: usize,
+        /// Estimates in the component.
+        cols: usize,
+        /// Truth points or target slots in the whole input.
+        truth: usize,
+        /// Estimates in the whole input.
+        estimates: usize,
+    },
     /// The assignment refused its cost matrix: more than
-    /// [`MAX_CELLS`](crate::assignment::MAX_CELLS) cells (too many points for the dense solver),
-    /// or (cannot happen for validated inputs) a non-finite cost.
+    /// [`MAX_CELLS`](crate::assignment::MAX_CELLS) cells (too many points for the dense solver;
+    /// from [`gospa_dense`](crate::gospa_dense) / [`etgospa_dense`](crate::etgospa_dense) and
+    /// inputs they are used for), or (cannot happen for validated inputs) a non-finite cost.
     #[error(transparent)]
     Assignment(#[from] AssignmentError),
+}
+
+impl MetricError {
+    /// Too many points for the assignment (either error naming the cell limit): the input is
+    /// well-formed but cannot be scored within the memory limit.
+    pub fn is_too_large(&self) -> bool {
+        matches!(
+            self,
+            MetricError::ComponentTooLarge { .. }
+                | MetricError::Assignment(AssignmentError::TooLarge { .. })
+        )
+    }
+
+    /// [`MetricError::ComponentTooLarge`] for a component's [`AssignmentError::TooLarge`] (other
+    /// errors unchanged).
+    pub(crate) fn in_component(error: AssignmentError, truth: usize, estimates: usize) -> Self {
+        match error {
+            AssignmentError::TooLarge { rows, cols } => MetricError::ComponentTooLarge {
+                rows,
+                cols,
+                truth,
+                estimates,
+            },
+            other => MetricError::Assignment(other),
+        }
+    }
 }

@@ -27,6 +27,15 @@
 //! weights are worth taking). Pairs of weight exactly 0 are reported unassigned. Accuracy for
 //! large p is as for GOSPA (see [`crate::gospa`](mod@crate::gospa)): use p = ∞ rather than a large finite p.
 //!
+//! **Components.** With α = 2 a pair whose estimate is c or more from the target weighs
+//! c^p − D_{−i}(y) ≥ 0 and is never taken, so, as for GOSPA, the matching splits into the
+//! connected components of the (target, estimate) pairs closer than c, found with a uniform grid
+//! of the targets' bounding boxes; each component is solved densely with one row per slot (at
+//! most as many slots per target as the component has estimates: further slots are identical
+//! rows). When such a pair can weigh less than 0 (α < 2 with estimates far from every target)
+//! the problem does not split and the dense solver is used ([`etgospa_dense`]), as it is for
+//! inputs of at most 64 × 64 slot-estimate pairs.
+//!
 //! **p = ∞** is the limit p → ∞: (c^p − D_{−i})^{1/p} tends to c when another target is closer
 //! than c and to 0 otherwise, so a pair costs max(min(c, δ_i), c·[δ_{−i} < c]) and an unassigned
 //! slot or estimate costs c. The value is c unless every slot and estimate can be paired with pair
@@ -597,7 +606,8 @@ fn etgospa_sparse_checked(
         if infinite {
             let costs = CostMatrix::from_fn(slot_target.len(), cols.len(), |r, k| {
                 pair_cost(slot_target[r], cols[k])
-            })?;
+            })
+            .map_err(|e| MetricError::in_component(e, n_slots, n_est))?;
             let matching = solve_bottleneck(&costs, c);
             if let Some(d) = matching.bottleneck {
                 bottleneck = Some(bottleneck.map_or(d, |b| b.max(d)));
@@ -611,7 +621,8 @@ fn etgospa_sparse_checked(
         } else {
             let weights = CostMatrix::from_fn(slot_target.len(), cols.len(), |r, k| {
                 weight(slot_target[r], cols[k])
-            })?;
+            })
+            .map_err(|e| MetricError::in_component(e, n_slots, n_est))?;
             pairs.extend(
                 solve_partial(&weights)
                     .into_iter()

@@ -21,6 +21,14 @@
 //! (with α = 2: points c or more apart are a miss and a false estimate, the usual GOSPA
 //! convention); the total does not depend on that choice.
 //!
+//! **Components.** Only pairs closer than c can weigh less than a pair at c or beyond, and all of
+//! the latter weigh the same (0 for α = 2; for α < 2 the common weight c^p − 2c^p/α is negative
+//! and taken out of every pair, the points left over at the end being paired in index order). So
+//! the matching splits into the connected components of the graph of the pairs closer than c,
+//! found with a uniform grid of c-sized cells and a union-find; each component is solved by the
+//! dense solver above (one pair alone is taken as it is) and the optima add up. Inputs of at
+//! most 64 × 64 pairs go to the dense solver directly ([`gospa_dense`]).
+//!
 //! **Accuracy with large p.** The assignment is exact on the f64 weights d^p − 2c^p/α, which
 //! cannot tell apart pair costs that differ by less than about ε·c^p (ε = 2.2e−16). A chosen
 //! assignment can therefore exceed the optimum by about 2nε c^p/α in the p-th power (n pairs), so
@@ -362,7 +370,8 @@ fn gospa_sparse_checked(
         }
         if infinite {
             let costs =
-                CostMatrix::from_fn(rows.len(), cols.len(), |r, k| clipped(rows[r], cols[k]))?;
+                CostMatrix::from_fn(rows.len(), cols.len(), |r, k| clipped(rows[r], cols[k]))
+                    .map_err(|e| MetricError::in_component(e, n, m))?;
             let matching = solve_bottleneck(&costs, c);
             if let Some(d) = matching.bottleneck {
                 bottleneck = Some(bottleneck.map_or(d, |b| b.max(d)));
@@ -370,7 +379,8 @@ fn gospa_sparse_checked(
             pairs.extend(matching.pairs.iter().map(|&(r, k)| (rows[r], cols[k])));
         } else {
             let weights =
-                CostMatrix::from_fn(rows.len(), cols.len(), |r, k| weight(rows[r], cols[k]))?;
+                CostMatrix::from_fn(rows.len(), cols.len(), |r, k| weight(rows[r], cols[k]))
+                    .map_err(|e| MetricError::in_component(e, n, m))?;
             pairs.extend(
                 solve_partial(&weights)
                     .into_iter()

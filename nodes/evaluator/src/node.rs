@@ -26,7 +26,6 @@ use nrslam_msgs::topics::{GROUND_TRUTH_POSE, GROUND_TRUTH_TARGETS, METRICS, SEGM
 use nrslam_msgs::{Header, Message, Metrics, PoseStamped, Segments, TargetSet};
 use nrslam_runtime::{Node, NodeContext, NodeError, Outbox};
 
-use crate::assignment::AssignmentError;
 use crate::error::MetricError;
 use crate::etgospa::{etgospa, EtGospaParams, EtGospaResult, ExtendedTarget};
 use crate::gospa::{gospa, GospaResult};
@@ -91,9 +90,7 @@ impl EvaluatorNode {
 
     /// Both metrics of the current inputs; `Ok(Err(message))` when they are too large to score.
     fn score(&self) -> Result<Result<(GospaResult, EtGospaResult), String>, NodeError> {
-        let too_large = |e: &MetricError| {
-            matches!(e, MetricError::Assignment(AssignmentError::TooLarge { .. }))
-        };
+        let too_large = |e: &MetricError| e.is_too_large();
         let g = match gospa(&self.truth_points, &self.estimates, &self.metric.gospa()) {
             Ok(g) => g,
             Err(e) if too_large(&e) => return Ok(Err(format!("GOSPA: {e}"))),

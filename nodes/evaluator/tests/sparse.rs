@@ -245,7 +245,34 @@ fn one_component_past_the_dense_limit_is_still_refused() {
     let x = scatter(9000, 1.0, 11);
     let y = scatter(9000, 1.0, 12);
     let e = gospa(&x, &y, &GospaParams::default()).unwrap_err();
-    assert!(e.to_string().contains("9000 × 9000"), "{e}");
+    assert!(e.is_too_large());
+    assert_eq!(
+        e.to_string(),
+        "scoring 9000 truth points or slots against 9000 estimates: 9000 × 9000 of them are \
+         linked by pairs closer than c, and their dense assignment of 9000 × 9000 = 81000000 \
+         cells is more than the limit of 67108864 cells (512 MiB); score fewer points or use a \
+         smaller c"
+    );
+    // The same points with far-away ones added: the error names the component and the input.
+    let mut far_x = x.clone();
+    far_x.extend(
+        scatter(20_000, 3000.0, 13)
+            .iter()
+            .map(|p| Point2::new(p.x_m + 10.0, p.y_m)),
+    );
+    let e = gospa(&far_x, &y, &GospaParams::default()).unwrap_err();
+    assert!(
+        e.to_string()
+            .starts_with("scoring 29000 truth points or slots against 9000 estimates: 9000 × 9000"),
+        "{e}"
+    );
+    // ET-GOPSA: one target of 9000 samples (slots) within 1 m.
+    let target = ExtendedTarget::from_samples(x.clone());
+    let e = etgospa(&[target], &y, &EtGospaParams::default()).unwrap_err();
+    assert!(
+        e.is_too_large() && e.to_string().contains("9000 × 9000 = 81000000"),
+        "{e}"
+    );
 }
 
 #[test]
