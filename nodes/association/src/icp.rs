@@ -180,9 +180,13 @@ impl PointMap {
             // closer than its current farthest neighbour (or within the radius while it has
             // fewer than `neighbours`); such a fit is dropped and refitted when next asked for.
             // Lines not fitted yet will be fitted on the new tree.
-            let added: ImmutableKdTree<f64, 2> =
-                ImmutableKdTree::new_from_slice(&self.points_m[before..]);
-            for index in 0..before {
+            let fitted = self.fits.iter().any(|f| f.get().is_some());
+            let added: ImmutableKdTree<f64, 2> = if fitted {
+                ImmutableKdTree::new_from_slice(&self.points_m[before..])
+            } else {
+                ImmutableKdTree::new_from_slice(&[])
+            };
+            for index in (0..before).filter(|_| fitted) {
                 let Some(line) = self.fits[index].get() else {
                     continue;
                 };
