@@ -1,12 +1,12 @@
 //! `nrslam accuracy`: single-scatterer range and angle RMSE of the 5G sensing chain against SNR,
-//! beside the Cramér–Rao bounds and the DFT grid limits (DESIGN.md, "Useful figures for Table I").
+//! beside the Cramér–Rao bounds and the DFT grid limits (docs/design.md, "Fidelity levels of the front end").
 //!
 //! Each trial draws one scatterer, uniform in range over [2, 20] m and in angle over ±60°, with a
 //! unit echo of random phase; the front end synthesises the frame at the chosen fidelity and the
 //! estimator keeps its strongest detection. Trial t at SNR index s is seeded from
 //! (seed, s, t), so the numbers do not depend on the order trials run in.
 //!
-//! The range bound is DESIGN.md's single-antenna var(R) divided by K (the estimator sums the K
+//! The range bound is docs/design.md's single-antenna var(R) divided by K (the estimator sums the K
 //! antennas coherently); the angle bound already uses SNR·N·M.
 
 use crate::flags::{self, Whole};
@@ -164,7 +164,7 @@ pub fn accuracy(args: AccuracyArgs) -> Result<()> {
         rows.push(Row {
             snr_db,
             range_rmse_m: tally.range_rmse_m(),
-            // The estimator integrates all K antennas: the single-antenna bound of DESIGN.md / K.
+            // The estimator integrates all K antennas: the single-antenna bound of docs/design.md / K.
             range_crb_m: bounds::range_variance_bound_array_m2(&params).sqrt(),
             range_grid_m: bounds::range_grid_rms_m(&params, padding),
             angle_rmse_deg: tally.angle_rmse_rad().to_degrees(),

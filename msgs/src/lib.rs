@@ -1,7 +1,7 @@
 //! Message types of the nrslam graph, their ROS 2 CDR encoding, `ros2msg` schemas and the topic
 //! catalogue.
 //!
-//! Every topic of the graph (DESIGN.md, "What the system is") carries one of the types here. Where a
+//! Every topic of the graph (docs/design.md, "The graph") carries one of the types here. Where a
 //! standard ROS 2 type fits it is used with its exact field layout ([`ros`]), so the bytes on the
 //! wire are the bytes a ROS 2 node would send ([`sensors`]: what radar drivers publish; [`visual`]:
 //! what RViz and Foxglove draw); project types ([`nrslam`]) have `.msg` definitions

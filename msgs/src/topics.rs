@@ -1,4 +1,4 @@
-//! The topic catalogue: every topic of the graph with its ROS 2 type and QoS (DESIGN.md graph).
+//! The topic catalogue: every topic of the graph with its ROS 2 type and QoS (docs/design.md, "The graph").
 //! Launch files are checked against it before anything starts.
 
 /// Topic names.

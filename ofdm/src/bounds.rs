@@ -1,4 +1,4 @@
-//! Accuracy limits for range and angle estimates (DESIGN.md): the Cramér–Rao bounds of a single
+//! Accuracy limits for range and angle estimates (docs/design.md): the Cramér–Rao bounds of a single
 //! tone in white noise, and the RMS error of picking the nearest DFT bin.
 //!
 //! At Table I (SNR 10 dB, N 10240, M 256, K 32) the range CRB is about 9 µm and the angle CRB at

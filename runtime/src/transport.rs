@@ -6,7 +6,7 @@
 //! encapsulation header); an **empty payload** marks the end of a topic's stream (CDR is never
 //! empty). Publications are reliable with congestion control `Block`: nothing is dropped.
 //!
-//! Start barrier (DESIGN.md, "Traps"): every node declares its subscribers and publishers, then a
+//! Start barrier (docs/design.md, "Traps known"): every node declares its subscribers and publishers, then a
 //! liveliness token `nrslam/ready/<node>`; the launcher waits for all tokens and puts
 //! `nrslam/start`; sources tick only after it. Declarations travel ahead of the token on the same
 //! link, so by then every subscriber is known to the router.

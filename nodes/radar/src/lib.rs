@@ -4,7 +4,7 @@
 //! It implements the simulation set-up of Jiang, Wei and Feng, "SLAM for Multiple Extended Targets
 //! using 5G Signal": an AGV loops through an industrial hall with eight rectangular and two
 //! circular extended targets (Sec. II-A) and senses them with a 32-element array; at the `ideal`
-//! fidelity level (DESIGN.md, "Fidelity levels") each visible scatterer is measured with Gaussian
+//! fidelity level (docs/design.md, "Fidelity levels") each visible scatterer is measured with Gaussian
 //! range and angle errors ΔR, Δθ, the conditions of the paper's Fig. 3 (Sec. IV-A).
 //!
 //! The layers, each usable alone:

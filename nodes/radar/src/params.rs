@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 use crate::odometry::OdometryNoise;
 use nrslam_runtime::InvalidParam;
 
-/// How the front end turns the scene into data (DESIGN.md, "Fidelity levels").
+/// How the front end turns the scene into data (docs/design.md, "Fidelity levels").
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Fidelity {

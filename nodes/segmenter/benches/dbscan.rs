@@ -28,7 +28,10 @@ fn peer_points(n: usize) -> Vec<[f64; 2]> {
                 [uniform() * 200.0, uniform() * 100.0]
             } else {
                 let c = (i % 200) as f64;
-                let centre = [(c % 20.0).floor() * 10.0 + 5.0, (c / 20.0).floor() * 10.0 + 5.0];
+                let centre = [
+                    (c % 20.0).floor() * 10.0 + 5.0,
+                    (c / 20.0).floor() * 10.0 + 5.0,
+                ];
                 [
                     centre[0] + (uniform() - 0.5) * 3.0,
                     centre[1] + (uniform() - 0.5) * 3.0,
