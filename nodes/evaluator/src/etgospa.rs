@@ -589,12 +589,28 @@ fn etgospa_sparse_checked(
     let mut pairs: Vec<(usize, usize)> = Vec::new();
     let mut bottleneck: Option<f64> = None;
     for (tgts, cols) in graph.finish() {
-        if let ([i], [j]) = (tgts.as_slice(), cols.as_slice()) {
-            // One usable pair and nothing else competing for its slot or estimate: take it.
-            pairs.push((*i, *j));
+        if cols.len() == 1 || (tgts.len() == 1 && targets[tgts[0]].slots == 1) {
+            // A star (one estimate, or one target with one slot; every pair usable): one pair
+            // at most, the cheapest.
+            let key = |i: usize, j: usize| {
+                if infinite {
+                    pair_cost(i, j)
+                } else {
+                    weight(i, j)
+                }
+            };
+            let (mut best, mut best_key) = ((tgts[0], cols[0]), f64::INFINITY);
+            for &i in &tgts {
+                for &j in &cols {
+                    let k = key(i, j);
+                    if k < best_key {
+                        (best, best_key) = ((i, j), k);
+                    }
+                }
+            }
+            pairs.push(best);
             if infinite {
-                let d = pair_cost(*i, *j);
-                bottleneck = Some(bottleneck.map_or(d, |b| b.max(d)));
+                bottleneck = Some(bottleneck.map_or(best_key, |b| b.max(best_key)));
             }
             continue;
         }

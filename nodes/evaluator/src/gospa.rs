@@ -359,12 +359,28 @@ fn gospa_sparse_checked(
     let mut pairs: Vec<(usize, usize)> = Vec::new();
     let mut bottleneck: Option<f64> = None;
     for (rows, cols) in graph.finish() {
-        if let ([i], [j]) = (rows.as_slice(), cols.as_slice()) {
-            // One usable pair and nothing else competing for its points: take it.
-            pairs.push((*i, *j));
+        if rows.len() == 1 || cols.len() == 1 {
+            // A star (one point on one side, every pair usable): one pair at most, the
+            // cheapest.
+            let key = |i: usize, j: usize| {
+                if infinite {
+                    clipped(i, j)
+                } else {
+                    weight(i, j)
+                }
+            };
+            let (mut best, mut best_key) = ((rows[0], cols[0]), f64::INFINITY);
+            for &i in &rows {
+                for &j in &cols {
+                    let k = key(i, j);
+                    if k < best_key {
+                        (best, best_key) = ((i, j), k);
+                    }
+                }
+            }
+            pairs.push(best);
             if infinite {
-                let d = clipped(*i, *j);
-                bottleneck = Some(bottleneck.map_or(d, |b| b.max(d)));
+                bottleneck = Some(bottleneck.map_or(best_key, |b| b.max(best_key)));
             }
             continue;
         }

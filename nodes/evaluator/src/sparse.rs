@@ -11,6 +11,7 @@
 //! each component, not to the whole input.
 
 use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
 
 use crate::point::Point2;
 
@@ -64,7 +65,7 @@ pub(crate) struct Grid {
     split_x: bool,
     split_y: bool,
     /// Item ids per cell, as ranges of `items`.
-    cells: HashMap<(i64, i64), (u32, u32)>,
+    cells: Cells,
     items: Vec<u32>,
     /// Items whose box covers too many cells: checked for every query.
     everywhere: Vec<u32>,
@@ -96,7 +97,7 @@ impl Grid {
             cell,
             split_x,
             split_y,
-            cells: HashMap::new(),
+            cells: Cells::Map(FastMap::default()),
             items: Vec::new(),
             everywhere: Vec::new(),
             seen: vec![0; boxes.len()],
@@ -119,18 +120,45 @@ impl Grid {
             }
         }
         entries.sort_unstable();
-        grid.items.reserve(entries.len());
-        grid.cells.reserve(entries.len());
-        let mut start = 0;
-        while start < entries.len() {
-            let key = entries[start].0;
-            let mut end = start;
-            while end < entries.len() && entries[end].0 == key {
-                grid.items.push(entries[end].1);
-                end += 1;
+        grid.items = entries.iter().map(|&(_, id)| id).collect();
+        // A table of every cell of the occupied box when it is not much larger than the entries
+        // (uniformly spread points), else a hash map of the occupied cells.
+        let (x0, x1, y0, y1) = entries.iter().fold(
+            (i64::MAX, i64::MIN, i64::MAX, i64::MIN),
+            |(x0, x1, y0, y1), &((x, y), _)| (x0.min(x), x1.max(x), y0.min(y), y1.max(y)),
+        );
+        let span = |lo: i64, hi: i64| (hi as i128 - lo as i128 + 1).max(0) as u128;
+        let table_cells = span(x0, x1) * span(y0, y1);
+        if !entries.is_empty() && table_cells <= (4 * entries.len() as u128).max(4096) {
+            let (nx, ny) = (span(x0, x1) as usize, span(y0, y1) as usize);
+            let mut starts = vec![0u32; nx * ny + 1];
+            for &((x, y), _) in &entries {
+                starts[(x - x0) as usize * ny + (y - y0) as usize + 1] += 1;
             }
-            grid.cells.insert(key, (start as u32, end as u32));
-            start = end;
+            for k in 1..starts.len() {
+                starts[k] += starts[k - 1];
+            }
+            grid.cells = Cells::Table {
+                x0,
+                y0,
+                nx,
+                ny,
+                starts,
+            };
+        } else {
+            let mut map = FastMap::default();
+            map.reserve(entries.len());
+            let mut start = 0;
+            while start < entries.len() {
+                let key = entries[start].0;
+                let mut end = start;
+                while end < entries.len() && entries[end].0 == key {
+                    end += 1;
+                }
+                map.insert(key, (start as u32, end as u32));
+                start = end;
+            }
+            grid.cells = Cells::Map(map);
         }
         grid
     }
@@ -166,7 +194,7 @@ impl Grid {
                 let Some(y) = ky.checked_add(dy) else {
                     continue;
                 };
-                if let Some(&(start, end)) = self.cells.get(&(x, y)) {
+                if let Some((start, end)) = self.cells.get(x, y) {
                     for &id in &self.items[start as usize..end as usize] {
                         if self.seen[id as usize] != self.stamp {
                             self.seen[id as usize] = self.stamp;
@@ -179,6 +207,70 @@ impl Grid {
         for &id in &self.everywhere {
             visit(id as usize);
         }
+    }
+}
+
+/// The cells of a [`Grid`]: each occupied cell's range of items.
+enum Cells {
+    /// Every cell of the box [x0, x0 + nx) × [y0, y0 + ny): cell (x, y)'s items are
+    /// `starts[k]..starts[k + 1]`, k = (x − x0) ny + (y − y0).
+    Table {
+        x0: i64,
+        y0: i64,
+        nx: usize,
+        ny: usize,
+        starts: Vec<u32>,
+    },
+    /// The occupied cells only.
+    Map(FastMap),
+}
+
+impl Cells {
+    fn get(&self, x: i64, y: i64) -> Option<(u32, u32)> {
+        match self {
+            Cells::Table {
+                x0,
+                y0,
+                nx,
+                ny,
+                starts,
+            } => {
+                let (dx, dy) = (x.checked_sub(*x0)?, y.checked_sub(*y0)?);
+                if dx < 0 || dy < 0 || dx as u64 >= *nx as u64 || dy as u64 >= *ny as u64 {
+                    return None;
+                }
+                let k = dx as usize * ny + dy as usize;
+                Some((starts[k], starts[k + 1]))
+            }
+            Cells::Map(map) => map.get(&(x, y)).copied(),
+        }
+    }
+}
+
+type FastMap = HashMap<(i64, i64), (u32, u32), BuildHasherDefault<CellHasher>>;
+
+/// A multiply-rotate hash (as FxHash) for cell keys: the default SipHash costs more than the
+/// distance tests it serves. Keys come from the input, but a collision only costs time.
+#[derive(Default)]
+struct CellHasher(u64);
+
+impl Hasher for CellHasher {
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.write_u64(u64::from(b));
+        }
+    }
+
+    fn write_i64(&mut self, v: i64) {
+        self.write_u64(v as u64);
+    }
+
+    fn write_u64(&mut self, v: u64) {
+        self.0 = (self.0.rotate_left(5) ^ v).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+
+    fn finish(&self) -> u64 {
+        self.0
     }
 }
 
@@ -246,17 +338,18 @@ impl Components {
     /// by their smallest vertex (left first). Vertices without an edge are in none.
     pub fn finish(mut self) -> Vec<(Vec<usize>, Vec<usize>)> {
         let left = self.left;
-        let mut part_of_root: HashMap<usize, usize> = HashMap::new();
+        let mut part_of_root: Vec<u32> = vec![u32::MAX; self.has_edge.len()];
         let mut parts: Vec<(Vec<usize>, Vec<usize>)> = Vec::new();
         for v in 0..self.has_edge.len() {
             if !self.has_edge[v] {
                 continue;
             }
             let root = self.uf.find(v);
-            let k = *part_of_root.entry(root).or_insert_with(|| {
+            if part_of_root[root] == u32::MAX {
+                part_of_root[root] = parts.len() as u32;
                 parts.push((Vec::new(), Vec::new()));
-                parts.len() - 1
-            });
+            }
+            let k = part_of_root[root] as usize;
             if v < left {
                 parts[k].0.push(v);
             } else {
@@ -273,18 +366,26 @@ mod tests {
 
     #[test]
     fn grid_finds_every_point_closer_than_the_radius() {
+        // 100 m wide: a table of cells; 10 km wide: a map of the occupied cells.
+        for scale in [1.0, 100.0] {
+            grid_finds_every_point_within(scale);
+        }
+    }
+
+    fn grid_finds_every_point_within(scale: f64) {
         let mut state = 12345u64;
         let mut next = || {
             state ^= state << 13;
             state ^= state >> 7;
             state ^= state << 17;
-            (state % 10_000) as f64 / 100.0 - 50.0
+            ((state % 10_000) as f64 / 100.0 - 50.0) * scale
         };
         let points: Vec<Point2> = (0..400).map(|_| Point2::new(next(), next())).collect();
         let queries: Vec<Point2> = (0..200).map(|_| Point2::new(next(), next())).collect();
         let radius = 3.0;
         let boxes: Vec<Box2> = points.iter().map(|&p| Box2::of_point(p)).collect();
         let mut grid = Grid::new(&boxes, radius, Box2::of_points(&queries));
+        assert_eq!(matches!(grid.cells, Cells::Table { .. }), scale == 1.0);
         for q in &queries {
             let mut found = Vec::new();
             grid.near(*q, |id| found.push(id));
