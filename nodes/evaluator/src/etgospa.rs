@@ -34,7 +34,7 @@
 //! most as many slots per target as the component has estimates: further slots are identical
 //! rows). When such a pair can weigh less than 0 (α < 2 with estimates far from every target)
 //! the problem does not split and the dense solver is used ([`etgospa_dense`]), as it is for
-//! inputs of at most 64 × 64 slot-estimate pairs.
+//! inputs of at most 16 × 16 slot-estimate pairs.
 //!
 //! **p = ∞** is the limit p → ∞: (c^p − D_{−i})^{1/p} tends to c when another target is closer
 //! than c and to 0 otherwise, so a pair costs max(min(c, δ_i), c·[δ_{−i} < c]) and an unassigned

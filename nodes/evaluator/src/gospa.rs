@@ -27,7 +27,7 @@
 //! the matching splits into the connected components of the graph of the pairs closer than c,
 //! found with a uniform grid of c-sized cells and a union-find; each component is solved by the
 //! dense solver above (one pair alone is taken as it is) and the optima add up. Inputs of at
-//! most 64 × 64 pairs go to the dense solver directly ([`gospa_dense`]).
+//! most 16 × 16 pairs go to the dense solver directly ([`gospa_dense`]).
 //!
 //! **Accuracy with large p.** The assignment is exact on the f64 weights d^p − 2c^p/α, which
 //! cannot tell apart pair costs that differ by less than about ε·c^p (ε = 2.2e−16). A chosen
@@ -246,9 +246,10 @@ pub fn gospa(
 }
 
 /// Inputs of at most this many pairs are solved by one dense matrix (no grid, no components):
-/// the same optimum, and no slower up to here (`cargo bench -p nrslam-evaluator --bench metrics`:
-/// 4 × 4 points 1.1 µs dense against 3.3 µs by components, 64 × 64 points over 80 m 26 µs both).
-pub(crate) const DENSE_BELOW_CELLS: usize = 64 * 64;
+/// the same optimum, and no slower up to about here (`cargo bench -p nrslam-evaluator --bench
+/// metrics`, GOSPA: 4 × 4 points 0.9 µs dense against 1.5 µs by components, 16 × 16 3.1 against
+/// 3.5 µs, 64 × 64 over 80 m 27 against 11 µs).
+pub(crate) const DENSE_BELOW_CELLS: usize = 16 * 16;
 
 /// GOSPA by one dense assignment over all truth × estimate pairs, at most
 /// [`MAX_CELLS`](crate::assignment::MAX_CELLS) of them: the reference [`gospa`] is checked
