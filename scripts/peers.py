@@ -13,12 +13,11 @@ median of --repeat calls), and prints the figures:
   both totals are printed, they must agree;
 - the same at 100 000 x 100 000 points (25 000 targets over 3000 m x 3000 m, same density):
   `nrslam metric` only (the dense matrix SciPy needs would be 1e10 cells, 80 GB);
-- DBSCAN of 100 000 2-D points (eps 0.3 m, min_samples 5): `nrslam segment` against
-  scikit-learn `DBSCAN(...).fit` with n_jobs=-1.
+- DBSCAN is compared by scripts/dbscan_peer.py, on the points of nrslam's DBSCAN benchmark.
 
 Usage: python3 scripts/peers.py [--nrslam target/release/nrslam] [--repeat 11] [--dir DIR]
 
-Needs numpy, scipy and scikit-learn (pip install scipy scikit-learn); never needed by CI.
+Needs numpy and scipy (pip install scipy); never needed by CI.
 """
 
 import argparse
@@ -34,7 +33,6 @@ import time
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 from scipy.spatial.distance import cdist
-from sklearn.cluster import DBSCAN
 
 C, P, ALPHA = 5.0, 1.0, 2.0
 
@@ -160,32 +158,6 @@ def main():
     print(f"  nrslam metric (whole process, GOSPA + ET-GOPSA): {ms(wall)}, "
           f"peak RSS {rss:.1f} MB (/usr/bin/time -v: {elapsed}), GOSPA {total!r}")
     print("  scipy: not run (a dense 1e5 x 1e5 cost matrix is 80 GB)")
-
-    # DBSCAN, 100 000 points: 500 clusters of 180 points (sigma 0.4 m) and 10 000 noise points.
-    rng = np.random.default_rng(3)
-    centres = rng.uniform(0.0, 300.0, size=(500, 2))
-    clustered = (centres[:, None, :] + rng.normal(0.0, 0.4, size=(500, 180, 2))).reshape(-1, 2)
-    points = np.vstack([clustered, rng.uniform(0.0, 300.0, size=(10_000, 2))])
-    points = points[rng.permutation(points.shape[0])]
-    points_csv = os.path.join(workdir, "points_100k.csv")
-    write_points(points_csv, points)
-    out_csv = os.path.join(workdir, "labels_100k.csv")
-    cmd = [binary, "segment", "--input", points_csv, "--eps", "0.3", "--min-samples", "5",
-           "--output", out_csv]
-    seg_times = [run_timed(cmd)[0] for _ in range(args.repeat)]
-    seg_wall = (statistics.median(seg_times), min(seg_times))
-    seg_rss, _ = peak_rss_mb(cmd)
-    labels = np.loadtxt(out_csv, delimiter=",", skiprows=1, usecols=2)
-    sk_s, sk = best_of(args.repeat, lambda: DBSCAN(eps=0.3, min_samples=5, n_jobs=-1).fit(points))
-    print("DBSCAN of 100000 2-D points, eps 0.3 m, min_samples 5:")
-    print(f"  nrslam segment (whole process, CSV in and out): {ms(seg_wall)}, "
-          f"peak RSS {seg_rss:.1f} MB, {int(labels.max()) + 1} clusters, "
-          f"{int((labels < 0).sum())} noise")
-    sk_labels = sk.labels_
-    print(f"  scikit-learn DBSCAN.fit, n_jobs=-1 (fit alone): {ms(sk_s)}, "
-          f"{int(sk_labels.max()) + 1} clusters, {int((sk_labels < 0).sum())} noise")
-    print(f"  scikit-learn / nrslam: {sk_s[0] / seg_wall[0]:.2f}x (medians), "
-          f"{sk_s[1] / seg_wall[1]:.2f}x (minima)")
 
 
 if __name__ == "__main__":

@@ -41,7 +41,9 @@ pub struct EchoArgs {
 #[derive(Args, Debug)]
 pub struct MetricArgs {
     /// Truth CSV with header `target,x,y`: one row per sample point (slot) of each extended target
-    /// (each file at most 1 GiB and 16777216 rows; truth points × estimates at most 2^26).
+    /// (each file at most 1 GiB and 16777216 rows). Only pairs within the cut-off c interact, so
+    /// the assignment splits into connected components; each must have at most 2^26 truth points ×
+    /// estimates.
     #[arg(long, value_name = "FILE")]
     pub truth: PathBuf,
     /// Estimates CSV with header `x,y`: one row per estimated point (m).

@@ -3,7 +3,7 @@
 //! Every verb's every flag against extreme and random values is src/cli_tests.rs (parser and
 //! validation, in-process); these spawn the binary for representative cases, including the ones
 //! the issue reported (`--rate 1e-300`, `--start-timeout-s 1e19`), a launch substitution cycle and
-//! a `metric` too large for the dense assignment.
+//! a `metric` whose assignment component is too large for the dense solver.
 
 mod common;
 use common::*;
@@ -158,7 +158,8 @@ fn a_metric_too_large_for_the_dense_assignment_is_refused_with_its_sizes() {
     let dir = temp();
     let truth = dir.path().join("truth.csv");
     let estimates = dir.path().join("estimates.csv");
-    // 10 000 truth points × 10 000 estimates = 1e8 cells, past the 2^26 limit.
+    // 10 000 truth points × 10 000 estimates 1 m apart: c = 5 m chains them into one component
+    // of 1e8 cells, past the 2^26 limit.
     let mut text = "target,x,y\n".to_owned();
     for k in 0..10_000 {
         text.push_str(&format!("{},{k},0\n", k / 4));
