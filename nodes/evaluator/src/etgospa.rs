@@ -1,5 +1,5 @@
 //! ET-GOPSA, the extended-target metric of the paper (Sec. IV-B, eqs. (GOPSA_8)–(GOPSA_5)), in the
-//! well-posed form DESIGN.md ("Metrics") specifies; this module implements that text literally.
+//! well-posed form docs/design.md ("Metrics") specifies; this module implements that text literally.
 //!
 //! Truth: extended targets **x**_i, target i offering s_i slots (by default one per sample point;
 //! the paper samples 4 points per target). Estimates: points y_j. With δ the base distance
@@ -61,7 +61,7 @@ pub enum DistanceMode {
     Outline,
 }
 
-/// ET-GOPSA parameters (DESIGN.md "Metrics"; paper Table I: c = 5, p = 1, α = 2; the paper's
+/// ET-GOPSA parameters (docs/design.md "Metrics"; paper Table I: c = 5, p = 1, α = 2; the paper's
 /// Fig. 6 uses c = 10).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]

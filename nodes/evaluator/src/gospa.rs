@@ -1,6 +1,6 @@
 //! GOSPA, the generalised optimal sub-pattern assignment metric for point sets
 //! (A. S. Rahmathullah, Á. F. García-Fernández, L. Svensson, "Generalized optimal sub-pattern
-//! assignment metric", FUSION 2017), in the assignment-set form of DESIGN.md ("Metrics"):
+//! assignment metric", FUSION 2017), in the assignment-set form of docs/design.md ("Metrics"):
 //!
 //! d_p^(c,α)(X, Y) = ( min_γ Σ_{(i,j)∈γ} d^(c)(x_i, y_j)^p + c^p/α · (|X| + |Y| − 2|γ|) )^{1/p},
 //! d^(c)(x, y) = min(c, ‖x − y‖₂),
@@ -54,7 +54,7 @@ use crate::sparse::{Box2, Components, Grid};
 /// (c = 5 m allows p up to 143).
 pub const CP_RANGE: (f64, f64) = (1e-100, 1e100);
 
-/// GOSPA parameters (DESIGN.md "Metrics"; paper Table I: c = 5, p = 1, α = 2).
+/// GOSPA parameters (docs/design.md "Metrics"; paper Table I: c = 5, p = 1, α = 2).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct GospaParams {

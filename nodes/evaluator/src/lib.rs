@@ -2,7 +2,7 @@
 //! taken from a segmented map, CSV input for `nrslam metric`, and the evaluator node.
 //!
 //! The paper (Sec. IV-B) scores the SLAM map against the true extended targets with ET-GOPSA, its
-//! extension of GOSPA; DESIGN.md ("Metrics") states the well-posed form implemented here.
+//! extension of GOSPA; docs/design.md ("Metrics") states the well-posed form implemented here.
 //!
 //! - [`assignment`]: exact rectangular linear sum assignment (shortest augmenting path, O(n²m))
 //!   and bottleneck matching (for p = ∞);

@@ -7,7 +7,7 @@
 //!   [`crate::representatives()`]) and GOSPA (all target sample points against the same
 //!   representatives), with their decompositions; before any segments the estimate set is empty;
 //! - `position_error_m`: planar distance between the SLAM position and the latest true position
-//!   (DESIGN.md "Metrics", pose error; the true pose of the same stamp is delivered first since
+//!   (docs/design.md "Metrics", pose error; the true pose of the same stamp is delivered first since
 //!   `/ground_truth/pose` precedes `/slam/pose` in the input order).
 //!
 //! The metrics change only when targets or segments do (once per keyframe), while poses come every

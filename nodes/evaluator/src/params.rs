@@ -1,4 +1,4 @@
-//! Parameters of the evaluator node (DESIGN.md "Metrics"; paper Table I).
+//! Parameters of the evaluator node (docs/design.md "Metrics"; paper Table I).
 
 use serde::{Deserialize, Serialize};
 

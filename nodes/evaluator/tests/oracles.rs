@@ -185,7 +185,7 @@ proptest! {
         }
     }
 
-    /// DESIGN.md: with α = 2, one slot per target and no estimate within c of more than one
+    /// docs/design.md: with α = 2, one slot per target and no estimate within c of more than one
     /// target, ET-GOPSA is GOSPA of the targets' points — exactly, to the last bit.
     #[test]
     fn etgospa_reduces_to_gospa(

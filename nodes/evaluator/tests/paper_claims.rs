@@ -1,4 +1,4 @@
-//! The paper's claims on ET-GOPSA (Sec. IV-B) on explicit geometries, as DESIGN.md asks.
+//! The paper's claims on ET-GOPSA (Sec. IV-B) on explicit geometries, as docs/design.md asks.
 //!
 //! Fig. 4 scenario: two square targets x1 = [0,2]², x2 = [6,8]×[0,2] with their 4 corners as
 //! sample points (4 slots each). y1 = (2, −0.5) and y2 = (0, −0.5) are both 0.5 m from x1's
@@ -87,7 +87,7 @@ fn an_estimate_filling_a_free_slot_lowers_the_metric_eq_gopsa_11() {
 
 #[test]
 fn a_confusable_estimate_that_fills_no_slot_well_does_not_lower_it() {
-    // DESIGN.md's condition: only an estimate with E < c^p/α lowers the metric. y3 sits midway
+    // docs/design.md's condition: only an estimate with E < c^p/α lowers the metric. y3 sits midway
     // between the targets, √4.25 = 2.06 m from x1's corner (2, 0) and from x2's corner (6, 0):
     // E = 2.06 + (5 − 2.06) = 5 ≥ c^p/α = 2.5 for either target.
     let params = EtGospaParams::default();

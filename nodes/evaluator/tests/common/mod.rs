@@ -1,4 +1,4 @@
-//! Brute-force oracles: the metrics' definitions (DESIGN.md "Metrics") evaluated by enumerating
+//! Brute-force oracles: the metrics' definitions (docs/design.md "Metrics") evaluated by enumerating
 //! every partial assignment, written independently of the crate's code.
 #![allow(dead_code)]
 
