@@ -83,7 +83,8 @@ def main():
         for _ in range(args.repeat):
             started = time.perf_counter()
             subprocess.run([args.nrslam, "segment", "--input", path, "--eps", "0.3",
-                            "--min-samples", "4", "--output", out], check=True)
+                            "--min-samples", "4", "--output", out], check=True,
+                           stdout=subprocess.DEVNULL)
             best_process = min(best_process, time.perf_counter() - started)
         with open(out) as f:
             next(f)
