@@ -84,7 +84,7 @@ def main():
             started = time.perf_counter()
             subprocess.run([args.nrslam, "segment", "--input", path, "--eps", "0.3",
                             "--min-samples", "4", "--output", out], check=True,
-                           stdout=subprocess.DEVNULL)
+                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
             best_process = min(best_process, time.perf_counter() - started)
         with open(out) as f:
             next(f)
