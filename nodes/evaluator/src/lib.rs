@@ -14,8 +14,8 @@
 //!   ([`gospa_dense`], [`etgospa_dense`]);
 //! - [`etgospa`](mod@etgospa): ET-GOPSA of extended targets and estimate points, with its
 //!   localisation / confusion / missed / false decomposition;
-//! - [`representatives`](mod@representatives): k points per map cluster by farthest-point
-//!   sampling, the estimates ET-GOPSA scores;
+//! - [`representatives`](mod@representatives): the points of each map cluster ET-GOPSA scores:
+//!   the 4 corners of its principal-axis box (the default) or k farthest-point samples;
 //! - [`csv_io`]: both metrics from user CSV files;
 //! - [`Params`]: the evaluator node's parameters; [`node`]: the node itself ([`build`]).
 //!
