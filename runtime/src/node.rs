@@ -78,6 +78,20 @@ impl NodeError {
         }
     }
 
+    /// A message the node has no use for: a type it does not take, or a topic it does not
+    /// subscribe. The reason names what the catalogue carries on `topic`, so a user who wired a
+    /// launch file wrongly sees both types.
+    pub fn unexpected(topic: &str, message: &nrslam_msgs::Message) -> Self {
+        let expected = match nrslam_msgs::topics::spec(topic) {
+            Some(spec) => format!("{topic} carries {}", spec.type_name),
+            None => format!("{topic} is not a topic of the catalogue"),
+        };
+        Self::invalid_input(
+            topic,
+            format!("unexpected {} ({expected})", message.type_name()),
+        )
+    }
+
     /// Wraps an algorithm's error.
     pub fn algorithm(error: impl std::error::Error + Send + Sync + 'static) -> Self {
         Self::Algorithm(Box::new(error))
@@ -152,5 +166,27 @@ impl Outbox {
     /// The waiting messages, in publication order.
     pub fn iter(&self) -> impl Iterator<Item = &(&'static str, Message)> {
         self.messages.iter()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nrslam_msgs::{topics, Message, Odometry};
+
+    #[test]
+    fn an_unexpected_message_names_what_it_is_and_what_the_topic_carries() {
+        let odometry = Message::Odometry(Odometry::default());
+        let error = NodeError::unexpected(topics::MAP, &odometry).to_string();
+        assert_eq!(
+            error,
+            "invalid input on /map: unexpected nav_msgs/msg/Odometry (/map carries \
+             nav_msgs/msg/OccupancyGrid)"
+        );
+        let error = NodeError::unexpected("/elsewhere", &odometry).to_string();
+        assert!(
+            error.ends_with("(/elsewhere is not a topic of the catalogue)"),
+            "{error}"
+        );
     }
 }

@@ -243,14 +243,7 @@ impl Node for AssociationNode {
         match (topic, message) {
             (ODOM, Message::Odometry(odometry)) => self.on_odometry(odometry),
             (DETECTIONS, Message::Detections(detections)) => self.on_detections(detections, outbox),
-            _ => Err(NodeError::invalid_input(
-                topic,
-                format!(
-                    "unexpected {} (inputs: {ODOM} nav_msgs/msg/Odometry, {DETECTIONS} \
-                     nrslam_msgs/msg/Detections)",
-                    message.type_name()
-                ),
-            )),
+            _ => Err(NodeError::unexpected(topic, message)),
         }
     }
 }

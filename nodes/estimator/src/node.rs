@@ -207,12 +207,7 @@ impl Node for EstimatorNode {
                 (&s.header, s.boresight_rad, self.on_spectrum(s)?)
             }
             (ECHO, Message::RadarEcho(e)) => (&e.header, e.boresight_rad, self.on_echo(e)?),
-            _ => {
-                return Err(NodeError::invalid_input(
-                    topic,
-                    format!("unexpected {}", message.type_name()),
-                ))
-            }
+            _ => return Err(NodeError::unexpected(topic, message)),
         };
         let detections = self.detections(header, boresight_rad, found);
         outbox.publish(DETECTIONS, detections);

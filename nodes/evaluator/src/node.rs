@@ -246,10 +246,7 @@ impl Node for EvaluatorNode {
             (SEGMENTS, Message::Segments(segments)) => self.on_segments(segments),
             (GROUND_TRUTH_POSE, Message::PoseStamped(pose)) => self.on_true_pose(pose),
             (SLAM_POSE, Message::PoseStamped(pose)) => self.on_slam_pose(pose, outbox),
-            (topic, message) => Err(NodeError::invalid_input(
-                topic,
-                format!("unexpected {} on this topic", message.type_name()),
-            )),
+            (topic, message) => Err(NodeError::unexpected(topic, message)),
         }
     }
 }

@@ -156,13 +156,7 @@ impl Node for MapperNode {
             Message::KeyframePoses(poses) if topic == KEYFRAME_POSES => {
                 self.on_keyframe_poses(poses, outbox)
             }
-            other => Err(NodeError::invalid_input(
-                topic,
-                format!(
-                    "the mapper takes nrslam_msgs/msg/Keyframe on {KEYFRAME}, got {}",
-                    other.type_name()
-                ),
-            )),
+            other => Err(NodeError::unexpected(topic, other)),
         }
     }
 }

@@ -104,14 +104,7 @@ impl Node for SegmenterNode {
                 outbox.publish(SEGMENTS, self.segment(grid)?);
                 Ok(())
             }
-            other => Err(NodeError::invalid_input(
-                topic,
-                format!(
-                    "the segmenter takes {} on {MAP}, got {}",
-                    "nav_msgs/msg/OccupancyGrid",
-                    other.type_name()
-                ),
-            )),
+            other => Err(NodeError::unexpected(topic, other)),
         }
     }
 }

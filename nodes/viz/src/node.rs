@@ -219,12 +219,7 @@ impl Node for VizNode {
             (SLAM_POSE, Message::PoseStamped(pose)) => self.on_slam_pose(pose, outbox)?,
             (DETECTIONS, Message::Detections(detections)) => self.on_detections(detections, outbox),
             (SEGMENTS, Message::Segments(segments)) => self.on_segments(segments, outbox)?,
-            (topic, other) => {
-                return Err(NodeError::invalid_input(
-                    topic,
-                    format!("the viz node does not take {} here", other.type_name()),
-                ))
-            }
+            (topic, other) => return Err(NodeError::unexpected(topic, other)),
         }
         Ok(())
     }
