@@ -86,8 +86,8 @@ fn a_full_run_writes_every_output_and_etgospa_falls_as_the_map_fills() {
         .copied()
         .fold(f64::INFINITY, f64::min);
     let (first, last) = (etgospa[0], *etgospa.last().unwrap());
-    // Per-step values jump as clusters merge and split, and drift (no loop closure yet) pushes
-    // the map off the truth late in the lap, so the check is on the trend, not on monotonicity.
+    // Per-step values jump as clusters merge and split, and drift (before the loop closes, which it
+    // does only near the end of the lap) pushes the map off the truth, so the check is on the trend.
     assert!(best_late < 0.85 * early, "ET-GOPSA should fall as the map fills: first tenth {early}, best of second half {best_late}");
     assert!(
         last < 0.85 * first,
