@@ -1,0 +1,142 @@
+//! Keyframe and loop-edge scoring.
+
+use super::Reporter;
+use nrslam_msgs::{
+    topics, Header, Keyframe, KeyframePoses, Message, Point, Pose, PoseStamped, Time,
+};
+use std::collections::BTreeMap;
+use std::f64::consts::FRAC_PI_2;
+
+fn header(seconds: f64) -> Header {
+    Header {
+        stamp: Time::from_seconds(seconds),
+        frame_id: "map".into(),
+    }
+}
+
+fn pose(x: f64, y: f64) -> Pose {
+    Pose {
+        position: Point { x, y, z: 0.0 },
+        ..Pose::default()
+    }
+}
+
+/// Keyframes at t = 1, 2 first published 1 m and 2 m off the truth; the truth at t = 3 has no
+/// keyframe and must not count.
+fn reporter() -> Reporter {
+    let mut r = Reporter::default();
+    for (t, x) in [(1.0, 0.0), (2.0, 10.0), (3.0, 20.0)] {
+        let truth = PoseStamped {
+            header: header(t),
+            pose: pose(x, 0.0),
+        };
+        r.take(topics::GROUND_TRUTH_POSE, &Message::PoseStamped(truth));
+    }
+    for (id, t, x) in [(0, 1.0, 1.0), (1, 2.0, 12.0)] {
+        let keyframe = Keyframe {
+            header: header(t),
+            id,
+            pose: pose(x, 0.0),
+            ..Keyframe::default()
+        };
+        r.take(topics::KEYFRAME, &Message::Keyframe(keyframe));
+    }
+    r
+}
+
+#[test]
+fn keyframe_rmse_scores_keyframes_as_published_without_corrections() {
+    let rmse = reporter().keyframe_rmse_m().unwrap();
+    assert!((rmse - (2.5f64).sqrt()).abs() < 1e-12, "{rmse}");
+}
+
+#[test]
+fn keyframe_rmse_takes_the_latest_corrected_poses() {
+    let mut r = reporter();
+    for (revision, second_x) in [(1, 11.0), (2, 10.0)] {
+        let corrected = KeyframePoses {
+            header: header(2.0),
+            revision,
+            ids: vec![0, 1],
+            poses: vec![pose(0.0, 0.0), pose(second_x, 0.0)],
+            ..KeyframePoses::default()
+        };
+        r.take(topics::KEYFRAME_POSES, &Message::KeyframePoses(corrected));
+    }
+    assert_eq!(r.keyframe_rmse_m(), Some(0.0));
+}
+
+#[test]
+fn loop_edges_are_scored_in_the_older_keyframes_true_frame() {
+    let mut r = Reporter::default();
+    // Keyframe 0 truly at (1, 1) facing +y; keyframe 1 truly at (1, 4): 3 m ahead of it.
+    for (id, t, (x, y, yaw)) in [(0, 1.0, (1.0, 1.0, FRAC_PI_2)), (1, 2.0, (1.0, 4.0, 0.0))] {
+        let truth = PoseStamped {
+            header: header(t),
+            pose: Pose::from_planar(x, y, yaw),
+        };
+        r.take(topics::GROUND_TRUTH_POSE, &Message::PoseStamped(truth));
+        let keyframe = Keyframe {
+            header: header(t),
+            id,
+            ..Keyframe::default()
+        };
+        r.take(topics::KEYFRAME, &Message::Keyframe(keyframe));
+    }
+    let r_with_truth = r.clone();
+    // One right loop, one 0.6 m off sideways, one naming a keyframe never seen (not scored),
+    // and an excess relative pose without ids (ignored).
+    let poses = KeyframePoses {
+        header: header(2.0),
+        loop_from_ids: vec![0, 0, 0],
+        loop_to_ids: vec![1, 1, 7],
+        loop_relatives: vec![
+            Pose::from_planar(3.0, 0.0, -FRAC_PI_2),
+            Pose::from_planar(3.0, 0.6, -FRAC_PI_2),
+            Pose::from_planar(0.0, 0.0, 0.0),
+            Pose::from_planar(9.0, 9.0, 0.0),
+        ],
+        ..KeyframePoses::default()
+    };
+    // The same edges saying they pin down (0.1 m std) only the measurement frame's x, then
+    // only its y: the 0.6 m sideways error (along the older keyframe's y, which is the
+    // measurement frame's x after its -90° turn) is inconsistent with the first and not with
+    // the second.
+    let sure_of = |axis: usize| {
+        let mut omega = vec![0.0; 9];
+        omega[4 * axis] = 100.0;
+        omega[8] = 1.0;
+        omega
+    };
+    for (axis, inconsistent) in [(0, 1), (1, 0)] {
+        let mut informed = poses.clone();
+        informed.loop_informations = [sure_of(axis), sure_of(axis)].concat();
+        let mut r = r_with_truth.clone();
+        r.take(topics::KEYFRAME_POSES, &Message::KeyframePoses(informed));
+        let summary = r.summary(&BTreeMap::new(), 1, "x.toml");
+        assert_eq!(summary.loop_edges_inconsistent, inconsistent, "axis {axis}");
+    }
+    r.take(topics::KEYFRAME_POSES, &Message::KeyframePoses(poses));
+    let errors = r.loop_edge_errors_m();
+    assert_eq!(errors.len(), 2, "{errors:?}");
+    assert!(
+        errors[0] < 1e-9 && (errors[1] - 0.6).abs() < 1e-9,
+        "{errors:?}"
+    );
+    let summary = r.summary(&BTreeMap::new(), 1, "x.toml");
+    assert_eq!(
+        (summary.loop_edges_scored, summary.loop_edges_wrong),
+        (2, 1)
+    );
+}
+
+#[test]
+fn keyframe_rmse_is_none_without_truth_at_the_keyframe_stamps() {
+    let mut r = Reporter::default();
+    let keyframe = Keyframe {
+        header: header(5.0),
+        ..Keyframe::default()
+    };
+    r.take(topics::KEYFRAME, &Message::Keyframe(keyframe));
+    assert_eq!(r.keyframe_rmse_m(), None);
+}
