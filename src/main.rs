@@ -25,6 +25,7 @@ mod accuracy;
 mod bag;
 #[cfg(test)]
 mod cli_tests;
+mod cmd;
 mod flags;
 mod launcher;
 mod montecarlo;
@@ -35,7 +36,6 @@ mod reproduce;
 #[cfg(feature = "ros2")]
 mod ros2;
 mod scene;
-mod tools;
 mod tradeoff;
 
 use clap::{Args, Parser, Subcommand};
@@ -118,13 +118,13 @@ enum Command {
     /// Run one node as its own process, talking over zenoh.
     Run(launcher::RunArgs),
     /// List the topics of the catalogue and, with --connect, what a live graph publishes.
-    Topics(tools::TopicsArgs),
+    Topics(cmd::topics::TopicsArgs),
     /// Print the messages of one topic of a live graph, one JSON object per line.
-    Echo(tools::EchoArgs),
+    Echo(cmd::echo::EchoArgs),
     /// GOSPA and ET-GOPSA of an estimated point map against true extended targets (CSV files).
-    Metric(tools::MetricArgs),
+    Metric(cmd::metric::MetricArgs),
     /// DBSCAN on a CSV of points `x,y`, writing `x,y,label` (label -1: noise).
-    Segment(tools::SegmentArgs),
+    Segment(cmd::segment::SegmentArgs),
     /// Single-scatterer range and angle RMSE against SNR, beside the Cramér–Rao bounds and grid limits.
     Accuracy(accuracy::AccuracyArgs),
     /// Monte Carlo trials of a launch in parallel: per-step mean and spread of every metric.
@@ -235,10 +235,10 @@ fn main() -> std::process::ExitCode {
     let result = match cli.command {
         Command::Launch(args) => launcher::launch(args),
         Command::Run(args) => launcher::run(args),
-        Command::Topics(args) => tools::topics(args),
-        Command::Echo(args) => tools::echo(args),
-        Command::Metric(args) => tools::metric(args),
-        Command::Segment(args) => tools::segment(args),
+        Command::Topics(args) => cmd::topics::topics(args),
+        Command::Echo(args) => cmd::echo::echo(args),
+        Command::Metric(args) => cmd::metric::metric(args),
+        Command::Segment(args) => cmd::segment::segment(args),
         Command::Accuracy(args) => accuracy::accuracy(args),
         Command::Montecarlo(args) => montecarlo::montecarlo(args),
         Command::Merge(args) => montecarlo::merge(args),

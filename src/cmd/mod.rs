@@ -1,0 +1,48 @@
+//! The CLI verbs that inspect a live graph or score files, one module per verb: each holds its
+//! clap arguments, their ranges, and a thin run function over the library crates.
+//!
+//! - [`topics`]: the topic catalogue, or what a live graph publishes (zenoh).
+//! - [`echo`]: one live topic's messages as JSON lines (zenoh).
+//! - [`metric`]: GOSPA and ET-GOPSA of CSV files (offline, `nrslam_evaluator`).
+//! - [`segment`]: DBSCAN labels for a CSV of points (offline, `nrslam_segmenter`).
+//!
+//! The two live verbs share the session and observer-queue helpers below.
+
+pub mod echo;
+pub mod metric;
+pub mod segment;
+pub mod topics;
+
+use crate::TransportArgs;
+use anyhow::{bail, Context, Result};
+use nrslam_runtime::receive::{Inbox, InboxOptions, Overload};
+use nrslam_runtime::transport::{self, SessionMode};
+
+/// A peer session on the endpoints given; refused when there is none to listen or connect on.
+fn session_for(args: &TransportArgs) -> Result<zenoh::Session> {
+    if args.listen.is_empty() && args.connect.is_empty() {
+        bail!("give --connect ENDPOINT (e.g. the --listen endpoint of a running `nrslam launch`) or --listen ENDPOINT");
+    }
+    let config = args.config(SessionMode::Peer);
+    transport::open(&config).context("opening the zenoh session")
+}
+
+/// An observer keeps the newest samples rather than slow the graph down, and shows them in
+/// arrival order (a bag played in a loop starts its stamps over).
+fn observer_options(transport: &TransportArgs) -> Result<InboxOptions> {
+    Ok(InboxOptions {
+        overload: Overload::KeepNewest(OBSERVER_QUEUE),
+        in_order: false,
+        ..transport.inbox_options()?
+    })
+}
+
+/// Samples an observer queues per topic before it drops the oldest.
+const OBSERVER_QUEUE: usize = 256;
+
+/// One line on stderr per topic and reason dropped, if any.
+fn report_drops(inbox: &Inbox) {
+    for (topic, reason, n) in inbox.drops().iter() {
+        eprintln!("warning: {topic}: {n} samples dropped ({reason})");
+    }
+}
