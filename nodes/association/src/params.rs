@@ -269,7 +269,50 @@ impl Default for LoopClosureParams {
 impl LoopClosureParams {
     /// Checks every field; the error names the first offending field (as `loop_closure.NAME`).
     pub fn validate(&self) -> Result<(), InvalidParam> {
-        let ranges: [(&'static str, f64, f64, f64); 22] = [
+        let ranges = self.real_ranges();
+        for (field, value, min, max) in ranges {
+            InvalidParam::check_range(field, value, min, max)?;
+        }
+        InvalidParam::check_range(
+            "loop_closure.search_sigma_m",
+            self.search_sigma_m,
+            0.0,
+            10.0,
+        )?;
+        InvalidParam::check_range(
+            "loop_closure.refine_correspondence_m",
+            self.refine_correspondence_m,
+            0.01,
+            100.0,
+        )?;
+        InvalidParam::check_range("loop_closure.agreement_m", self.agreement_m, 0.0, 1e3)?;
+        InvalidParam::check_range("loop_closure.agreement_deg", self.agreement_deg, 0.0, 180.0)?;
+        InvalidParam::check_range("loop_closure.pair_m", self.pair_m, 0.0, 1e3)?;
+        InvalidParam::check_range("loop_closure.pair_per_m", self.pair_per_m, 0.0, 1.0)?;
+        InvalidParam::check_range("loop_closure.pair_deg", self.pair_deg, 0.0, 180.0)?;
+        InvalidParam::check_range(
+            "loop_closure.standalone_score",
+            self.standalone_score,
+            0.0,
+            1.0,
+        )?;
+        let counts = self.count_ranges();
+        for (field, value, min, max) in counts {
+            if !(min..=max).contains(&value) {
+                return Err(InvalidParam::new(
+                    field,
+                    format!("is {value}"),
+                    format!("{min}..={max}"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// (field, value, min, max) of the real-valued fields checked as plain closed ranges, in the
+    /// order [`Self::validate`] checks them first.
+    fn real_ranges(&self) -> [(&'static str, f64, f64, f64); 22] {
+        [
             (
                 "loop_closure.overlap_distance_m",
                 self.overlap_distance_m,
@@ -377,34 +420,12 @@ impl LoopClosureParams {
                 1e4,
             ),
             ("loop_closure.loop_std_deg", self.loop_std_deg, 1e-6, 90.0),
-        ];
-        for (field, value, min, max) in ranges {
-            InvalidParam::check_range(field, value, min, max)?;
-        }
-        InvalidParam::check_range(
-            "loop_closure.search_sigma_m",
-            self.search_sigma_m,
-            0.0,
-            10.0,
-        )?;
-        InvalidParam::check_range(
-            "loop_closure.refine_correspondence_m",
-            self.refine_correspondence_m,
-            0.01,
-            100.0,
-        )?;
-        InvalidParam::check_range("loop_closure.agreement_m", self.agreement_m, 0.0, 1e3)?;
-        InvalidParam::check_range("loop_closure.agreement_deg", self.agreement_deg, 0.0, 180.0)?;
-        InvalidParam::check_range("loop_closure.pair_m", self.pair_m, 0.0, 1e3)?;
-        InvalidParam::check_range("loop_closure.pair_per_m", self.pair_per_m, 0.0, 1.0)?;
-        InvalidParam::check_range("loop_closure.pair_deg", self.pair_deg, 0.0, 180.0)?;
-        InvalidParam::check_range(
-            "loop_closure.standalone_score",
-            self.standalone_score,
-            0.0,
-            1.0,
-        )?;
-        let counts = [
+        ]
+    }
+
+    /// (field, value, min, max) of the count fields, checked last.
+    fn count_ranges(&self) -> [(&'static str, u32, u32, u32); 7] {
+        [
             (
                 "loop_closure.pending_keyframes",
                 self.pending_keyframes,
@@ -427,17 +448,7 @@ impl LoopClosureParams {
                 1_000_000,
             ),
             ("loop_closure.max_iterations", self.max_iterations, 1, 1000),
-        ];
-        for (field, value, min, max) in counts {
-            if !(min..=max).contains(&value) {
-                return Err(InvalidParam::new(
-                    field,
-                    format!("is {value}"),
-                    format!("{min}..={max}"),
-                ));
-            }
-        }
-        Ok(())
+        ]
     }
 
     /// Search radius for a candidate `travelled_m` of travel ago, metres.
@@ -534,6 +545,13 @@ impl Params {
 
     /// Checks every field; the error names the first offending field and its allowed range.
     pub fn validate(&self) -> Result<(), InvalidParam> {
+        self.validate_matching()?;
+        self.validate_keyframes_and_gates()?;
+        self.loop_closure.validate()
+    }
+
+    /// The scan matcher's and ICP's fields, in [`Self::validate`]'s order.
+    fn validate_matching(&self) -> Result<(), InvalidParam> {
         check_range(
             "max_correspondence_m",
             self.max_correspondence_m,
@@ -660,6 +678,11 @@ impl Params {
             0.5,
             "0 <= value <= 0.5 (0 disables the check)",
         )?;
+        Ok(())
+    }
+
+    /// Keyframe selection, error floors and motion gates, in [`Self::validate`]'s order.
+    fn validate_keyframes_and_gates(&self) -> Result<(), InvalidParam> {
         check_range(
             "keyframe_distance_m",
             self.keyframe_distance_m,
@@ -683,7 +706,6 @@ impl Params {
         InvalidParam::check_range("gate_sigma", self.gate_sigma, 0.5, 1e3)?;
         InvalidParam::check_range("max_speed_mps", self.max_speed_mps, 0.0, 1e3)?;
         InvalidParam::check_range("max_turn_rate_deg_s", self.max_turn_rate_deg_s, 1e-3, 1e5)?;
-        self.loop_closure.validate()?;
         Ok(())
     }
 
