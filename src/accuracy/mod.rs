@@ -9,16 +9,17 @@
 //! The range bound is docs/design.md's single-antenna var(R) divided by K (the estimator sums the K
 //! antennas coherently); the angle bound already uses SNR·N·M.
 
+mod plot;
+mod trials;
+
+pub(crate) use trials::{parse_refinement, single_scatterer_trials};
+
 use crate::flags::{self, Whole};
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use nrslam_estimator::{Estimator, EstimatorConfig, Refinement};
-use nrslam_ofdm::{bounds, spectral, waveform, OfdmParams, Scatterer};
-use num_complex::Complex64;
-use plotters::prelude::*;
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
+use nrslam_ofdm::{bounds, OfdmParams};
+use plot::plot;
 use std::path::PathBuf;
 
 /// `nrslam accuracy`.
@@ -215,7 +216,6 @@ pub fn accuracy(args: AccuracyArgs) -> Result<()> {
     outln!("wrote {} and accuracy.png", csv_path.display());
     Ok(())
 }
-
 /// Sums over the single-scatterer trials of one setting.
 #[derive(Debug, Default, Clone, Copy)]
 pub(crate) struct Tally {
@@ -246,174 +246,4 @@ impl Tally {
             f64::NAN
         }
     }
-}
-
-/// The estimator's sub-bin refinement and its zero-padding factor from `--refine` text: none,
-/// interpolation or zero-padding:F.
-pub(crate) fn parse_refinement(text: &str) -> Result<(Refinement, usize)> {
-    Ok(match text {
-        "none" => (Refinement::None, 1),
-        "interpolation" => (Refinement::Interpolation, 1),
-        text => match text.strip_prefix("zero-padding:").map(str::parse::<usize>) {
-            Some(Ok(factor)) if (1..=64).contains(&factor) => (Refinement::ZeroPadding { factor }, factor),
-            _ => bail!("--refine: {text:?} is not a refinement (allowed: none, interpolation, zero-padding:F with 1 ≤ F ≤ 64)"),
-        },
-    })
-}
-
-/// Runs `trials` single-scatterer frames at `params` (spectral, or waveform when
-/// `waveform_level`) through the estimator and sums the errors of its strongest detection.
-/// Trial t is seeded from (seed, `label`/t). `tick` is called after each trial.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn single_scatterer_trials(
-    params: &OfdmParams,
-    waveform_level: bool,
-    refinement: Refinement,
-    padding: usize,
-    trials: u32,
-    seed: u64,
-    label: &str,
-    tick: &(dyn Fn() + Sync),
-) -> Result<Tally> {
-    let config = EstimatorConfig {
-        refinement,
-        zero_padding_angle: padding,
-        max_range_m: Some(25.0),
-        max_detections: 1,
-        ..EstimatorConfig::default()
-    };
-    let spectral_config = spectral::SpectralConfig {
-        max_range_m: 25.0,
-        range_zero_padding: padding,
-        angle_zero_padding: padding,
-        ..spectral::SpectralConfig::default()
-    };
-    let mut estimator = Estimator::new(params, config).map_err(|e| anyhow!("estimator: {e}"))?;
-    let mut tally = Tally::default();
-    for trial in 0..trials {
-        let mut rng = ChaCha8Rng::seed_from_u64(nrslam_runtime::seed::derive(
-            seed,
-            &format!("{label}/{trial}"),
-        ));
-        let range_m = rng.random_range(2.0..20.0);
-        let angle_rad = rng.random_range(-60f64.to_radians()..60f64.to_radians());
-        let scatterer = Scatterer {
-            range_m,
-            angle_rad,
-            radial_velocity_mps: 0.0,
-            amplitude: Complex64::from_polar(1.0, rng.random_range(0.0..std::f64::consts::TAU)),
-        };
-        let found = if waveform_level {
-            let grid = waveform::synthesize(
-                params,
-                &[scatterer],
-                &waveform::WaveformConfig::default(),
-                &mut rng,
-            )?;
-            estimator.process_grid(&grid)
-        } else {
-            let map = spectral::synthesize(params, &[scatterer], &spectral_config, &mut rng)?;
-            estimator.process_spectrum(&map)
-        }
-        .map_err(|e| anyhow!("estimator: {e}"))?;
-        tally.crb_angle_sq += bounds::angle_variance_bound_rad2(params, angle_rad);
-        tally.grid_angle_sq += bounds::angle_grid_rms_rad(params, angle_rad, padding).powi(2);
-        match found.first() {
-            Some(d) => {
-                tally.range_sq_m2 += (d.range_m - range_m).powi(2);
-                tally.angle_sq_rad2 += (d.angle_rad - angle_rad).powi(2);
-                tally.hits += 1;
-            }
-            None => tally.misses += 1,
-        }
-        tick();
-    }
-    Ok(tally)
-}
-
-/// Reads one quantity of a row.
-type Column = fn(&Row) -> f64;
-
-fn plot(path: &std::path::Path, rows: &[Row], fidelity: &str, refine: &str) -> Result<()> {
-    crate::plot::register_font();
-    let error = |e: &dyn std::fmt::Display| anyhow!("plotting failed: {e}");
-    let root = BitMapBackend::new(path, (1200, 520)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| error(&e))?;
-    let panels = root.split_evenly((1, 2));
-    let snr_lo = rows.first().map_or(0.0, |r| r.snr_db);
-    let snr_hi = rows.last().map_or(1.0, |r| r.snr_db).max(snr_lo + 1.0);
-    let series: [(&str, [Column; 3]); 2] = [
-        (
-            "range (m)",
-            [|r| r.range_rmse_m, |r| r.range_crb_m, |r| r.range_grid_m],
-        ),
-        (
-            "angle (deg)",
-            [
-                |r| r.angle_rmse_deg,
-                |r| r.angle_crb_deg,
-                |r| r.angle_grid_deg,
-            ],
-        ),
-    ];
-    for (panel, (label, getters)) in panels.iter().zip(series) {
-        let values: Vec<f64> = rows
-            .iter()
-            .flat_map(|r| getters.iter().map(move |g| g(r)))
-            .filter(|v| v.is_finite() && *v > 0.0)
-            .collect();
-        let lo = values
-            .iter()
-            .copied()
-            .fold(f64::INFINITY, f64::min)
-            .max(1e-12)
-            / 2.0;
-        let hi = values.iter().copied().fold(0.0, f64::max).max(lo * 10.0) * 2.0;
-        let mut chart = ChartBuilder::on(panel)
-            .caption(
-                format!("{label} error, {fidelity}, refine {refine}"),
-                ("sans-serif", 20),
-            )
-            .margin(12)
-            .x_label_area_size(40)
-            .y_label_area_size(70)
-            .build_cartesian_2d(snr_lo..snr_hi, (lo..hi).log_scale())
-            .map_err(|e| error(&e))?;
-        chart
-            .configure_mesh()
-            .x_desc("per-element SNR (dB)")
-            .y_desc(format!("RMSE {label}"))
-            .draw()
-            .map_err(|e| error(&e))?;
-        for (index, (name, color)) in [
-            ("RMSE", RED),
-            ("Cramér–Rao bound", BLUE),
-            ("grid limit bin/√12", BLACK),
-        ]
-        .into_iter()
-        .enumerate()
-        {
-            let getter = getters[index];
-            let points: Vec<(f64, f64)> = rows
-                .iter()
-                .map(|r| (r.snr_db, getter(r)))
-                .filter(|(_, v)| v.is_finite() && *v > 0.0)
-                .collect();
-            chart
-                .draw_series(LineSeries::new(points, color.stroke_width(2)))
-                .map_err(|e| error(&e))?
-                .label(name)
-                .legend(move |(x, y)| {
-                    PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2))
-                });
-        }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()
-            .map_err(|e| error(&e))?;
-    }
-    root.present().map_err(|e| error(&e))?;
-    Ok(())
 }
