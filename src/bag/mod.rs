@@ -5,6 +5,7 @@
 mod info;
 mod play;
 mod record;
+mod selection;
 
 use crate::TransportArgs;
 use anyhow::{anyhow, bail, Context, Result};

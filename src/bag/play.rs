@@ -3,14 +3,13 @@
 //! `--exclude-topics`), `--remap`, `--start-offset` and `--clock`. Topics of any type are
 //! published as recorded (raw CDR); with `--ros-domain-id`, under the type hash the bag recorded.
 
+use super::selection::{endpoint, select, PlayTopic};
 use super::{byte_progress, interrupted, open_bag, print_losses, session};
 use crate::TransportArgs;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use nrslam_msgs::{topics, Clock, Message, Time};
-use nrslam_runtime::bag::{Bag, TopicSummary};
 use nrslam_runtime::transport::{KeyStyle, Pacer, RosEndpoint, TopicPublisher};
-use regex::Regex;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
@@ -85,19 +84,6 @@ pub struct PlayArgs {
     pub transport: TransportArgs,
 }
 
-/// One topic to play.
-#[derive(Debug, Clone, PartialEq)]
-struct PlayTopic {
-    /// Name in the bag.
-    source: String,
-    /// Name published (after --remap).
-    target: String,
-    type_name: String,
-    /// metadata.yaml's type_description_hash, when it has one.
-    hash: Option<String>,
-    qos: topics::Qos,
-}
-
 impl PlayArgs {
     fn validate(&self) -> Result<()> {
         crate::flags::check("--rate", crate::flags::RATE.check(self.rate))?;
@@ -120,148 +106,46 @@ impl PlayArgs {
     }
 }
 
-/// `--remap` pairs, checked: `FROM:=TO`, both topic names.
-fn remaps(args: &[String]) -> Result<BTreeMap<String, String>> {
-    let mut out = BTreeMap::new();
-    for pair in args {
-        let (from, to) = pair
-            .split_once(":=")
-            .ok_or_else(|| anyhow!("--remap: {pair:?} is not FROM:=TO"))?;
-        for name in [from, to] {
-            if !name.starts_with('/') || name.len() < 2 || name.contains(char::is_whitespace) {
-                bail!("--remap: {name:?} in {pair:?} is not a topic name (/name)");
-            }
-        }
-        if out.insert(from.to_owned(), to.to_owned()).is_some() {
-            bail!("--remap: {from} is remapped twice");
+/// Declares every played topic whose key is known before its first message, and `/clock` when
+/// it is published; returns the declared targets. With rmw_zenoh keys a topic needs its type hash:
+/// metadata.yaml's, else the catalogue's (computed), else the channel's `topic_type_hash`, known
+/// only at its first message (declared then).
+fn declare_known_topics(
+    publisher: &mut TopicPublisher,
+    played: &[PlayTopic],
+    style: KeyStyle,
+    clock: bool,
+) -> Result<BTreeSet<String>> {
+    let mut declared: BTreeSet<String> = BTreeSet::new();
+    for topic in played {
+        let known = topic.hash.is_some()
+            || style == KeyStyle::Nrslam
+            || nrslam_runtime::type_hash::rihs01(&topic.type_name).is_ok();
+        if known && !declared.contains(&topic.target) {
+            publisher
+                .declare_raw(&endpoint(topic, topic.hash.clone()))
+                .with_context(|| format!("declaring {}", topic.target))?;
+            declared.insert(topic.target.clone());
         }
     }
-    Ok(out)
+    if clock {
+        publisher.declare_raw(&RosEndpoint::catalogue(topics::CLOCK)?)?;
+    }
+    Ok(declared)
 }
 
-/// QoS to offer for a played topic: the catalogue's when it is a catalogue topic of the same
-/// type, else reliable and volatile, or transient local when the recording says so.
-fn qos_of(bag: &Bag, topic: &TopicSummary) -> topics::Qos {
-    if let Some(spec) = topics::spec(&topic.name).filter(|s| s.type_name == topic.type_name) {
-        return spec.qos;
-    }
-    let latched = bag.metadata().is_some_and(|m| {
-        m.topics_with_message_count.iter().any(|t| {
-            t.topic_metadata.name == topic.name
-                && t.topic_metadata
-                    .offered_qos_profiles
-                    .iter()
-                    .any(|q| q.durability == "transient_local")
-        })
-    });
-    topics::Qos {
-        reliability: topics::Reliability::Reliable,
-        durability: if latched {
-            topics::Durability::TransientLocal
-        } else {
-            topics::Durability::Volatile
-        },
-        depth: if latched { 1 } else { 64 },
-    }
-}
-
-/// The topics to play, in the bag's order, as `ros2 bag play` selects them.
-fn select(args: &PlayArgs, bag: &Bag, recorded: &[TopicSummary]) -> Result<Vec<PlayTopic>> {
-    let compile = |flag: &str, re: &Option<String>| -> Result<Option<Regex>> {
-        re.as_deref()
-            .map(|r| Regex::new(r).map_err(|e| anyhow!("{flag}: {e}")))
-            .transpose()
-    };
-    let regex = compile("--regex", &args.regex)?;
-    let exclude = compile("--exclude-regex", &args.exclude_regex)?;
-    let names: Vec<&str> = recorded.iter().map(|t| t.name.as_str()).collect();
-    for (flag, list) in [
-        ("--topics", &args.topics),
-        ("--exclude-topics", &args.exclude_topics),
-    ] {
-        for topic in list {
-            if !names.contains(&topic.as_str()) {
-                bail!(
-                    "{}: {flag}: topic {topic} is not in the bag (recorded: {})",
-                    args.dir.display(),
-                    names.join(", ")
-                );
-            }
+/// Sends each played target's end-of-stream mark once (and `/clock`'s).
+fn end_streams(publisher: &mut TopicPublisher, played: &[PlayTopic], clock: bool) -> Result<()> {
+    let mut ended = BTreeSet::new();
+    for topic in played {
+        if ended.insert(topic.target.as_str()) {
+            publisher.end(&topic.target)?;
         }
     }
-    let remap = remaps(&args.remap)?;
-    for from in remap.keys() {
-        if !names.contains(&from.as_str()) {
-            bail!(
-                "--remap: topic {from} is not in the bag (recorded: {})",
-                names.join(", ")
-            );
-        }
+    if clock {
+        publisher.end(topics::CLOCK)?;
     }
-    let hashes: BTreeMap<&str, &str> = bag
-        .metadata()
-        .map(|m| {
-            m.topics_with_message_count
-                .iter()
-                .filter(|t| !t.topic_metadata.type_description_hash.is_empty())
-                .map(|t| {
-                    (
-                        t.topic_metadata.name.as_str(),
-                        t.topic_metadata.type_description_hash.as_str(),
-                    )
-                })
-                .collect()
-        })
-        .unwrap_or_default();
-    let everything = args.topics.is_empty() && regex.is_none();
-    let mut out: Vec<PlayTopic> = Vec::new();
-    for topic in recorded {
-        let name = topic.name.as_str();
-        let chosen = everything
-            || args.topics.iter().any(|t| t == name)
-            || regex.as_ref().is_some_and(|r| r.is_match(name));
-        let excluded = args.exclude_topics.iter().any(|t| t == name)
-            || exclude.as_ref().is_some_and(|r| r.is_match(name))
-            || (args.clock.is_some() && name == topics::CLOCK);
-        if !chosen || excluded {
-            continue;
-        }
-        let target = remap.get(name).cloned().unwrap_or_else(|| name.to_owned());
-        if let Some(other) = out.iter().find(|p| p.target == target) {
-            if other.type_name != topic.type_name {
-                bail!(
-                    "--remap: {name} ({}) and {} ({}) would both be published as {target}",
-                    topic.type_name,
-                    other.source,
-                    other.type_name
-                );
-            }
-        }
-        out.push(PlayTopic {
-            source: topic.name.clone(),
-            target,
-            type_name: topic.type_name.clone(),
-            hash: hashes.get(name).map(|h| (*h).to_owned()),
-            qos: qos_of(bag, topic),
-        });
-    }
-    if out.is_empty() {
-        bail!(
-            "{}: no topic selected (recorded: {})",
-            args.dir.display(),
-            names.join(", ")
-        );
-    }
-    Ok(out)
-}
-
-fn endpoint(topic: &PlayTopic, hash: Option<String>) -> RosEndpoint {
-    RosEndpoint {
-        topic: topic.target.clone(),
-        type_name: topic.type_name.clone(),
-        type_hash: hash,
-        qos: topic.qos,
-    }
+    Ok(())
 }
 
 /// `nrslam bag play`.
@@ -282,23 +166,7 @@ pub fn play(args: PlayArgs) -> Result<()> {
     };
     let mut publisher =
         TopicPublisher::with_style(&session, &args.transport.namespace, &[], style)?;
-    // With rmw_zenoh keys a topic needs its type hash: metadata.yaml's, else the catalogue's
-    // (computed), else the channel's `topic_type_hash`, known at its first message.
-    let mut declared: BTreeSet<String> = BTreeSet::new();
-    for topic in &played {
-        let known = topic.hash.is_some()
-            || style == KeyStyle::Nrslam
-            || nrslam_runtime::type_hash::rihs01(&topic.type_name).is_ok();
-        if known && !declared.contains(&topic.target) {
-            publisher
-                .declare_raw(&endpoint(topic, topic.hash.clone()))
-                .with_context(|| format!("declaring {}", topic.target))?;
-            declared.insert(topic.target.clone());
-        }
-    }
-    if args.clock.is_some() {
-        publisher.declare_raw(&RosEndpoint::catalogue(topics::CLOCK)?)?;
-    }
+    let mut declared = declare_known_topics(&mut publisher, &played, style, args.clock.is_some())?;
     let deadline = Instant::now() + Duration::from_secs_f64(args.match_timeout_s);
     while !publisher.all_matched() && Instant::now() < deadline {
         std::thread::sleep(Duration::from_millis(20));
@@ -377,15 +245,7 @@ pub fn play(args: PlayArgs) -> Result<()> {
         }
     }
     if !stop.load(Ordering::SeqCst) {
-        let mut ended = BTreeSet::new();
-        for topic in &played {
-            if ended.insert(topic.target.as_str()) {
-                publisher.end(&topic.target)?;
-            }
-        }
-        if args.clock.is_some() {
-            publisher.end(topics::CLOCK)?;
-        }
+        end_streams(&mut publisher, &played, args.clock.is_some())?;
     }
     // Let the last publications leave before the session closes.
     std::thread::sleep(Duration::from_millis(200));
