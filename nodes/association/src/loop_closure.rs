@@ -100,6 +100,51 @@ pub enum LoopRejection {
     },
 }
 
+/// The best score at least `distance_m` from `best`'s motion, in `best`'s units: a mean grid value
+/// scaled by the prior as `best.mean_value` is (0 when nothing else scores).
+fn runner_up_mean_value(
+    grids: &MultiResolutionGrid,
+    sample: &[[f64; 2]],
+    (predicted, window, options): (Pose2, &SearchWindow, &SearchOptions),
+    best: &crate::correlative::Match,
+    distance_m: f64,
+) -> f64 {
+    let runner = runner_up(grids, sample, predicted, window, options, best, distance_m)
+        .ok()
+        .flatten()
+        .map_or(0.0, |m| m.score);
+    if best.score > 0.0 {
+        best.mean_value * runner / best.score
+    } else {
+        0.0
+    }
+}
+
+/// (inliers, overlapping): query points within `inlier_distance_m` of the map after `relative`,
+/// and those within `overlap_distance_m` (every point when it is 0).
+fn inliers_and_overlap(
+    map: &PointMap,
+    query_m: &[[f64; 2]],
+    relative: &Pose2,
+    loop_params: &LoopClosureParams,
+) -> (usize, usize) {
+    let inlier_m2 = loop_params.inlier_distance_m * loop_params.inlier_distance_m;
+    let overlap_m2 = loop_params.overlap_distance_m * loop_params.overlap_distance_m;
+    let (mut inliers, mut overlapping) = (0usize, 0usize);
+    for p in query_m {
+        let d2 = map
+            .nearest(&relative.transform_point(*p))
+            .map_or(f64::INFINITY, |(_, d2)| d2);
+        if loop_params.overlap_distance_m <= 0.0 || d2 <= overlap_m2 {
+            overlapping += 1;
+        }
+        if d2 <= inlier_m2 {
+            inliers += 1;
+        }
+    }
+    (inliers, overlapping)
+}
+
 /// Matches `query_m` (points in the query keyframe's frame) against `submap_m` (points in the
 /// candidate keyframe's frame), starting from the predicted relative pose `predicted` and
 /// searching translations within `radius_m`.
@@ -159,25 +204,14 @@ pub fn match_loop(
         .ok()
         .flatten()
         .ok_or(LoopRejection::TooFewPoints)?;
-    let runner = runner_up(
+    let runner_up = runner_up_mean_value(
         &grids,
         &sample,
-        predicted,
-        &window,
-        &options,
+        (predicted, &window, &options),
         &best,
         loop_params.ambiguity_distance_m,
-    )
-    .ok()
-    .flatten()
-    .map_or(0.0, |m| m.score);
+    );
     let score = best.mean_value;
-    // The runner-up in the same (prior-weighted) units as the best, as a mean grid value.
-    let runner_up = if best.score > 0.0 {
-        score * runner / best.score
-    } else {
-        0.0
-    };
     let best = best.pose;
 
     // A peak on the window's edge (outermost ring of translations or of rotations) is a
@@ -209,19 +243,7 @@ pub fn match_loop(
         return Err(LoopRejection::AtSearchEdge);
     }
     let inlier_m2 = loop_params.inlier_distance_m * loop_params.inlier_distance_m;
-    let overlap_m2 = loop_params.overlap_distance_m * loop_params.overlap_distance_m;
-    let (mut inliers, mut overlapping) = (0usize, 0usize);
-    for p in &query_m {
-        let d2 = map
-            .nearest(&relative.transform_point(*p))
-            .map_or(f64::INFINITY, |(_, d2)| d2);
-        if loop_params.overlap_distance_m <= 0.0 || d2 <= overlap_m2 {
-            overlapping += 1;
-        }
-        if d2 <= inlier_m2 {
-            inliers += 1;
-        }
-    }
+    let (inliers, overlapping) = inliers_and_overlap(&map, &query_m, &relative, loop_params);
     if (overlapping as f64) < loop_params.min_overlap_ratio * query_m.len() as f64
         || overlapping < min_points
     {
