@@ -306,6 +306,37 @@ fn fit_line(
     LocalLine { normal, reach_m2 }
 }
 
+/// Cauchy weights 1 / (1 + r²/c²) of the pairs (`sources[i]`, `targets[i]`) into `weights`: 1 for
+/// small residuals, falling as (c/r)² beyond c. c² is `robust_scale_m2`, or the residuals' robust
+/// spread (1.4826 × median, the normal distribution's σ) while that is larger: far from the
+/// solution every pair has a large residual, and a fixed small c would slow convergence to a
+/// crawl; the median ignores the minority of pairs that belong to unmapped surfaces. Without a
+/// robust scale (`None`) every weight is 1. `residuals_m2` is reordered.
+fn cauchy_weights(
+    sources: &[[f64; 2]],
+    targets: &[[f64; 2]],
+    residuals_m2: &mut [f64],
+    robust_scale_m2: Option<f64>,
+    weights: &mut Vec<f64>,
+) {
+    weights.clear();
+    match robust_scale_m2 {
+        Some(robust_scale_m2) if !residuals_m2.is_empty() => {
+            let middle = residuals_m2.len() / 2;
+            let (_, median_m2, _) = residuals_m2.select_nth_unstable_by(middle, f64::total_cmp);
+            let spread_m2 = MAD_TO_SIGMA * MAD_TO_SIGMA * *median_m2;
+            let scale_m2 = robust_scale_m2.max(spread_m2);
+            weights.extend(
+                sources
+                    .iter()
+                    .zip(targets)
+                    .map(|(s, t)| 1.0 / (1.0 + squared_distance_m2(s, t) / scale_m2)),
+            );
+        }
+        _ => weights.resize(sources.len(), 1.0),
+    }
+}
+
 /// How an ICP run ended. Only [`IcpStatus::Converged`] and [`IcpStatus::MaxIterations`] apply a
 /// correction; every other status keeps the initial (predicted) pose.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -544,26 +575,8 @@ pub fn align(
             sources.push(in_map);
             targets.push(target);
         }
-        // Cauchy weights 1 / (1 + r²/c²): 1 for small residuals, falling as (c/r)² beyond c.
-        // c is `robust_scale_m`, or the residuals' robust spread (1.4826 × median, the normal
-        // distribution's σ) while that is larger: far from the solution every pair has a large
-        // residual, and a fixed small c would slow convergence to a crawl; the median ignores
-        // the minority of pairs that belong to unmapped surfaces.
-        weights.clear();
-        if params.robust_scale_m > 0.0 && !residuals_m2.is_empty() {
-            let middle = residuals_m2.len() / 2;
-            let (_, median_m2, _) = residuals_m2.select_nth_unstable_by(middle, f64::total_cmp);
-            let spread_m2 = MAD_TO_SIGMA * MAD_TO_SIGMA * *median_m2;
-            let scale_m2 = robust_scale_m2.max(spread_m2);
-            weights.extend(
-                sources
-                    .iter()
-                    .zip(&targets)
-                    .map(|(s, t)| 1.0 / (1.0 + squared_distance_m2(s, t) / scale_m2)),
-            );
-        } else {
-            weights.resize(sources.len(), 1.0);
-        }
+        let robust = (params.robust_scale_m > 0.0).then_some(robust_scale_m2);
+        cauchy_weights(&sources, &targets, &mut residuals_m2, robust, &mut weights);
         result.iterations = iteration;
         result.correspondences = sources.len();
         if sources.len() < min_pairs {
