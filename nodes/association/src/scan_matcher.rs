@@ -262,6 +262,47 @@ struct Pair {
     lever: Vector2<f64>,
 }
 
+/// Pairs each scan point (AGV frame, with its covariance) placed at `pose` with its nearest map
+/// cells into `pairs`, each with the information of their combined covariance (cell, point
+/// rotated into the map, `map_std_m`²). Returns (sum of squared residuals m², points paired).
+fn pair_with_cells(
+    map: &DistributionMap,
+    points: &[(RadarPoint, Matrix2<f64>)],
+    pose: Pose2,
+    settings: &MatchSettings,
+    pairs: &mut Vec<Pair>,
+) -> (f64, usize) {
+    pairs.clear();
+    let map_var = settings.map_std_m * settings.map_std_m;
+    let (sin, cos) = pose.yaw_rad.sin_cos();
+    let rotation = Matrix2::new(cos, -sin, sin, cos);
+    let mut sum_m2 = 0.0;
+    let mut paired_points = 0usize;
+    for (point, cov) in points {
+        let in_map = pose.transform_point(point.position_m);
+        let cells = map.nearest(&in_map, settings.neighbours, settings.max_correspondence_m);
+        if cells.is_empty() {
+            continue;
+        }
+        paired_points += 1;
+        let cov_map = rotation * cov * rotation.transpose();
+        for cell in cells {
+            let residual = Vector2::new(in_map[0] - cell.mean_m[0], in_map[1] - cell.mean_m[1]);
+            let s = cell.cov_m2 + cov_map + Matrix2::identity() * map_var;
+            let Some(info) = s.try_inverse() else {
+                continue;
+            };
+            sum_m2 += residual.norm_squared();
+            pairs.push(Pair {
+                residual,
+                info,
+                lever: Vector2::new(in_map[0] - pose.x_m, in_map[1] - pose.y_m),
+            });
+        }
+    }
+    (sum_m2, paired_points)
+}
+
 /// Matches `scan` against `map` from the `initial` pose (the prediction) by Gauss–Newton on the
 /// point-to-distribution cost (module docs). Returns the corrected pose, or `initial` with the
 /// reason it was kept. Non-finite points are ignored; no input yields a non-finite pose.
@@ -296,7 +337,6 @@ pub fn match_scan(
     if map.is_empty() || !initial.is_finite() {
         return unchanged(IcpStatus::EmptyMap);
     }
-    let map_var = settings.map_std_m * settings.map_std_m;
     let robust2 = settings.robust_sigma * settings.robust_sigma;
     let prior_info = Matrix3::from_diagonal(&Vector3::new(
         1.0 / settings.prior_std_m.powi(2),
@@ -307,33 +347,7 @@ pub fn match_scan(
     let mut result = unchanged(IcpStatus::MaxIterations);
     let mut pairs: Vec<Pair> = Vec::with_capacity(points.len() * settings.neighbours);
     for iteration in 1..=settings.max_iterations {
-        pairs.clear();
-        let (sin, cos) = pose.yaw_rad.sin_cos();
-        let rotation = Matrix2::new(cos, -sin, sin, cos);
-        let mut sum_m2 = 0.0;
-        let mut paired_points = 0usize;
-        for (point, cov) in &points {
-            let in_map = pose.transform_point(point.position_m);
-            let cells = map.nearest(&in_map, settings.neighbours, settings.max_correspondence_m);
-            if cells.is_empty() {
-                continue;
-            }
-            paired_points += 1;
-            let cov_map = rotation * cov * rotation.transpose();
-            for cell in cells {
-                let residual = Vector2::new(in_map[0] - cell.mean_m[0], in_map[1] - cell.mean_m[1]);
-                let s = cell.cov_m2 + cov_map + Matrix2::identity() * map_var;
-                let Some(info) = s.try_inverse() else {
-                    continue;
-                };
-                sum_m2 += residual.norm_squared();
-                pairs.push(Pair {
-                    residual,
-                    info,
-                    lever: Vector2::new(in_map[0] - pose.x_m, in_map[1] - pose.y_m),
-                });
-            }
-        }
+        let (sum_m2, paired_points) = pair_with_cells(map, &points, pose, settings, &mut pairs);
         result.iterations = iteration;
         result.correspondences = paired_points;
         if paired_points < settings.min_correspondences {
