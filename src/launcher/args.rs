@@ -1,0 +1,151 @@
+//! The command lines of `nrslam launch` and `nrslam run`, and their range checks.
+
+use crate::flags::{self, Real, Whole};
+use crate::TransportArgs;
+use anyhow::Result;
+use clap::Args;
+use nrslam_runtime::launch::Mode;
+use std::path::PathBuf;
+
+/// `nrslam launch`.
+#[derive(Args, Debug)]
+pub struct LaunchArgs {
+    /// Launch file (TOML), e.g. launch/paper-ideal.toml.
+    pub file: PathBuf,
+    /// Launch arguments as name:=value, e.g. range_std_m:=0.1 angle_std_deg:=5, and node
+    /// parameters as node.param:=value (nested: node.table.key:=value; the value is read as
+    /// TOML, e.g. association.scan_matching:=false mapper.resolution_m:=0.2). See docs/launch.md.
+    #[arg(value_name = "NAME:=VALUE")]
+    pub assignments: Vec<String>,
+    /// Run seed: every random stream of every node derives from it (0 to 2^64 − 1).
+    #[arg(long, default_value_t = 1, value_parser = flags::SEED.parser::<u64>(), allow_hyphen_values = true)]
+    pub seed: u64,
+    /// Output folder (created): summary.json, metrics.csv, map.png, segments.png, run.json.
+    /// Default: out/<launch file name>.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// in-process: all nodes in this process; processes: one OS process per node over zenoh.
+    /// Default: the launch file's mode.
+    #[arg(long, value_name = "MODE")]
+    pub mode: Option<Mode>,
+    /// Real-time factor R: simulated seconds per wall-clock second (2 = twice real time), from
+    /// 1e-6 to 1e6. 0 (default): as fast as the nodes go. Nothing is dropped either way.
+    #[arg(
+        long,
+        value_name = "R",
+        default_value_t = 0.0,
+        value_parser = flags::RATE.parser(),
+        allow_hyphen_values = true
+    )]
+    pub rate: f64,
+    /// How long node processes may take to come up, in seconds, 1 to 604800 (a week)
+    /// (processes mode).
+    #[arg(long, value_name = "SECONDS", default_value_t = 30, value_parser = flags::TIMEOUT_S.parser::<u64>(), allow_hyphen_values = true)]
+    pub start_timeout_s: u64,
+    /// Record the run into this new rosbag2 folder (metadata.yaml + MCAP, log times = simulated
+    /// clock); `launch/replay.toml bag:=DIR` replays it.
+    #[arg(long, value_name = "DIR")]
+    pub record: Option<PathBuf>,
+    /// With --record: topics to record (default: every topic the launch publishes).
+    #[arg(long, value_name = "TOPIC", num_args = 1..)]
+    pub record_topics: Vec<String>,
+    #[command(flatten)]
+    pub chunk: crate::bag::ChunkArgs,
+    /// With --record: chunk compression and file splitting, as `nrslam bag record`.
+    #[command(flatten)]
+    pub storage: crate::bag::StorageArgs,
+    /// With --listen/--connect: publish the mirrored topics as rmw_zenoh does in this ROS domain
+    /// (key `<domain>/<topic>/<type>/<RIHS01 hash>` plus rmw_zenoh's attachment), so ROS 2 nodes on
+    /// rmw_zenoh receive them without a bridge (in-process mode). 0 to 232, ROS 2's range.
+    #[arg(long, value_name = "DOMAIN_ID", value_parser = ROS_DOMAIN_ID.parser::<u32>(), allow_hyphen_values = true)]
+    pub ros_domain_id: Option<u32>,
+    #[command(flatten)]
+    pub transport: TransportArgs,
+}
+
+/// `nrslam run`.
+#[derive(Args, Debug)]
+pub struct RunArgs {
+    /// Node kind: radar, estimator, association, mapper, segmenter, evaluator.
+    pub kind: String,
+    /// The node's parameters (TOML, the fields of the node's Params at top level). Default: the
+    /// paper's defaults.
+    #[arg(long, value_name = "FILE")]
+    pub params: Option<PathBuf>,
+    /// Instance name (readiness key nrslam/ready/<name>). Default: the kind.
+    #[arg(long)]
+    pub name: Option<String>,
+    /// Run seed (must match the other nodes' for reproducible runs; 0 to 2^64 − 1).
+    #[arg(long, default_value_t = 1, value_parser = flags::SEED.parser::<u64>(), allow_hyphen_values = true)]
+    pub seed: u64,
+    /// Folder that relative paths in the parameters resolve against. Default: the params file's folder.
+    #[arg(long, value_name = "DIR")]
+    pub base_dir: Option<PathBuf>,
+    /// zenoh role of this process: peer, or client (of a router or listening peer).
+    #[arg(long, default_value = "peer", value_name = "ROLE")]
+    pub zenoh_mode: String,
+    /// Declare readiness and, for a source, wait for the launcher's start signal (used by `launch --mode processes`).
+    #[arg(long)]
+    pub start_barrier: bool,
+    /// With --start-barrier: how long to wait for the start signal, in seconds, 1 to 604800
+    /// (a week).
+    #[arg(long, value_name = "SECONDS", default_value_t = 60, value_parser = flags::TIMEOUT_S.parser::<u64>(), allow_hyphen_values = true)]
+    pub start_timeout_s: u64,
+    /// Without --start-barrier: seconds a source waits before its first frame, so subscribers can
+    /// come up, 0 to 3600 s.
+    #[arg(long, value_name = "SECONDS", default_value_t = 1.0, value_parser = STARTUP_DELAY_S.parser(), allow_hyphen_values = true)]
+    pub startup_delay_s: f64,
+    /// Real-time factor for a source, 1e-6 to 1e6 (0: as fast as possible).
+    #[arg(
+        long,
+        value_name = "R",
+        default_value_t = 0.0,
+        value_parser = flags::RATE.parser(),
+        allow_hyphen_values = true
+    )]
+    pub rate: f64,
+    /// An input topic whose stream already ended (repeatable): the launcher passes these when it
+    /// respawns a node, so it does not wait for ends it missed.
+    #[arg(long, value_name = "TOPIC")]
+    pub ended: Vec<String>,
+    #[command(flatten)]
+    pub transport: TransportArgs,
+}
+
+/// ROS 2 domain ids.
+pub(crate) const ROS_DOMAIN_ID: Whole = Whole::new(0, 232, "0 to 232 (ROS 2 domain ids)");
+/// Delay before a source's first frame.
+const STARTUP_DELAY_S: Real = Real::closed(0.0, 3600.0, "0 to 3600 s");
+
+impl LaunchArgs {
+    /// Checks every numeric flag against its range (clap's parsers check them too; this covers
+    /// `LaunchArgs` built in code, e.g. by `nrslam reproduce`). The error names the flag.
+    pub fn validate(&self) -> Result<()> {
+        flags::check("--rate", flags::RATE.check(self.rate))?;
+        flags::check(
+            "--start-timeout-s",
+            flags::TIMEOUT_S.check(self.start_timeout_s),
+        )?;
+        if let Some(id) = self.ros_domain_id {
+            flags::check("--ros-domain-id", ROS_DOMAIN_ID.check(id))?;
+        }
+        self.chunk.bytes()?;
+        Ok(())
+    }
+}
+
+impl RunArgs {
+    /// Checks every numeric flag against its range; the error names the flag.
+    pub fn validate(&self) -> Result<()> {
+        flags::check("--rate", flags::RATE.check(self.rate))?;
+        flags::check(
+            "--start-timeout-s",
+            flags::TIMEOUT_S.check(self.start_timeout_s),
+        )?;
+        flags::check(
+            "--startup-delay-s",
+            STARTUP_DELAY_S.check(self.startup_delay_s),
+        )?;
+        Ok(())
+    }
+}

@@ -1,0 +1,110 @@
+//! The in-process run: every node in this process, with an optional zenoh mirror of the topics.
+
+use super::build::Built;
+use super::recorder::Recorder;
+use super::{progress, transport_config, LaunchArgs};
+use crate::report::Reporter;
+use anyhow::{Context, Result};
+use indicatif::ProgressBar;
+use nrslam_msgs::{topics, Message};
+use nrslam_runtime::compose::{anyhow_free, Graph, Observer};
+use nrslam_runtime::transport::{self, KeyStyle, Pacer, RosNode, SessionMode, TopicPublisher};
+use std::time::Duration;
+
+/// The reporter plus what a run shows while it goes: progress, an optional zenoh mirror and an
+/// optional bag recording.
+struct RunObserver {
+    reporter: Reporter,
+    bar: ProgressBar,
+    mirror: Option<TopicPublisher>,
+    pacer: Pacer,
+    recorder: Option<Recorder>,
+}
+
+impl Observer for RunObserver {
+    fn observe(&mut self, topic: &'static str, message: &Message) -> anyhow_free::Result {
+        self.reporter.take(topic, message);
+        if topic == topics::CLOCK {
+            self.bar.inc(1);
+            self.pacer.pace(message.stamp().as_seconds());
+        }
+        if let (topics::METRICS, Message::Metrics(m)) = (topic, message) {
+            self.bar.set_message(format!(
+                "ET-GOPSA {:.2}  pos err {:.2} m",
+                m.etgospa, m.position_error_m
+            ));
+        }
+        if let Some(mirror) = &mut self.mirror {
+            mirror.publish(topic, message)?;
+        }
+        if let Some(recorder) = &mut self.recorder {
+            recorder.take(topic, message).map_err(
+                |e| -> Box<dyn std::error::Error + Send + Sync> { format!("{e:#}").into() },
+            )?;
+        }
+        Ok(())
+    }
+
+    fn end(&mut self, topic: &'static str) {
+        self.reporter.ended.push(topic);
+        if let Some(mirror) = &mut self.mirror {
+            let _ = mirror.end(topic);
+        }
+    }
+}
+
+pub(super) fn run_in_process(
+    args: &LaunchArgs,
+    built: Built,
+    recorder: Option<Recorder>,
+) -> Result<Reporter> {
+    let session = if args.transport.listen.is_empty()
+        && args.transport.connect.is_empty()
+        && args.transport.ros_router.is_none()
+    {
+        None
+    } else {
+        Some(
+            transport::open(&transport_config(SessionMode::Peer, &args.transport))
+                .context("opening the zenoh session")?,
+        )
+    };
+    let mirror = match &session {
+        Some(session) => {
+            let all: Vec<&'static str> = topics::CATALOGUE.iter().map(|t| t.name).collect();
+            let namespace = &args.transport.namespace;
+            let publisher = match args.ros_domain_id {
+                // Every node of the graph is a ROS 2 node on rmw_zenoh (tokens, GIDs).
+                Some(domain_id) => {
+                    let nodes = built.nodes.iter().map(|(name, node)| {
+                        RosNode::from_catalogue(name, &node.outputs(), &node.inputs())
+                    });
+                    let nodes = nodes.collect::<Result<Vec<_>, _>>()?;
+                    TopicPublisher::with_ros_nodes(session, namespace, domain_id, &nodes)?
+                }
+                None => TopicPublisher::with_style(session, namespace, &all, KeyStyle::Nrslam)?,
+            };
+            // Give outside subscribers that are already connected a moment to be matched.
+            std::thread::sleep(Duration::from_millis(500));
+            Some(publisher)
+        }
+        None => None,
+    };
+    let mut observer = RunObserver {
+        reporter: Reporter::default(),
+        bar: progress(built.expected_frames),
+        mirror,
+        pacer: Pacer::new(args.rate),
+        recorder,
+    };
+    let result = Graph::new(built.nodes).run(&mut observer);
+    observer.bar.finish_and_clear();
+    result?;
+    if let Some(recorder) = observer.recorder.take() {
+        recorder.finish()?;
+    }
+    if let Some(session) = session {
+        let _ = zenoh::Wait::wait(session.close());
+    }
+    Ok(observer.reporter)
+}

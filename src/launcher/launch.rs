@@ -1,0 +1,90 @@
+//! `nrslam launch`: loads the launch, runs it in the chosen mode and writes the report.
+
+use super::build::build_all;
+use super::in_process::run_in_process;
+use super::processes::run_processes;
+use super::recorder::recorder;
+use super::replay::replayed_run;
+use super::LaunchArgs;
+use anyhow::{bail, Context, Result};
+use nrslam_runtime::launch::{Launch, Mode};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// `nrslam launch`.
+pub fn launch(args: LaunchArgs) -> Result<()> {
+    args.validate()?;
+    let launch = Launch::load(&args.file, &args.assignments)?;
+    let mode = args.mode.unwrap_or(launch.mode);
+    let out = args.out.clone().unwrap_or_else(|| {
+        PathBuf::from("out").join(
+            args.file
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| "run".into()),
+        )
+    });
+    if args.ros_domain_id.is_some() && mode == Mode::Processes {
+        bail!(
+            "--ros-domain-id: only in-process launches mirror their topics (use --mode in-process)"
+        );
+    }
+    let built = build_all(&launch, args.seed)?;
+    let recorder = match &args.record {
+        Some(dir) => Some(recorder(&args, &launch, &built, dir)?),
+        None => None,
+    };
+    let replayed = replayed_run(&launch)?;
+    let started = Instant::now();
+    let reporter = match mode {
+        Mode::InProcess => run_in_process(&args, built, recorder)?,
+        Mode::Processes => run_processes(&args, &launch, built, &out, recorder)?,
+    };
+    let mut summary = reporter.summary(
+        &launch.arguments,
+        args.seed,
+        &launch.path.display().to_string(),
+    );
+    if let Some((_, identity)) = &replayed {
+        identity.apply(&mut summary);
+    }
+    reporter.write_all(&out, &summary)?;
+    let mut run_info = serde_json::json!({
+        "mode": match mode { Mode::InProcess => "in-process", Mode::Processes => "processes" },
+        "wall_time_s": started.elapsed().as_secs_f64(),
+        "rate": args.rate,
+    });
+    if let Some((bag, _)) = &replayed {
+        run_info["replayed_bag"] = serde_json::Value::from(bag.display().to_string());
+        run_info["replay_launch"] = serde_json::Value::from(launch.path.display().to_string());
+    }
+    std::fs::write(
+        out.join("run.json"),
+        serde_json::to_string_pretty(&run_info)? + "\n",
+    )
+    .with_context(|| format!("cannot write {}", out.join("run.json").display()))?;
+    if summary.metric_steps == 0 {
+        // No evaluator (a real sensor's bag): say what was built rather than a row of n/a.
+        outln!(
+            "{} keyframes, {} occupied map cells, no /metrics (no ground truth to score against); wrote {}",
+            summary.keyframes,
+            summary.occupied_cells.unwrap_or(0),
+            out.display()
+        );
+        return Ok(());
+    }
+    outln!(
+        "{} frames, final ET-GOPSA {}, GOSPA {}, pose RMSE {} m (final keyframe trajectory {} m); wrote {}",
+        summary.frames,
+        fmt_opt(summary.etgospa),
+        fmt_opt(summary.gospa),
+        fmt_opt(summary.pose_rmse_m),
+        fmt_opt(summary.keyframe_rmse_m),
+        out.display()
+    );
+    Ok(())
+}
+
+fn fmt_opt(value: Option<f64>) -> String {
+    value.map_or_else(|| "n/a".into(), |v| format!("{v:.3}"))
+}

@@ -1,0 +1,284 @@
+//! The processes-mode run: one OS process per node over zenoh, supervised, with the launcher as
+//! their router.
+
+use super::build::Built;
+use super::recorder::Recorder;
+use super::{progress, transport_config, LaunchArgs};
+use crate::flags;
+use crate::report::{Reporter, REPORTED};
+use anyhow::{anyhow, bail, Context, Result};
+use indicatif::ProgressBar;
+use nrslam_msgs::topics;
+use nrslam_runtime::launch::{Launch, NodeDecl};
+use nrslam_runtime::receive::{Delivery, Inbox};
+use nrslam_runtime::supervisor::{Event, ProcessSpec, RestartPolicy, Supervisor};
+use nrslam_runtime::transport::{self, SessionMode};
+use nrslam_runtime::Node;
+use std::collections::BTreeMap;
+use std::ffi::OsString;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+fn free_loopback_port() -> Result<u16> {
+    let listener =
+        std::net::TcpListener::bind("127.0.0.1:0").context("finding a free loopback port")?;
+    Ok(listener.local_addr()?.port())
+}
+
+/// The command line of node `decl` as a process of this launch (`restart`: without waiting for
+/// the start signal, which was given long ago).
+fn node_args(
+    decl: &NodeDecl,
+    params_file: &Path,
+    base_dir: &Path,
+    endpoint: &str,
+    args: &LaunchArgs,
+    restart: bool,
+) -> Result<Vec<OsString>> {
+    let mut out: Vec<OsString> = [
+        "run",
+        &decl.kind,
+        "--name",
+        &decl.name,
+        "--zenoh-mode",
+        "client",
+    ]
+    .iter()
+    .map(OsString::from)
+    .collect();
+    if !restart {
+        out.push("--start-barrier".into());
+    }
+    out.extend([
+        "--params".into(),
+        params_file.as_os_str().to_owned(),
+        "--base-dir".into(),
+        base_dir.as_os_str().to_owned(),
+    ]);
+    for (flag, value) in [
+        ("--seed", args.seed.to_string()),
+        ("--connect", endpoint.to_owned()),
+        ("--namespace", args.transport.namespace.clone()),
+        ("--rate", args.rate.to_string()),
+        ("--start-timeout-s", args.start_timeout_s.to_string()),
+        ("--on-bad-input", args.transport.on_bad_input.clone()),
+    ] {
+        out.extend([flag.into(), value.into()]);
+    }
+    if let Some(file) = &args.transport.zenoh_config {
+        out.push("--zenoh-config".into());
+        out.push(
+            std::fs::canonicalize(file)
+                .with_context(|| format!("--zenoh-config {}", file.display()))?
+                .into_os_string(),
+        );
+    }
+    Ok(out)
+}
+
+/// The restart policy of `decl`, refused for a node that cannot pick up a stream halfway: a
+/// source (it would start its stream over) or a node with a latched input (published once, at
+/// the start).
+fn restart_policy(decl: &NodeDecl, node: &dyn Node) -> Result<RestartPolicy> {
+    if decl.respawn {
+        if node.inputs().is_empty() {
+            bail!("node {}: respawn = true, but it is a source: a respawned source would start its stream over", decl.name);
+        }
+        let latched = node.inputs().into_iter().find(|t| {
+            topics::spec(t).is_some_and(|s| s.qos.durability == topics::Durability::TransientLocal)
+        });
+        if let Some(topic) = latched {
+            bail!("node {}: respawn = true, but its input {topic} is published once at the start: a respawned node would wait for it forever", decl.name);
+        }
+    }
+    Ok(RestartPolicy {
+        respawn: decl.respawn,
+        respawn_delay: flags::seconds("respawn_delay_s", decl.respawn_delay_s)?,
+        max_restarts: decl.max_restarts,
+    })
+}
+
+pub(super) fn run_processes(
+    args: &LaunchArgs,
+    launch: &Launch,
+    built: Built,
+    out: &Path,
+    mut recorder: Option<Recorder>,
+) -> Result<Reporter> {
+    let (mut listened, policies) = listened_topics(launch, &built, &recorder)?;
+    let open: Vec<&'static str> = listened.clone();
+    listened.push(topics::DIAGNOSTICS);
+    let inputs: BTreeMap<String, Vec<&'static str>> = built
+        .nodes
+        .iter()
+        .map(|(name, node)| (name.clone(), node.inputs()))
+        .collect();
+    drop(built.nodes);
+    let port = free_loopback_port()?;
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let mut transport_args = args.transport.clone();
+    transport_args.listen.push(endpoint.clone());
+    let session = transport::open(&transport_config(SessionMode::Router, &transport_args))
+        .context("opening the launcher's zenoh router")?;
+    let mut inbox = Inbox::subscribe(
+        &session,
+        &args.transport.namespace,
+        &listened,
+        args.transport.inbox_options()?,
+    )?;
+    let specs = process_specs(args, launch, policies, out, &endpoint)?;
+    let mut supervisor = Supervisor::start(specs)?;
+    let names: Vec<String> = launch.nodes.iter().map(|n| n.name.clone()).collect();
+    // The barrier adds the timeout to the clock: check here that it can.
+    let start_timeout = Duration::from_secs(args.start_timeout_s);
+    flags::deadline("--start-timeout-s", start_timeout)?;
+    transport::start_barrier(
+        &session,
+        &args.transport.namespace,
+        &names,
+        start_timeout,
+        || supervisor.poll().map(drop).map_err(|e| e.to_string()),
+    )
+    .map_err(|e| anyhow!("{e}"))?;
+    let bar = progress(built.expected_frames);
+    let mut reporter = receive(
+        &mut inbox,
+        &mut supervisor,
+        &inputs,
+        open,
+        &bar,
+        &mut recorder,
+    )?;
+    bar.finish_and_clear();
+    if !supervisor.wait_all(Duration::from_secs(60))? {
+        bail!("node processes still running 60 s after their topics ended");
+    }
+    reporter.restarts = supervisor.restarts();
+    reporter.note_drops("nrslam/launch/receive", inbox.drops());
+    let _ = zenoh::Wait::wait(session.close());
+    if let Some(recorder) = recorder {
+        recorder.finish()?;
+    }
+    Ok(reporter)
+}
+
+/// The topics the launcher listens to, sorted (without /diagnostics), and each node's restart
+/// policy in launch order.
+fn listened_topics(
+    launch: &Launch,
+    built: &Built,
+    recorder: &Option<Recorder>,
+) -> Result<(Vec<&'static str>, Vec<RestartPolicy>)> {
+    // Topics to listen to: the reporter's, those recorded, and the inputs of respawnable nodes
+    // (a respawned node is told which of them have ended). Each ends with the node that
+    // publishes it; topics no node publishes are not waited for.
+    let mut listened: Vec<&'static str> = REPORTED.to_vec();
+    if let Some(recorder) = recorder {
+        listened.extend(recorder.topics.iter().copied());
+    }
+    let mut policies = Vec::new();
+    for decl in &launch.nodes {
+        let node = built
+            .nodes
+            .iter()
+            .find(|(name, _)| *name == decl.name)
+            .map(|(_, node)| node.as_ref())
+            .ok_or_else(|| anyhow!("node {} was not built", decl.name))?;
+        let policy = restart_policy(decl, node)?;
+        if policy.respawn {
+            listened.extend(node.inputs());
+        }
+        policies.push(policy);
+    }
+    listened.retain(|t| {
+        built.nodes.iter().any(|(_, n)| n.outputs().contains(t)) || REPORTED.contains(t)
+    });
+    listened.sort_unstable();
+    listened.dedup();
+    Ok((listened, policies))
+}
+
+/// One process per node of the launch, its parameters written to `out/params/<name>.toml`.
+fn process_specs(
+    args: &LaunchArgs,
+    launch: &Launch,
+    policies: Vec<RestartPolicy>,
+    out: &Path,
+    endpoint: &str,
+) -> Result<Vec<ProcessSpec>> {
+    let params_dir = out.join("params");
+    std::fs::create_dir_all(&params_dir)
+        .with_context(|| format!("cannot create {}", params_dir.display()))?;
+    let exe = std::env::current_exe().context("locating the nrslam executable")?;
+    let mut specs = Vec::new();
+    for (decl, restart) in launch.nodes.iter().zip(policies) {
+        let file = params_dir.join(format!("{}.toml", decl.name));
+        std::fs::write(&file, toml::to_string(&decl.params)?)
+            .with_context(|| format!("cannot write {}", file.display()))?;
+        // An included node's relative paths resolve against its own file's folder.
+        let base_dir = std::fs::canonicalize(&decl.base_dir)
+            .with_context(|| format!("resolving {}", decl.base_dir.display()))?;
+        specs.push(ProcessSpec {
+            name: decl.name.clone(),
+            program: exe.clone(),
+            args: node_args(decl, &file, &base_dir, endpoint, args, false)?,
+            restart_args: node_args(decl, &file, &base_dir, endpoint, args, true)?,
+            restart,
+        });
+    }
+    Ok(specs)
+}
+
+/// Takes what the node processes publish until every `open` topic has ended, restarting nodes
+/// that die (as their policies allow).
+fn receive(
+    inbox: &mut Inbox,
+    supervisor: &mut Supervisor,
+    inputs: &BTreeMap<String, Vec<&'static str>>,
+    mut open: Vec<&'static str>,
+    bar: &ProgressBar,
+    recorder: &mut Option<Recorder>,
+) -> Result<Reporter> {
+    let mut reporter = Reporter::default();
+    let mut last_poll = Instant::now();
+    let mut all_finished = false;
+    while !open.is_empty() {
+        match inbox.recv_timeout(Duration::from_millis(200))? {
+            Some(Delivery::End { topic }) => open.retain(|t| *t != topic),
+            Some(Delivery::Message { topic, message, .. }) => {
+                if topic == topics::CLOCK {
+                    bar.inc(1);
+                }
+                reporter.take(topic, &message);
+                if let Some(recorder) = recorder {
+                    recorder.take(topic, &message)?;
+                }
+            }
+            // Every process had ended and nothing more came for 200 ms: that was all there is.
+            None if all_finished => bail!(
+                "every node process ended but topics {} never ended",
+                open.join(", ")
+            ),
+            None => {}
+        }
+        if last_poll.elapsed() >= Duration::from_millis(200) {
+            last_poll = Instant::now();
+            // A respawned node is told which of its inputs ended while it was down.
+            let ended = |name: &str| -> Vec<OsString> {
+                inputs
+                    .get(name)
+                    .into_iter()
+                    .flatten()
+                    .filter(|t| !open.contains(t))
+                    .flat_map(|t| [OsString::from("--ended"), OsString::from(*t)])
+                    .collect()
+            };
+            for event in supervisor.poll_with(&ended)? {
+                let Event::Restarted { name, status, .. } = event;
+                bar.println(format!("node {name} died ({status}) and was restarted"));
+            }
+            all_finished = supervisor.all_finished();
+        }
+    }
+    Ok(reporter)
+}
