@@ -660,6 +660,58 @@ fn corrupt(path: &Path, mode: ReadMode, d: &Damage) -> BagError {
     }
 }
 
+/// Sorts the summary's chunk indexes by offset and checks that they neither overlap nor leave the
+/// data section (which ends where the summary starts).
+fn check_chunk_indexes(chunk_indexes: &mut [ChunkIndex], summary_start: u64) -> Result<(), Fail> {
+    chunk_indexes.sort_by_key(|c| c.start_offset);
+    let mut previous_end = 8;
+    for index in chunk_indexes.iter() {
+        let end = index.start_offset.checked_add(index.length);
+        if index.start_offset < previous_end || end.is_none_or(|e| e > summary_start) {
+            return Err(damage(
+                summary_start,
+                format!(
+                    "summary: chunk index {}+{} overlaps or leaves the data section",
+                    index.start_offset, index.length
+                ),
+            ));
+        }
+        previous_end = end.unwrap_or(summary_start);
+    }
+    Ok(())
+}
+
+/// The channels by id, and one [`TopicSummary`] per topic (channels of one topic summed), in
+/// channel id order, with the statistics' message counts.
+fn topic_summaries(
+    mut channels: Vec<(u16, ChannelInfo)>,
+    statistics: Option<&format::Statistics>,
+) -> (HashMap<u16, ChannelInfo>, Vec<TopicSummary>) {
+    channels.sort_by_key(|c| c.0);
+    let mut infos = HashMap::new();
+    let mut topics: Vec<TopicSummary> = Vec::new();
+    for (id, info) in channels {
+        let (topic, type_name) = (info.topic.clone(), info.recorded.type_name.clone());
+        let count = statistics.map_or(0, |s| {
+            s.channel_message_counts
+                .iter()
+                .filter(|(c, _)| *c == id)
+                .map(|(_, n)| *n)
+                .sum()
+        });
+        match topics.iter_mut().find(|t| t.name == topic) {
+            Some(t) => t.count += count,
+            None => topics.push(TopicSummary {
+                name: topic.clone(),
+                type_name: type_name.clone(),
+                count,
+            }),
+        }
+        infos.insert(id, info);
+    }
+    (infos, topics)
+}
+
 /// The summary section through the footer at the end of the file: `Ok(Err(note))` when there is
 /// none to use, damage when the end of the file is not a valid footer and end magic.
 fn read_summary(src: &mut Source) -> Result<Result<Summary, String>, Fail> {
@@ -741,43 +793,8 @@ fn read_summary(src: &mut Source) -> Result<Result<Summary, String>, Fail> {
             _ => {}
         }
     }
-    chunk_indexes.sort_by_key(|c| c.start_offset);
-    let mut previous_end = 8;
-    for index in &chunk_indexes {
-        let end = index.start_offset.checked_add(index.length);
-        if index.start_offset < previous_end || end.is_none_or(|e| e > summary_start) {
-            return Err(damage(
-                summary_start,
-                format!(
-                    "summary: chunk index {}+{} overlaps or leaves the data section",
-                    index.start_offset, index.length
-                ),
-            ));
-        }
-        previous_end = end.unwrap_or(summary_start);
-    }
-    channels.sort_by_key(|c| c.0);
-    let mut infos = HashMap::new();
-    let mut topics: Vec<TopicSummary> = Vec::new();
-    for (id, info) in channels {
-        let (topic, type_name) = (info.topic.clone(), info.recorded.type_name.clone());
-        let count = statistics.as_ref().map_or(0, |s: &format::Statistics| {
-            s.channel_message_counts
-                .iter()
-                .filter(|(c, _)| *c == id)
-                .map(|(_, n)| *n)
-                .sum()
-        });
-        match topics.iter_mut().find(|t| t.name == topic) {
-            Some(t) => t.count += count,
-            None => topics.push(TopicSummary {
-                name: topic.clone(),
-                type_name: type_name.clone(),
-                count,
-            }),
-        }
-        infos.insert(id, info);
-    }
+    check_chunk_indexes(&mut chunk_indexes, summary_start)?;
+    let (infos, topics) = topic_summaries(channels, statistics.as_ref());
     Ok(Ok(Summary {
         topics,
         message_count: statistics.as_ref().map(|s| s.message_count),
