@@ -848,38 +848,19 @@ impl Estimator {
                 }
             } else {
                 let t2 = &mut tile2[..bb * m * a];
-                for b in 0..bb {
-                    for mm in 0..m {
-                        for c in 0..a {
-                            t2[(b * a + c) * m + mm] = t[(b * m + mm) * a + c];
-                        }
-                    }
-                }
-                fft_doppler.process_with_scratch(t2, scratch);
-                for b in 0..bb {
-                    let mut mx = 0.0f64;
-                    let mut sum = 0.0f64;
-                    for c in 0..a {
-                        let chunk = &t2[(b * a + c) * m..(b * a + c + 1) * m];
-                        let (mut best, mut best_p) = (0usize, -1.0f64);
-                        for (d, v) in chunk.iter().enumerate() {
-                            let p = v.norm_sqr();
-                            sum += p;
-                            if p > best_p {
-                                best = d;
-                                best_p = p;
-                            }
-                        }
-                        let cell = (i0 + b) * a + c;
-                        power[cell] = best_p;
-                        doppler_bin[cell] = best as u16;
-                        mx = mx.max(best_p);
-                        if let Some(map) = map.as_deref_mut() {
-                            map[(i0 + b) * a + (c + half) % a] = chunk[best];
-                        }
-                    }
-                    row_max[i0 + b] = if sum.is_finite() { mx } else { f64::NAN };
-                }
+                fft_doppler_keep_strongest(
+                    t,
+                    t2,
+                    fft_doppler.as_ref(),
+                    scratch,
+                    TileShape { i0, bb, m, a },
+                    DopplerOut {
+                        power,
+                        doppler_bin,
+                        row_max,
+                        map: map.as_deref_mut(),
+                    },
+                );
             }
             i0 += bb;
         }
@@ -898,6 +879,75 @@ impl Estimator {
             });
         }
         Ok(())
+    }
+}
+
+/// A tile of `bb` range bins from bin `i0`, `m` symbols and `a` angle bins.
+struct TileShape {
+    i0: usize,
+    bb: usize,
+    m: usize,
+    a: usize,
+}
+
+/// Where the Doppler transform's strongest bins go.
+struct DopplerOut<'o> {
+    power: &'o mut [f64],
+    doppler_bin: &'o mut [u16],
+    row_max: &'o mut [f64],
+    map: Option<&'o mut Vec<Complex64>>,
+}
+
+/// The Doppler DFT of each (range, angle) cell of the angle-transformed tile `t` (bin-major,
+/// symbols inner after the transposition into `t2`), keeping each cell's strongest Doppler bin:
+/// its power, its index, the row maxima (NaN when a row's total is not finite) and, with a map,
+/// the value itself at the fftshifted angle.
+fn fft_doppler_keep_strongest(
+    t: &[Complex64],
+    t2: &mut [Complex64],
+    fft_doppler: &dyn Fft<f64>,
+    scratch: &mut [Complex64],
+    TileShape { i0, bb, m, a }: TileShape,
+    out: DopplerOut<'_>,
+) {
+    let DopplerOut {
+        power,
+        doppler_bin,
+        row_max,
+        mut map,
+    } = out;
+    let half = a / 2;
+    for b in 0..bb {
+        for mm in 0..m {
+            for c in 0..a {
+                t2[(b * a + c) * m + mm] = t[(b * m + mm) * a + c];
+            }
+        }
+    }
+    fft_doppler.process_with_scratch(t2, scratch);
+    for b in 0..bb {
+        let mut mx = 0.0f64;
+        let mut sum = 0.0f64;
+        for c in 0..a {
+            let chunk = &t2[(b * a + c) * m..(b * a + c + 1) * m];
+            let (mut best, mut best_p) = (0usize, -1.0f64);
+            for (d, v) in chunk.iter().enumerate() {
+                let p = v.norm_sqr();
+                sum += p;
+                if p > best_p {
+                    best = d;
+                    best_p = p;
+                }
+            }
+            let cell = (i0 + b) * a + c;
+            power[cell] = best_p;
+            doppler_bin[cell] = best as u16;
+            mx = mx.max(best_p);
+            if let Some(map) = map.as_deref_mut() {
+                map[(i0 + b) * a + (c + half) % a] = chunk[best];
+            }
+        }
+        row_max[i0 + b] = if sum.is_finite() { mx } else { f64::NAN };
     }
 }
 
