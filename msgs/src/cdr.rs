@@ -22,7 +22,8 @@
 //!   caps that at 1 MiB), the rest grows as elements actually decode. With the largest element
 //!   of the catalogue reserved so (`Target`, 80 bytes in memory, at least 16 on the wire) a false
 //!   count thus reserves at most 10 bytes per payload byte. `MarkerArray`'s markers (about 450
-//!   bytes each in memory) reserve nothing up front and grow as they decode. `tests/decode_allocation.rs` asserts a total of
+//!   bytes each in memory) and `MapTargets`' targets (about 250) reserve nothing up front and grow
+//!   as they decode. `tests/decode_allocation.rs` asserts a total of
 //!   at most 64 × n + 4 KiB bytes over hostile payloads of every type (worst seen: about 10 × n);
 //! - a string must be valid UTF-8 and end in its NUL: ROS 2 writers always write the NUL, so a
 //!   missing one means a corrupt or foreign payload and is an error. A length of 0 (no NUL at

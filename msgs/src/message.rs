@@ -93,6 +93,7 @@ messages! {
     Keyframe => "nrslam_msgs/msg/Keyframe", |m: &Keyframe| m.header.stamp;
     Segments => "nrslam_msgs/msg/Segments", |m: &Segments| m.header.stamp;
     TargetSet => "nrslam_msgs/msg/TargetSet", |m: &TargetSet| m.header.stamp;
+    MapTargets => "nrslam_msgs/msg/MapTargets", |m: &MapTargets| m.header.stamp;
     Metrics => "nrslam_msgs/msg/Metrics", |m: &Metrics| m.header.stamp;
     RadarEcho => "nrslam_msgs/msg/RadarEcho", |m: &RadarEcho| m.header.stamp;
     RadarSpectrum => "nrslam_msgs/msg/RadarSpectrum", |m: &RadarSpectrum| m.header.stamp;
@@ -191,6 +192,23 @@ mod tests {
                     shape: "circle".into(),
                     outline: vec![Point::planar(0.0, 1.0)],
                     samples: vec![Point::planar(0.5, 1.0)],
+                }],
+            }),
+            Message::MapTargets(MapTargets {
+                header: header.clone(),
+                targets: vec![MapTarget {
+                    id: 1,
+                    shape: "circle".into(),
+                    center_x_m: 2.0,
+                    center_y_m: 3.0,
+                    width_m: 1.0,
+                    height_m: 1.0,
+                    radius_m: 0.5,
+                    covariance: vec![0.0; 9],
+                    outline: vec![Point::planar(2.5, 3.0)],
+                    samples: vec![Point::planar(2.5, 3.0)],
+                    supporting_cells: vec![Point::planar(2.5, 3.1)],
+                    ..Default::default()
                 }],
             }),
             Message::Metrics(Metrics {
@@ -387,6 +405,14 @@ mod tests {
                 "targets.samples",
             ),
             (
+                spoil!(MapTargets, t => { t.targets[0].covariance[4] = nan; }),
+                "targets.covariance",
+            ),
+            (
+                spoil!(MapTargets, t => { t.targets[0].supporting_cells[0].y = nan; }),
+                "targets.supporting_cells",
+            ),
+            (
                 spoil!(RadarEcho, e => { e.received[11] = nan; }),
                 "received",
             ),
@@ -446,6 +472,10 @@ mod tests {
             (spoil!(RadarSpectrum, s => { s.angle_bins = 8; }), "values"),
             (spoil!(KeyframePoses, k => { k.ids.push(2); }), "poses"),
             (spoil!(Segments, s => { s.labels.pop(); }), "labels"),
+            (
+                spoil!(MapTargets, t => { t.targets[0].shape = "rectangle".into(); }),
+                "targets.covariance",
+            ),
             (spoil!(PointCloud2, c => { c.data.pop(); }), "data"),
             (
                 spoil!(PointCloud2, c => { c.row_step = u32::MAX; c.height = u32::MAX; }),
@@ -491,6 +521,14 @@ mod tests {
             ),
             (spoil!(Segments, s => { s.labels[0] = 2; }), "labels"),
             (spoil!(Segments, s => { s.labels[0] = -2; }), "labels"),
+            (
+                spoil!(MapTargets, t => { t.targets[0].shape = "ellipse".into(); }),
+                "targets.shape",
+            ),
+            (
+                spoil!(MapTargets, t => { t.targets[0].radius_m = -0.1; }),
+                "targets.radius_m",
+            ),
             (
                 spoil!(PoseStamped, p => { p.pose.orientation = Quaternion { x: 0.0, y: 0.0, z: 0.0, w: 0.0 }; }),
                 "pose.orientation",

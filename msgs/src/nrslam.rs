@@ -148,6 +148,52 @@ pub struct TargetSet {
     pub targets: Vec<Target>,
 }
 
+/// One extended target of the map as a fitted shape (an element of [`MapTargets`]).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct MapTarget {
+    /// Track identifier, stable across map updates while the target is tracked.
+    pub id: u32,
+    /// "rectangle" or "circle".
+    pub shape: String,
+    /// Centre x (m), frame "map".
+    pub center_x_m: f64,
+    /// Centre y (m), frame "map".
+    pub center_y_m: f64,
+    /// Rectangle: extent along its own x axis (m); circle: the diameter.
+    pub width_m: f64,
+    /// Rectangle: extent along its own y axis (m); circle: the diameter.
+    pub height_m: f64,
+    /// Rectangle: rotation of its own x axis from the map's +x (rad, counter-clockwise); circle 0.
+    pub yaw_rad: f64,
+    /// Circle: radius (m); rectangle 0.
+    pub radius_m: f64,
+    /// Covariance of the parameters, row-major: rectangle (center_x_m, center_y_m, width_m,
+    /// height_m, yaw_rad), 5 × 5; circle (center_x_m, center_y_m, radius_m), 3 × 3. SI units.
+    pub covariance: Vec<f64>,
+    /// Rectangle: sides the fit saw (1 to 4); circle 0.
+    pub sides_seen: u32,
+    /// Map updates this target has been tracked over.
+    pub updates: u32,
+    /// Root-mean-square distance of the supporting cells from the fitted outline (m).
+    pub rms_residual_m: f64,
+    /// Closed outline, counter-clockwise, last vertex not repeated (circles as a 64-gon), m.
+    pub outline: Vec<Point>,
+    /// Points sampled as the truth's are (rectangle: corners; circle: 0°, 90°, 180°, 270°), m.
+    pub samples: Vec<Point>,
+    /// Centres of the occupied cells the shape was fitted to, m.
+    pub supporting_cells: Vec<Point>,
+}
+
+/// The map's extended targets as fitted shapes (`/map/targets`, one per map update).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct MapTargets {
+    /// Stamp of the map the shapes were fitted to, frame "map".
+    pub header: Header,
+    /// The targets, in increasing id.
+    #[serde(deserialize_with = "crate::visual::few_reserved")]
+    pub targets: Vec<MapTarget>,
+}
+
 /// Per-step evaluation (`/metrics`): ET-GOPSA and GOSPA with their decompositions (each term is
 /// the summed p-th power contribution, so the terms add up to the metric to the power p) and the
 /// AGV position error.

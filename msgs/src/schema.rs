@@ -115,6 +115,11 @@ const DEFINITIONS: &[(&str, &str)] = &[
     ("visualization_msgs/MarkerArray", "visualization_msgs/Marker[] markers\n"),
     ("nrslam_msgs/TargetSet", "std_msgs/Header header\nnrslam_msgs/Target[] targets\n"),
     (
+        "nrslam_msgs/MapTarget",
+        "uint32 id\nstring shape\nfloat64 center_x_m\nfloat64 center_y_m\nfloat64 width_m\nfloat64 height_m\nfloat64 yaw_rad\nfloat64 radius_m\nfloat64[] covariance\nuint32 sides_seen\nuint32 updates\nfloat64 rms_residual_m\ngeometry_msgs/Point[] outline\ngeometry_msgs/Point[] samples\ngeometry_msgs/Point[] supporting_cells\n",
+    ),
+    ("nrslam_msgs/MapTargets", "std_msgs/Header header\nnrslam_msgs/MapTarget[] targets\n"),
+    (
         "nrslam_msgs/Metrics",
         "std_msgs/Header header\nfloat64 etgospa\nfloat64 etgospa_localisation\nfloat64 etgospa_confusion\nfloat64 etgospa_missed\nfloat64 etgospa_false\nfloat64 gospa\nfloat64 gospa_localisation\nfloat64 gospa_missed\nfloat64 gospa_false\nfloat64 position_error_m\nuint32 estimated_targets\nuint32 estimate_points\n",
     ),

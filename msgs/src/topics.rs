@@ -27,6 +27,10 @@ pub const ASSOCIATION_STATS: &str = "/slam/association_stats";
 pub const MAP: &str = "/map";
 /// DBSCAN-labelled occupied cells.
 pub const SEGMENTS: &str = "/map/segments";
+/// The map's extended targets as fitted shapes, one per map update.
+pub const MAP_TARGETS: &str = "/map/targets";
+/// The fitted shapes, for viewers.
+pub const MAP_TARGET_MARKERS: &str = "/map/targets/markers";
 /// Per-step metrics.
 pub const METRICS: &str = "/metrics";
 /// What each process's receive path dropped (the ROS convention for health reports).
@@ -186,6 +190,18 @@ pub const CATALOGUE: &[TopicSpec] = &[
         type_name: "nrslam_msgs/msg/Segments",
         qos: STREAM,
         description: "occupied cells labelled by DBSCAN, one per map",
+    },
+    TopicSpec {
+        name: MAP_TARGETS,
+        type_name: "nrslam_msgs/msg/MapTargets",
+        qos: STREAM,
+        description: "extended targets as fitted rectangles and circles with covariance, one per map",
+    },
+    TopicSpec {
+        name: MAP_TARGET_MARKERS,
+        type_name: "visualization_msgs/msg/MarkerArray",
+        qos: STREAM,
+        description: "the fitted shapes' outlines, for viewers, one per map",
     },
     TopicSpec {
         name: METRICS,

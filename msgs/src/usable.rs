@@ -24,6 +24,9 @@
 //!   says a reader zips them and ignores any excess).
 //! - `Segments`: eps and points finite, one label per point, labels in −1..cluster_count.
 //! - `TargetSet`: outlines and samples finite.
+//! - `MapTargets`: shape "rectangle" or "circle"; centre, sizes, yaw, radius, residual, covariance
+//!   and every point finite; sizes, radius and residual ≥ 0; the covariance 25 values for a
+//!   rectangle, 9 for a circle.
 //! - `RadarEcho`: boresight, carrier, subcarrier spacing, symbol duration, antenna spacing and
 //!   SNR finite, the four physical ones > 0; `received.len() = 2·K·M·N`,
 //!   `transmitted.len() = 2·M·N` (no overflow); every sample finite.
@@ -310,6 +313,47 @@ impl CheckUsable for TargetSet {
             }
             for p in &target.samples {
                 point(p, "targets.samples")?;
+            }
+        }
+        Ok(())
+    }
+}
+
+impl CheckUsable for MapTargets {
+    fn check_usable(&self) -> Check {
+        header(&self.header)?;
+        for target in &self.targets {
+            let parameters = match target.shape.as_str() {
+                "rectangle" => 5,
+                "circle" => 3,
+                _ => return Err(Unusable::OutOfRange("targets.shape")),
+            };
+            finite(target.center_x_m, "targets.center_x_m")?;
+            finite(target.center_y_m, "targets.center_y_m")?;
+            finite(target.yaw_rad, "targets.yaw_rad")?;
+            for (value, field) in [
+                (target.width_m, "targets.width_m"),
+                (target.height_m, "targets.height_m"),
+                (target.radius_m, "targets.radius_m"),
+                (target.rms_residual_m, "targets.rms_residual_m"),
+            ] {
+                finite(value, field)?;
+                if value < 0.0 {
+                    return Err(Unusable::OutOfRange(field));
+                }
+            }
+            if target.covariance.len() != parameters * parameters {
+                return Err(Unusable::SizeMismatch("targets.covariance"));
+            }
+            all_finite(&target.covariance, "targets.covariance")?;
+            for (points, field) in [
+                (&target.outline, "targets.outline"),
+                (&target.samples, "targets.samples"),
+                (&target.supporting_cells, "targets.supporting_cells"),
+            ] {
+                for p in points {
+                    point(p, field)?;
+                }
             }
         }
         Ok(())

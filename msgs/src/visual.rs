@@ -195,7 +195,7 @@ pub struct MarkerArray {
 /// more on the wire): nothing is reserved from the decoder's size hint (which is bounded by the
 /// bytes left / 8, not by the element's size, so it would let a false count reserve ~56 bytes per
 /// payload byte); the vector grows as elements actually decode.
-fn few_reserved<'de, D, T>(deserializer: D) -> Result<Vec<T>, D::Error>
+pub(crate) fn few_reserved<'de, D, T>(deserializer: D) -> Result<Vec<T>, D::Error>
 where
     D: serde::Deserializer<'de>,
     T: Deserialize<'de>,

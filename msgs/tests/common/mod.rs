@@ -274,6 +274,31 @@ pub fn random_message(type_name: &str, rng: &mut Rng) -> Message {
                     .collect(),
             })
         }
+        "nrslam_msgs/msg/MapTargets" => {
+            let n = r.below(3);
+            Message::MapTargets(MapTargets {
+                header: r.header(),
+                targets: (0..n)
+                    .map(|_| MapTarget {
+                        id: r.u32(),
+                        shape: r.string(),
+                        center_x_m: r.f64(),
+                        center_y_m: r.f64(),
+                        width_m: r.f64(),
+                        height_m: r.f64(),
+                        yaw_rad: r.f64(),
+                        radius_m: r.f64(),
+                        covariance: r.f64s(26),
+                        sides_seen: r.u32(),
+                        updates: r.u32(),
+                        rms_residual_m: r.f64(),
+                        outline: r.points(5),
+                        samples: r.points(4),
+                        supporting_cells: r.points(6),
+                    })
+                    .collect(),
+            })
+        }
         "nrslam_msgs/msg/Metrics" => Message::Metrics(Metrics {
             header: r.header(),
             etgospa: r.f64(),
