@@ -1,7 +1,8 @@
 //! The evaluator node: scores the segmented SLAM map and the SLAM pose against ground truth.
 //!
-//! Inputs, in tie-breaking order: `/ground_truth/targets` (latched, first), `/map/segments`,
-//! `/ground_truth/pose`, `/slam/pose`. It keeps the latest targets, segments and true pose; on
+//! Inputs, in tie-breaking order: `/ground_truth/targets` (latched, first), `/map/segments`
+//! (`/map/targets`, the fitted shapes, with `representatives = "shape"`), `/ground_truth/pose`,
+//! `/slam/pose`. It keeps the latest targets, estimates and true pose; on
 //! each `/slam/pose` it publishes one [`Metrics`] on `/metrics` with the same stamp:
 //! - ET-GOPSA (the targets against the representatives of the latest segments, see
 //!   [`crate::representatives()`]) and GOSPA (all target sample points against the same
@@ -22,8 +23,10 @@
 //! poses, are still good) and the run's summary shows fewer metric steps than frames. Any other
 //! metric error stops the graph, as before.
 
-use nrslam_msgs::topics::{GROUND_TRUTH_POSE, GROUND_TRUTH_TARGETS, METRICS, SEGMENTS, SLAM_POSE};
-use nrslam_msgs::{Header, Message, Metrics, PoseStamped, Segments, TargetSet};
+use nrslam_msgs::topics::{
+    GROUND_TRUTH_POSE, GROUND_TRUTH_TARGETS, MAP_TARGETS, METRICS, SEGMENTS, SLAM_POSE,
+};
+use nrslam_msgs::{Header, MapTargets, Message, Metrics, PoseStamped, Segments, TargetSet};
 use nrslam_runtime::{Node, NodeContext, NodeError, Outbox};
 
 use crate::error::MetricError;
@@ -31,7 +34,7 @@ use crate::etgospa::{etgospa, EtGospaParams, EtGospaResult, ExtendedTarget};
 use crate::gospa::{gospa, GospaResult};
 use crate::params::Params;
 use crate::point::Point2;
-use crate::representatives::{flatten, representatives_with};
+use crate::representatives::{flatten, representatives_with, RepresentativeMode};
 
 /// The evaluator's state between messages.
 #[derive(Debug)]
@@ -148,6 +151,27 @@ impl EvaluatorNode {
         Ok(())
     }
 
+    /// The fitted shapes' samples are the estimate set (`representatives = "shape"`).
+    fn on_map_targets(&mut self, shapes: &MapTargets) -> Result<(), NodeError> {
+        self.estimated_targets = u32::try_from(shapes.targets.len())
+            .map_err(|_| NodeError::invalid_input(MAP_TARGETS, "more than u32::MAX targets"))?;
+        self.estimates = shapes
+            .targets
+            .iter()
+            .flat_map(|t| t.samples.iter().map(|p| Point2::new(p.x, p.y)))
+            .collect();
+        self.cached = None;
+        Ok(())
+    }
+
+    /// Where the estimate set comes from: the segments, or the fitted shapes.
+    fn estimate_topic(&self) -> &'static str {
+        match self.params.representatives {
+            RepresentativeMode::Shape => MAP_TARGETS,
+            RepresentativeMode::BoxCorners | RepresentativeMode::FarthestPoint => SEGMENTS,
+        }
+    }
+
     fn on_true_pose(&mut self, pose: &PoseStamped) -> Result<(), NodeError> {
         let (x_m, y_m, _) = pose.pose.planar();
         if !(x_m.is_finite() && y_m.is_finite()) {
@@ -199,7 +223,7 @@ impl EvaluatorNode {
             }
         };
         let estimate_points = u32::try_from(self.estimates.len()).map_err(|_| {
-            NodeError::invalid_input(SEGMENTS, "more than u32::MAX estimate points")
+            NodeError::invalid_input(self.estimate_topic(), "more than u32::MAX estimate points")
         })?;
         outbox.publish(
             METRICS,
@@ -228,7 +252,12 @@ impl EvaluatorNode {
 
 impl Node for EvaluatorNode {
     fn inputs(&self) -> Vec<&'static str> {
-        vec![GROUND_TRUTH_TARGETS, SEGMENTS, GROUND_TRUTH_POSE, SLAM_POSE]
+        vec![
+            GROUND_TRUTH_TARGETS,
+            self.estimate_topic(),
+            GROUND_TRUTH_POSE,
+            SLAM_POSE,
+        ]
     }
 
     fn outputs(&self) -> Vec<&'static str> {
@@ -243,7 +272,12 @@ impl Node for EvaluatorNode {
     ) -> Result<(), NodeError> {
         match (topic, message) {
             (GROUND_TRUTH_TARGETS, Message::TargetSet(set)) => self.on_targets(set),
-            (SEGMENTS, Message::Segments(segments)) => self.on_segments(segments),
+            (SEGMENTS, Message::Segments(segments)) if self.estimate_topic() == SEGMENTS => {
+                self.on_segments(segments)
+            }
+            (MAP_TARGETS, Message::MapTargets(shapes)) if self.estimate_topic() == MAP_TARGETS => {
+                self.on_map_targets(shapes)
+            }
             (GROUND_TRUTH_POSE, Message::PoseStamped(pose)) => self.on_true_pose(pose),
             (SLAM_POSE, Message::PoseStamped(pose)) => self.on_slam_pose(pose, outbox),
             (topic, message) => Err(NodeError::unexpected(topic, message)),
@@ -444,6 +478,51 @@ mod tests {
         let m = metrics(&mut outbox);
         assert_eq!((m.len(), m[0].estimate_points), (1, 4));
         assert_eq!(node.skipped_steps(), 2);
+    }
+
+    #[test]
+    fn shape_mode_scores_the_fitted_shapes_samples_and_ignores_segments() {
+        let params = Params {
+            representatives: RepresentativeMode::Shape,
+            ..Params::default()
+        };
+        let mut node = EvaluatorNode::new(params).unwrap();
+        assert_eq!(
+            node.inputs(),
+            vec![
+                GROUND_TRUTH_TARGETS,
+                MAP_TARGETS,
+                GROUND_TRUTH_POSE,
+                SLAM_POSE
+            ]
+        );
+        let mut outbox = Outbox::new();
+        node.on_message(GROUND_TRUTH_TARGETS, &targets(), &mut outbox)
+            .unwrap();
+        // Segments are not this mode's input.
+        let segments = Message::Segments(Segments::default());
+        assert!(node.on_message(SEGMENTS, &segments, &mut outbox).is_err());
+        // One shape on target 0's corners, shifted 0.5 m in x.
+        let shifted: Vec<Point> = square(0, 0.5).samples;
+        let shapes = Message::MapTargets(MapTargets {
+            header: Header::default(),
+            targets: vec![nrslam_msgs::MapTarget {
+                shape: "rectangle".into(),
+                samples: shifted,
+                covariance: vec![0.0; 25],
+                ..Default::default()
+            }],
+        });
+        node.on_message(MAP_TARGETS, &shapes, &mut outbox).unwrap();
+        node.on_message(GROUND_TRUTH_POSE, &stamped(1.0, 0.0, 0.0), &mut outbox)
+            .unwrap();
+        node.on_message(SLAM_POSE, &stamped(1.0, 0.0, 0.0), &mut outbox)
+            .unwrap();
+        let m = metrics(&mut outbox);
+        assert_eq!((m[0].estimated_targets, m[0].estimate_points), (1, 4));
+        // Target 0: 4 slots at 0.5 m (p = 1); target 1 missed: 4 × c/2.
+        assert!((m[0].etgospa_localisation - 2.0).abs() < 1e-12, "{m:?}");
+        assert!((m[0].etgospa_missed - 10.0).abs() < 1e-12, "{m:?}");
     }
 
     #[test]

@@ -27,7 +27,8 @@ pub struct Params {
     /// matching the paper's 4 sample points per target (Sec. IV-C).
     pub points_per_estimate: u32,
     /// How each map cluster becomes estimate points: `box-corners` (default: the 4 corners of
-    /// its principal-axis bounding box) or `farthest-point` (`points_per_estimate` points).
+    /// its principal-axis bounding box), `farthest-point` (`points_per_estimate` points) or
+    /// `shape` (the samples of the fitted shapes on `/map/targets`: run a `shapes` node).
     pub representatives: crate::representatives::RepresentativeMode,
 }
 

@@ -12,6 +12,10 @@
 //!   whole outline gives its corners, which are the rectangle's sample points, so the metric
 //!   rewards a map that fills in; a partial view gives a smaller box and costs localisation.
 //! - `farthest-point`: farthest-point sampling, below.
+//! - `shape`: the points sampled, as the truth's are, from the shape fitted to each target
+//!   (`/map/targets`, nrslam-shapes): a rectangle's 4 corners, a circle's points at 0°, 90°,
+//!   180° and 270°. The evaluator node then reads the fitted shapes instead of the segments;
+//!   [`representatives_with`] refuses this mode, as segments alone do not carry the shapes.
 //!
 //! The spread is farthest-point sampling: start at the point farthest from the cluster centroid,
 //! then repeatedly add the point farthest from those already chosen. Ties go to the lowest index,
@@ -39,6 +43,8 @@ pub enum RepresentativeMode {
     BoxCorners,
     /// k points by farthest-point sampling.
     FarthestPoint,
+    /// The samples of the fitted shapes (`/map/targets`), not computed from segments.
+    Shape,
 }
 
 /// The representatives of one cluster.
@@ -71,6 +77,11 @@ pub enum RepresentativesError {
         /// Its label.
         label: i32,
     },
+    /// [`RepresentativeMode::Shape`] asked of segments: the fitted shapes carry their samples.
+    #[error(
+        "representatives = \"shape\" come from the fitted shapes (/map/targets), not from segments"
+    )]
+    ShapeModeNeedsShapes,
     /// A clustered point with a NaN or infinite coordinate.
     #[error("point {index} has a non-finite coordinate ({x_m}, {y_m})")]
     NonFinitePoint {
@@ -117,6 +128,16 @@ pub fn representatives_with(
     k: usize,
     mode: RepresentativeMode,
 ) -> Result<Vec<ClusterRepresentatives>, RepresentativesError> {
+    let choose: fn(&[Point2], usize) -> Vec<Point2> = match mode {
+        RepresentativeMode::FarthestPoint => |cluster, k| {
+            farthest_point_sampling(cluster, k)
+                .into_iter()
+                .map(|i| cluster[i])
+                .collect()
+        },
+        RepresentativeMode::BoxCorners => |cluster, _| box_corners(cluster),
+        RepresentativeMode::Shape => return Err(RepresentativesError::ShapeModeNeedsShapes),
+    };
     if points.len() != labels.len() {
         return Err(RepresentativesError::LengthMismatch {
             points: points.len(),
@@ -148,13 +169,7 @@ pub fn representatives_with(
             ClusterRepresentatives {
                 label,
                 size: cluster.len(),
-                points: match mode {
-                    RepresentativeMode::FarthestPoint => farthest_point_sampling(&cluster, k)
-                        .into_iter()
-                        .map(|i| cluster[i])
-                        .collect(),
-                    RepresentativeMode::BoxCorners => box_corners(&cluster),
-                },
+                points: choose(&cluster, k),
             }
         })
         .collect())
