@@ -245,3 +245,120 @@ pub fn segments_png(path: &Path, report: &Reporter) -> Result<()> {
     root.present().map_err(plot_error)?;
     Ok(())
 }
+
+/// `shapes.png`: the fitted shapes (`/map/targets`: rectangles orange, circles blue, each with the
+/// 2σ ellipse of its centre and its sample points) over the segmented cells (grey) and the truth
+/// outlines (black).
+pub fn shapes_png(path: &Path, report: &Reporter) -> Result<()> {
+    register_font();
+    let root = BitMapBackend::new(path, (1100, 850)).into_drawing_area();
+    root.fill(&WHITE).map_err(plot_error)?;
+    let (x_range, y_range) = bounds(report);
+    let shapes = report
+        .map_targets
+        .as_ref()
+        .map_or(&[][..], |t| &t.targets[..]);
+    let circles = shapes.iter().filter(|t| t.shape == "circle").count();
+    let mut chart = ChartBuilder::on(&root)
+        .caption(
+            format!(
+                "Fitted shapes: {} rectangles, {circles} circles",
+                shapes.len() - circles
+            ),
+            ("sans-serif", 24),
+        )
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(50)
+        .build_cartesian_2d(x_range, y_range)
+        .map_err(plot_error)?;
+    chart
+        .configure_mesh()
+        .x_desc("x (m)")
+        .y_desc("y (m)")
+        .draw()
+        .map_err(plot_error)?;
+    if let Some(segments) = &report.segments {
+        let cells = segments
+            .points
+            .iter()
+            .zip(&segments.labels)
+            .filter(|(_, &label)| label >= 0)
+            .map(|(p, _)| Circle::new((p.x, p.y), 1, RGBColor(170, 170, 170).filled()));
+        chart.draw_series(cells).map_err(plot_error)?;
+    }
+    draw_outlines(&mut chart, report, RGBColor(0, 0, 0))?;
+    let (orange, blue) = (RGBColor(255, 127, 14), RGBColor(31, 119, 180));
+    for (index, shape) in shapes.iter().enumerate() {
+        let color = if shape.shape == "circle" {
+            blue
+        } else {
+            orange
+        };
+        let mut outline: Vec<(f64, f64)> = shape.outline.iter().map(|p| (p.x, p.y)).collect();
+        outline.extend(outline.first().copied());
+        let series = chart
+            .draw_series(LineSeries::new(outline, color.stroke_width(2)))
+            .map_err(plot_error)?;
+        if index == 0 {
+            series.label("fitted shapes").legend(move |(x, y)| {
+                PathElement::new([(x, y), (x + 20, y)], orange.stroke_width(2))
+            });
+        }
+        let ellipse = centre_ellipse_2sigma(shape);
+        chart
+            .draw_series(LineSeries::new(ellipse, color.stroke_width(1)))
+            .map_err(plot_error)?;
+        chart
+            .draw_series(
+                shape
+                    .samples
+                    .iter()
+                    .map(|p| Circle::new((p.x, p.y), 3, color.filled())),
+            )
+            .map_err(plot_error)?;
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(plot_error)?;
+    root.present().map_err(plot_error)?;
+    Ok(())
+}
+
+/// The 2σ ellipse of a fitted shape's centre (its covariance's upper-left 2 × 2 block), as a
+/// closed 48-gon; a single point when the covariance is missing or not positive semi-definite.
+fn centre_ellipse_2sigma(shape: &nrslam_msgs::MapTarget) -> Vec<(f64, f64)> {
+    let centre = (shape.center_x_m, shape.center_y_m);
+    let n = match shape.covariance.len() {
+        25 => 5,
+        9 => 3,
+        _ => return vec![centre],
+    };
+    let (a, b, d) = (
+        shape.covariance[0],
+        shape.covariance[1],
+        shape.covariance[n + 1],
+    );
+    // Eigen-decomposition of [[a, b], [b, d]].
+    let mean = 0.5 * (a + d);
+    let spread = (0.25 * (a - d).powi(2) + b * b).sqrt();
+    let (major, minor) = (mean + spread, mean - spread);
+    if !(minor >= 0.0 && major.is_finite()) {
+        return vec![centre];
+    }
+    let angle = 0.5 * (2.0 * b).atan2(a - d);
+    let (sin, cos) = angle.sin_cos();
+    (0..=48)
+        .map(|k| {
+            let phi = std::f64::consts::TAU * f64::from(k) / 48.0;
+            let (u, v) = (
+                2.0 * major.sqrt() * phi.cos(),
+                2.0 * minor.sqrt() * phi.sin(),
+            );
+            (centre.0 + cos * u - sin * v, centre.1 + sin * u + cos * v)
+        })
+        .collect()
+}

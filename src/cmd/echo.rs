@@ -87,6 +87,7 @@ fn message_json(message: &nrslam_msgs::Message) -> Result<String> {
         M::Keyframe(m) => serde_json::to_string(m)?,
         M::Segments(m) => serde_json::to_string(m)?,
         M::TargetSet(m) => serde_json::to_string(m)?,
+        M::MapTargets(m) => serde_json::to_string(m)?,
         M::Metrics(m) => serde_json::to_string(m)?,
         M::RadarEcho(m) => serde_json::to_string(m)?,
         M::RadarSpectrum(m) => serde_json::to_string(m)?,

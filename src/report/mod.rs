@@ -34,6 +34,7 @@ pub const REPORTED: &[&str] = &[
     topics::ASSOCIATION_STATS,
     topics::MAP,
     topics::SEGMENTS,
+    topics::MAP_TARGETS,
     topics::METRICS,
 ];
 

@@ -2,7 +2,9 @@
 
 use super::{PositionM, StampKey, Summary};
 use anyhow::{Context, Result};
-use nrslam_msgs::{topics, KeyframePoses, Message, Metrics, OccupancyGrid, Segments, TargetSet};
+use nrslam_msgs::{
+    topics, KeyframePoses, MapTargets, Message, Metrics, OccupancyGrid, Segments, TargetSet,
+};
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -25,6 +27,8 @@ pub struct Reporter {
     pub map: Option<OccupancyGrid>,
     /// Latest segments.
     pub segments: Option<Segments>,
+    /// Latest fitted shapes (`/map/targets`).
+    pub map_targets: Option<MapTargets>,
     /// True targets.
     pub targets: Option<TargetSet>,
     /// True path (x_m, y_m).
@@ -75,6 +79,7 @@ impl Reporter {
             (topics::METRICS, Message::Metrics(m)) => self.metrics.push(m.clone()),
             (topics::MAP, Message::OccupancyGrid(m)) => self.map = Some(m.clone()),
             (topics::SEGMENTS, Message::Segments(s)) => self.segments = Some(s.clone()),
+            (topics::MAP_TARGETS, Message::MapTargets(t)) => self.map_targets = Some(t.clone()),
             (topics::GROUND_TRUTH_TARGETS, Message::TargetSet(t)) => self.targets = Some(t.clone()),
             (topics::GROUND_TRUTH_POSE, Message::PoseStamped(p)) => {
                 let (x_m, y_m, yaw_rad) = p.pose.planar();
@@ -132,6 +137,9 @@ impl Reporter {
         self.write_loops_csv(&dir.join("loops.csv"))?;
         crate::plot::map_png(&dir.join("map.png"), self)?;
         crate::plot::segments_png(&dir.join("segments.png"), self)?;
+        if self.map_targets.is_some() {
+            crate::plot::shapes_png(&dir.join("shapes.png"), self)?;
+        }
         Ok(())
     }
 }
