@@ -1,0 +1,228 @@
+//! Fitting one segment: both models, then model selection by BIC.
+//!
+//! **Model selection.** Both a rectangle ([`crate::rectangle`](mod@crate::rectangle)) and a circle
+//! ([`crate::circle`](mod@crate::circle)) are fitted; each scores the Bayesian information
+//! criterion (G. Schwarz, "Estimating the dimension of a model", Ann. Stat. 6(2), 1978) of a
+//! Gaussian residual model with unknown variance,
+//!
+//! BIC = N ln(RSS / N) + k ln N,
+//!
+//! N points, RSS the squared distances to the outline (the rectangle's seen sides; the circle),
+//! RSS/N floored at `min_point_std_m²`, k free parameters: 1 + seen sides for a rectangle (yaw
+//! and one offset per side; the ends of the sides come from extents, the same for both models),
+//! 3 for a circle. The lower BIC wins; `circle_probability` = 1 / (1 + exp((BIC_c − BIC_r)/2)) is
+//! the posterior of the circle under equal prior odds (the BIC approximation to the Bayes
+//! factor). A circle is not a candidate when its radius leaves `[min_radius_m, max_radius_m]`
+//! (a straight side fits a circle of huge radius) or when the arc is concave toward the
+//! viewpoints (an outline is seen from outside, so the centre lies beyond the arc); an arc of a
+//! circle seen from one side, an L of two sides and one straight side then come out a circle, a
+//! rectangle and a rectangle.
+//!
+//! Points are shifted to their centroid before fitting (map coordinates of tens of metres would
+//! otherwise cost digits in the normal equations) and exact duplicates are merged.
+
+use crate::circle::fit_circle;
+use crate::rectangle::{bic, fit_rectangle};
+use crate::shape::{FittedShape, ShapeKind};
+use crate::Params;
+
+/// Why a segment could not be fitted.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum FitError {
+    /// The parameters are out of range.
+    #[error("invalid parameters: {0}")]
+    InvalidParams(#[from] nrslam_runtime::InvalidParam),
+    /// A point has a NaN or infinite coordinate.
+    #[error("point {index} has a non-finite coordinate")]
+    NonFinitePoint {
+        /// Index of the first offending point.
+        index: usize,
+    },
+    /// A viewpoint has a NaN or infinite coordinate.
+    #[error("viewpoint {index} has a non-finite coordinate")]
+    NonFiniteViewpoint {
+        /// Index of the first offending viewpoint.
+        index: usize,
+    },
+    /// Fewer distinct points than `min_points` (coincident points count once).
+    #[error("{distinct} distinct points, at least {min} needed")]
+    TooFewPoints {
+        /// Distinct points given.
+        distinct: usize,
+        /// `min_points`.
+        min: usize,
+    },
+    /// Neither model could be fitted (e.g. the points span less than a rounding error).
+    #[error("no rectangle or circle fits the {points} points")]
+    NoShape {
+        /// Distinct points given.
+        points: usize,
+    },
+}
+
+/// Both models' fits of one segment and the selected kind.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Candidates {
+    /// The rectangle fit, if any.
+    pub rectangle: Option<FittedShape>,
+    /// The circle fit, if a plausible circle exists.
+    pub circle: Option<FittedShape>,
+    /// The kind with the lower BIC (the only one present, if one is missing).
+    pub selected: ShapeKind,
+}
+
+impl Candidates {
+    /// The selected fit.
+    pub fn best(&self) -> &FittedShape {
+        self.get(self.selected)
+            .expect("the selected kind is always present")
+    }
+
+    /// The fit of `kind`, if present.
+    pub fn get(&self, kind: ShapeKind) -> Option<&FittedShape> {
+        match kind {
+            ShapeKind::Rectangle => self.rectangle.as_ref(),
+            ShapeKind::Circle => self.circle.as_ref(),
+        }
+    }
+}
+
+/// Fits one segment: the selected model of [`fit_candidates`].
+///
+/// `points` are the segment's occupied-cell centres, `viewpoints` the sensor positions it was
+/// seen from (map frame; may be empty), both in metres.
+pub fn fit(
+    points: &[[f64; 2]],
+    viewpoints: &[[f64; 2]],
+    params: &Params,
+) -> Result<FittedShape, FitError> {
+    fit_candidates(points, viewpoints, params).map(|c| c.best().clone())
+}
+
+/// Distinct points shifted to their centroid, and the centroid.
+fn centred(points: &[[f64; 2]]) -> (Vec<[f64; 2]>, [f64; 2]) {
+    let mut distinct = points.to_vec();
+    distinct.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
+    distinct.dedup();
+    let n = distinct.len().max(1) as f64;
+    let c = distinct
+        .iter()
+        .fold([0.0, 0.0], |s, p| [s[0] + p[0] / n, s[1] + p[1] / n]);
+    let shifted = distinct
+        .iter()
+        .map(|p| [p[0] - c[0], p[1] - c[1]])
+        .collect();
+    (shifted, c)
+}
+
+/// Weighted vote on which side of a line through `anchor` with normal `normal` the viewpoints
+/// lie: Σ w·sign((v − anchor)·normal), w = 1 / max(|v − anchor|, 1 m)², so the keyframes that
+/// were close (and could see the side) count most. > 0: on the normal's side.
+fn viewpoint_vote(viewpoints: &[[f64; 2]], anchor: [f64; 2], normal: [f64; 2]) -> f64 {
+    viewpoints
+        .iter()
+        .map(|v| {
+            let d = [v[0] - anchor[0], v[1] - anchor[1]];
+            let w = 1.0 / (d[0] * d[0] + d[1] * d[1]).max(1.0);
+            w * (d[0] * normal[0] + d[1] * normal[1]).signum()
+        })
+        .sum()
+}
+
+/// Fits both models to one segment and selects one (module doc).
+pub fn fit_candidates(
+    points: &[[f64; 2]],
+    viewpoints: &[[f64; 2]],
+    params: &Params,
+) -> Result<Candidates, FitError> {
+    params.validate()?;
+    if let Some(index) = points
+        .iter()
+        .position(|p| !(p[0].is_finite() && p[1].is_finite()))
+    {
+        return Err(FitError::NonFinitePoint { index });
+    }
+    if let Some(index) = viewpoints
+        .iter()
+        .position(|p| !(p[0].is_finite() && p[1].is_finite()))
+    {
+        return Err(FitError::NonFiniteViewpoint { index });
+    }
+    let (local, centroid) = centred(points);
+    let n = local.len();
+    if n < params.min_points as usize {
+        return Err(FitError::TooFewPoints {
+            distinct: n,
+            min: params.min_points as usize,
+        });
+    }
+    let local_viewpoints: Vec<[f64; 2]> = if viewpoints.is_empty() {
+        // Without viewpoints the map origin, where the run starts, stands in for the sensor.
+        vec![[-centroid[0], -centroid[1]]]
+    } else {
+        viewpoints
+            .iter()
+            .map(|v| [v[0] - centroid[0], v[1] - centroid[1]])
+            .collect()
+    };
+    let vote =
+        |anchor: [f64; 2], normal: [f64; 2]| viewpoint_vote(&local_viewpoints, anchor, normal);
+    let rectangle = fit_rectangle(&local, params, &vote);
+    let circle = fit_circle(&local, params).filter(|c| {
+        // Concave toward the sensor: the centre lies on the viewpoints' side of the points.
+        // Undecidable (and skipped) when the points surround the centre or nothing was given.
+        let offset = c.center_m;
+        let norm = offset[0].hypot(offset[1]);
+        viewpoints.is_empty() || norm < 0.5 * c.radius_m || vote([0.0, 0.0], offset) <= 0.0
+    });
+    let floor = params.min_point_std_m;
+    let bic_rectangle = rectangle
+        .as_ref()
+        .map(|r| bic(r.rss_m2, n, r.parameters, floor));
+    let bic_circle = circle.as_ref().map(|c| bic(c.rss_m2, n, 3, floor));
+    let circle_probability = match (bic_rectangle, bic_circle) {
+        (Some(br), Some(bc)) => 1.0 / (1.0 + ((bc - br) / 2.0).clamp(-700.0, 700.0).exp()),
+        (None, Some(_)) => 1.0,
+        _ => 0.0,
+    };
+    let shift = |p: [f64; 2]| [p[0] + centroid[0], p[1] + centroid[1]];
+    let rectangle = rectangle.map(|r| FittedShape {
+        kind: ShapeKind::Rectangle,
+        center_m: shift(r.center_m),
+        size_m: r.size_m,
+        yaw_rad: r.yaw_rad,
+        radius_m: 0.0,
+        covariance: r.covariance,
+        sides_seen: r.sides_seen,
+        support: n,
+        rms_residual_m: (r.rss_m2 / n as f64).sqrt(),
+        bic_rectangle,
+        bic_circle,
+        circle_probability,
+    });
+    let circle = circle.map(|c| FittedShape {
+        kind: ShapeKind::Circle,
+        center_m: shift(c.center_m),
+        size_m: [2.0 * c.radius_m; 2],
+        yaw_rad: 0.0,
+        radius_m: c.radius_m,
+        covariance: c.covariance,
+        sides_seen: 0,
+        support: n,
+        rms_residual_m: (c.rss_m2 / n as f64).sqrt(),
+        bic_rectangle,
+        bic_circle,
+        circle_probability,
+    });
+    let selected = match (&rectangle, &circle) {
+        (Some(_), Some(_)) if circle_probability > 0.5 => ShapeKind::Circle,
+        (Some(_), _) => ShapeKind::Rectangle,
+        (None, Some(_)) => ShapeKind::Circle,
+        (None, None) => return Err(FitError::NoShape { points: n }),
+    };
+    Ok(Candidates {
+        rectangle,
+        circle,
+        selected,
+    })
+}

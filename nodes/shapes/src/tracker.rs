@@ -1,0 +1,196 @@
+//! Target identities across map updates: the issue's "recursive estimator per target, associated
+//! across map updates", in the form that keeps the covariance honest.
+//!
+//! **Why the estimate is the current fit, not a fusion of fits.** The occupancy map is
+//! cumulative and is rebuilt from scratch whenever the pose graph corrects, so each segment
+//! already holds all the evidence so far. Fusing successive fits as independent measurements (a
+//! Kalman update per map) would count the same cells again at every update and shrink the
+//! covariance without new information. A track's estimate is therefore the fit of its current
+//! segment: it improves, and its covariance shrinks, exactly as the segment grows (a second side
+//! seen replaces the depth prior by a measured side). What is recursive is the track's identity
+//! and its kind belief.
+//!
+//! **Association.** Each update fits every segment and pairs fits with tracks one-to-one,
+//! greedily by increasing centre distance, within `gate_m` (the last reported centre of the
+//! track). Unpaired fits start new tracks with fresh ids (never reused); tracks left unpaired
+//! count a miss, keep their id for `max_missed_updates` updates (a segment that vanishes while
+//! the map is rebuilt comes back under its id) and are then dropped. Only tracks paired in this
+//! update are reported: a missed track's shape belongs to a map that no longer exists.
+//!
+//! **Kind with hysteresis.** A track keeps a smoothed circle probability
+//! p ← a·p + (1 − a)·p_fit (a = `kind_smoothing`, p_fit from the fit's BICs). It changes kind
+//! only when p for the other kind exceeds `kind_switch_probability`; until then the fit of the
+//! track's kind is reported (both models are fitted on every segment), so a target does not flip
+//! between circle and rectangle on every update. The smoothing is a low-pass on a belief, not a
+//! product of likelihoods, for the same reason as above: successive fits are not independent.
+
+use serde::Serialize;
+
+use crate::fit::fit_candidates;
+use crate::shape::{FittedShape, ShapeKind};
+use crate::Params;
+
+/// One target reported by the tracker.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TrackedTarget {
+    /// Stable id: the same target keeps it across updates; ids are never reused.
+    pub id: u32,
+    /// The current estimate: the fit of this update's segment, of the track's kind.
+    pub shape: FittedShape,
+    /// Updates in which the track was paired with a segment (1 at birth).
+    pub updates: u32,
+    /// Smoothed probability that the target is a circle (module doc).
+    pub circle_probability: f64,
+    /// Index of the segment (in this update's input) the shape was fitted to.
+    pub segment: usize,
+}
+
+#[derive(Debug, Clone)]
+struct Track {
+    id: u32,
+    kind: ShapeKind,
+    circle_probability: f64,
+    center_m: [f64; 2],
+    updates: u32,
+    missed: u32,
+}
+
+/// Keeps target ids across map updates (module doc).
+#[derive(Debug, Clone)]
+pub struct ShapeTracker {
+    params: Params,
+    tracks: Vec<Track>,
+    next_id: u32,
+}
+
+/// Circle probabilities are kept away from 0 and 1 so that one decisive fit cannot pin a track.
+const PROBABILITY_CLAMP: f64 = 0.01;
+
+impl ShapeTracker {
+    /// A tracker with no targets. `params` should be valid ([`Params::validate`]); with invalid
+    /// parameters every fit fails and no target is ever reported.
+    pub fn new(params: Params) -> Self {
+        Self {
+            params,
+            tracks: Vec::new(),
+            next_id: 0,
+        }
+    }
+
+    /// Tracks alive (reported or coasting).
+    pub fn track_count(&self) -> usize {
+        self.tracks.len()
+    }
+
+    /// One map update: `segments` are the points of every segment (label ≥ 0), `viewpoints` the
+    /// sensor positions so far. Returns the targets of this update, by segment index; segments
+    /// that cannot be fitted (too few points, non-finite coordinates) are skipped.
+    pub fn update(
+        &mut self,
+        segments: &[Vec<[f64; 2]>],
+        viewpoints: &[[f64; 2]],
+    ) -> Vec<TrackedTarget> {
+        let fits: Vec<(usize, crate::Candidates)> = segments
+            .iter()
+            .enumerate()
+            .filter_map(|(i, s)| {
+                fit_candidates(s, viewpoints, &self.params)
+                    .ok()
+                    .map(|c| (i, c))
+            })
+            .collect();
+        let pairs = self.associate(&fits);
+        let mut paired_track = vec![false; self.tracks.len()];
+        let mut out = Vec::with_capacity(fits.len());
+        for (f, (segment, candidates)) in fits.iter().enumerate() {
+            let track_index = match pairs.iter().find(|(pf, _)| *pf == f) {
+                Some(&(_, t)) => {
+                    paired_track[t] = true;
+                    t
+                }
+                None => {
+                    self.tracks.push(Track {
+                        id: self.next_id,
+                        kind: candidates.selected,
+                        circle_probability: candidates
+                            .best()
+                            .circle_probability
+                            .clamp(PROBABILITY_CLAMP, 1.0 - PROBABILITY_CLAMP),
+                        center_m: candidates.best().center_m,
+                        updates: 0,
+                        missed: 0,
+                    });
+                    self.next_id = self.next_id.wrapping_add(1);
+                    paired_track.push(true);
+                    self.tracks.len() - 1
+                }
+            };
+            let fresh = self.tracks[track_index].updates == 0;
+            let shape = self.update_track(track_index, candidates, fresh);
+            let track = &self.tracks[track_index];
+            out.push(TrackedTarget {
+                id: track.id,
+                shape,
+                updates: track.updates,
+                circle_probability: track.circle_probability,
+                segment: *segment,
+            });
+        }
+        for (track, paired) in self.tracks.iter_mut().zip(&paired_track) {
+            if !paired {
+                track.missed += 1;
+            }
+        }
+        let max_missed = self.params.max_missed_updates;
+        self.tracks.retain(|t| t.missed <= max_missed);
+        out
+    }
+
+    /// Greedy one-to-one pairs (fit index, track index) within the gate, nearest first.
+    fn associate(&self, fits: &[(usize, crate::Candidates)]) -> Vec<(usize, usize)> {
+        let fit_centres: Vec<[f64; 2]> = fits.iter().map(|(_, c)| c.best().center_m).collect();
+        let track_centres: Vec<[f64; 2]> = self.tracks.iter().map(|t| t.center_m).collect();
+        crate::evaluate::match_to_truth(&fit_centres, &track_centres, self.params.gate_m)
+    }
+
+    /// Updates the kind belief of a paired track and returns the shape to report.
+    fn update_track(
+        &mut self,
+        index: usize,
+        candidates: &crate::Candidates,
+        fresh: bool,
+    ) -> FittedShape {
+        let (a, switch) = (
+            self.params.kind_smoothing,
+            self.params.kind_switch_probability,
+        );
+        let track = &mut self.tracks[index];
+        let p_fit = candidates.best().circle_probability;
+        if !fresh {
+            track.circle_probability = (a * track.circle_probability + (1.0 - a) * p_fit)
+                .clamp(PROBABILITY_CLAMP, 1.0 - PROBABILITY_CLAMP);
+        }
+        let other_wins = match track.kind {
+            ShapeKind::Rectangle => track.circle_probability > switch,
+            ShapeKind::Circle => 1.0 - track.circle_probability > switch,
+        };
+        if other_wins {
+            track.kind = match track.kind {
+                ShapeKind::Rectangle => ShapeKind::Circle,
+                ShapeKind::Circle => ShapeKind::Rectangle,
+            };
+        }
+        // The fit of the track's kind when there is one; else the kind follows the fit.
+        let shape = match candidates.get(track.kind) {
+            Some(s) => s.clone(),
+            None => {
+                track.kind = candidates.selected;
+                candidates.best().clone()
+            }
+        };
+        track.center_m = shape.center_m;
+        track.updates += 1;
+        track.missed = 0;
+        shape
+    }
+}
