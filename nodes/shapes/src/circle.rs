@@ -5,7 +5,7 @@
 //! toward small radii on short arcs.
 //!
 //! The covariance of (cx, cy, r) is σ̂²(JᵀJ)⁻¹ at the solution, σ̂ from the residuals (floored at
-//! `min_point_std_m`), plus the cells' quantisation variance `cell_size_m²/12` on each parameter.
+//! `min_point_std_m`), plus `offset_std_m²` on each parameter (an error shared by all the cells).
 //! Points on a line make the algebraic system singular or the radius huge: no circle then
 //! (radius outside `[min_radius_m, max_radius_m]`), which model selection reads as "not a circle".
 
@@ -116,9 +116,9 @@ pub(crate) fn fit_circle(points: &[[f64; 2]], params: &Params) -> Option<CircleF
     let dof = n.saturating_sub(3);
     let sigma2 = if dof > 0 { rss / dof as f64 } else { 0.0 }.max(params.min_point_std_m.powi(2));
     let mut cov = jtj.try_inverse()? * sigma2;
-    let quantisation = params.cell_size_m.powi(2) / 12.0;
+    let shared = params.offset_std_m.powi(2);
     for i in 0..3 {
-        cov[(i, i)] += quantisation;
+        cov[(i, i)] += shared;
     }
     let covariance: Vec<f64> = (0..3)
         .flat_map(|r| (0..3).map(move |c| (r, c)))

@@ -7,10 +7,13 @@
 //!
 //! BIC = N ln(RSS / N) + k ln N,
 //!
-//! N points, RSS the squared distances to the outline (the rectangle's seen sides; the circle),
-//! RSS/N floored at `min_point_std_m²`, k free parameters: 1 + seen sides for a rectangle (yaw
-//! and one offset per side; the ends of the sides come from extents, the same for both models),
-//! 3 for a circle. The lower BIC wins; `circle_probability` = 1 / (1 + exp((BIC_c − BIC_r)/2)) is
+//! N points, RSS the squared distances to the model's outline (the rectangle's four sides as
+//! segments; the circle), RSS/N floored at `min_point_std_m²`, k the parameters the points
+//! determine: 5 for a rectangle (centre, size, yaw: offsets of seen sides and ends of the seen
+//! extents alike), 4 when one side is seen (the depth comes from the prior), 3 for a circle.
+//! Counting the extents matters: with a noise band as thick as an arc's sagitta, an L of two
+//! lines fits an arc about as well as the circle does, and only its extra parameters tell them
+//! apart. The lower BIC wins; `circle_probability` = 1 / (1 + exp((BIC_c − BIC_r)/2)) is
 //! the posterior of the circle under equal prior odds (the BIC approximation to the Bayes
 //! factor). A circle is not a candidate when its radius leaves `[min_radius_m, max_radius_m]`
 //! (a straight side fits a circle of huge radius) or when the arc is concave toward the
@@ -22,8 +25,9 @@
 //! otherwise cost digits in the normal equations) and exact duplicates are merged.
 
 use crate::circle::fit_circle;
+use crate::geometry::distance_to_boundary;
 use crate::rectangle::{bic, fit_rectangle};
-use crate::shape::{FittedShape, ShapeKind};
+use crate::shape::{rectangle_corners, FittedShape, ShapeKind};
 use crate::Params;
 
 /// Why a segment could not be fitted.
@@ -176,9 +180,19 @@ pub fn fit_candidates(
         viewpoints.is_empty() || norm < 0.5 * c.radius_m || vote([0.0, 0.0], offset) <= 0.0
     });
     let floor = params.min_point_std_m;
-    let bic_rectangle = rectangle
-        .as_ref()
-        .map(|r| bic(r.rss_m2, n, r.parameters, floor));
+    // The rectangle's residuals are distances to its whole outline, whose 5 parameters all come
+    // from the points except a depth set by the prior (one side seen).
+    let rectangle_rss = rectangle.as_ref().map(|r| {
+        let outline = rectangle_corners(r.center_m, r.size_m, r.yaw_rad);
+        local
+            .iter()
+            .map(|&p| distance_to_boundary(p, &outline).powi(2))
+            .sum::<f64>()
+    });
+    let bic_rectangle = rectangle.as_ref().zip(rectangle_rss).map(|(r, rss)| {
+        let parameters = if r.sides_seen == 1 { 4 } else { 5 };
+        bic(rss, n, parameters, floor)
+    });
     let bic_circle = circle.as_ref().map(|c| bic(c.rss_m2, n, 3, floor));
     let circle_probability = match (bic_rectangle, bic_circle) {
         (Some(br), Some(bc)) => 1.0 / (1.0 + ((bc - br) / 2.0).clamp(-700.0, 700.0).exp()),
@@ -195,7 +209,7 @@ pub fn fit_candidates(
         covariance: r.covariance,
         sides_seen: r.sides_seen,
         support: n,
-        rms_residual_m: (r.rss_m2 / n as f64).sqrt(),
+        rms_residual_m: (rectangle_rss.unwrap_or(r.rss_m2) / n as f64).sqrt(),
         bic_rectangle,
         bic_circle,
         circle_probability,

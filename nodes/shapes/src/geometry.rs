@@ -77,6 +77,26 @@ pub fn clip_convex(subject: &[[f64; 2]], clip: &[[f64; 2]]) -> Vec<[f64; 2]> {
     output
 }
 
+/// Distance (m) from `p` to the boundary of a closed polygon (its edges, last vertex joined to the
+/// first). +∞ for an empty polygon.
+pub fn distance_to_boundary(p: [f64; 2], polygon: &[[f64; 2]]) -> f64 {
+    let n = polygon.len();
+    let mut best = f64::INFINITY;
+    for i in 0..n {
+        let (a, b) = (polygon[i], polygon[(i + 1) % n]);
+        let d = [b[0] - a[0], b[1] - a[1]];
+        let len2 = d[0] * d[0] + d[1] * d[1];
+        let t = if len2 > 0.0 {
+            (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / len2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let q = [a[0] + t * d[0] - p[0], a[1] + t * d[1] - p[1]];
+        best = best.min(q[0].hypot(q[1]));
+    }
+    best
+}
+
 /// Intersection over union of two convex polygons, in [0, 1]. 0 when either has zero area, a
 /// non-finite vertex or fewer than 3 vertices (nothing to overlap), 1 for identical polygons.
 pub fn convex_polygon_iou(a: &[[f64; 2]], b: &[[f64; 2]]) -> f64 {
@@ -132,6 +152,15 @@ mod tests {
         let mut cw = a.clone();
         cw.reverse();
         assert!((convex_polygon_iou(&cw, &b) - 2.0 / 6.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn distance_to_a_square_boundary() {
+        let a = rect(0.0, 0.0, 2.0, 2.0, 0.0);
+        assert!((distance_to_boundary([0.0, 0.0], &a) - 1.0).abs() < 1e-12);
+        assert!((distance_to_boundary([0.5, 3.0], &a) - 2.0).abs() < 1e-12);
+        assert!((distance_to_boundary([2.0, 2.0], &a) - 2f64.sqrt()).abs() < 1e-12);
+        assert_eq!(distance_to_boundary([0.0, 0.0], &[]), f64::INFINITY);
     }
 
     #[test]

@@ -45,6 +45,8 @@ pub mod shape;
 pub mod tracker;
 
 #[cfg(test)]
+mod calibration_tests;
+#[cfg(test)]
 mod synthetic;
 
 pub use evaluate::{evaluate, match_to_truth, ShapeErrors, TruthShape};

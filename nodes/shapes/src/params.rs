@@ -14,11 +14,14 @@ pub struct Params {
     /// Fewest distinct points a segment needs to be fitted. ≥ 3 (two points fix no shape).
     /// Default 4 (the segmenter's `min_samples`).
     pub min_points: u32,
-    /// Side of the map's cells, metres: points are cell centres, so each carries a quantisation
-    /// error of standard deviation `cell_size_m / √12` per axis, shared by all cells along an
-    /// axis-aligned edge (it does not average out; it is added to every offset's variance).
+    /// Side of the map's cells, metres: the smallest size a fitted rectangle is given.
     /// Finite, 0.001..=10. Default 0.1.
     pub cell_size_m: f64,
+    /// Standard deviation of an error shared by all the cells of one side (or of one circle),
+    /// metres, added to each side offset's (and the circle's centre and radius) variance: the
+    /// residuals average out independent errors but not a shared one, such as the quantisation
+    /// of an edge parallel to the grid or a smeared map. Finite, 0..=10. Default 0.01.
+    pub offset_std_m: f64,
     /// Smallest standard deviation of a point's distance to the outline that the residuals may
     /// claim, metres: a noiseless, perfectly quantised outline would otherwise give a zero
     /// covariance. Finite, 0.001..=10. Default 0.03 (≈ 0.1 m / √12).
@@ -28,8 +31,9 @@ pub struct Params {
     /// noise-spread cells from the true corner. Finite, 0..=10. Default 0.1.
     pub extent_std_m: f64,
     /// A side of a rectangle counts as seen when the points closest to it span at least this
-    /// along it, metres (and at least four times the point noise, so that the thick end of a
-    /// noisy band is not mistaken for a side). Finite, 0..=100. Default 0.4.
+    /// along it outside the perpendicular sides' bands (±2.5 point-noise standard deviations),
+    /// metres, so that the thick end of a noisy band is not mistaken for a side. Finite,
+    /// 0..=100. Default 0.4.
     pub min_side_length_m: f64,
     /// Fewest points on a seen side. ≥ 2. Default 4.
     pub min_side_points: u32,
@@ -75,6 +79,7 @@ impl Default for Params {
         Self {
             min_points: 4,
             cell_size_m: 0.1,
+            offset_std_m: 0.01,
             min_point_std_m: 0.03,
             extent_std_m: 0.1,
             min_side_length_m: 0.4,
@@ -112,6 +117,7 @@ impl Params {
             ));
         }
         InvalidParam::check_range("cell_size_m", self.cell_size_m, 0.001, 10.0)?;
+        InvalidParam::check_range("offset_std_m", self.offset_std_m, 0.0, 10.0)?;
         InvalidParam::check_range("min_point_std_m", self.min_point_std_m, 0.001, 10.0)?;
         InvalidParam::check_range("extent_std_m", self.extent_std_m, 0.0, 10.0)?;
         InvalidParam::check_range("min_side_length_m", self.min_side_length_m, 0.0, 100.0)?;

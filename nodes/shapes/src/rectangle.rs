@@ -12,16 +12,16 @@
 //! least-squares offset is the unbiased choice.
 //!
 //! **Which sides are seen.** A side is kept only with `min_side_points` points spanning
-//! `min_side_length_m` (and four point-noise standard deviations, so the thick end of a band is
-//! not a side), two opposite sides only when at least `min_opposite_sides_m` apart (otherwise a
+//! `min_side_length_m` outside the bands (±2.5 σ̂) of the perpendicular sides (so the thick end
+//! of a band is not a side), two opposite sides only when at least `min_opposite_sides_m` apart (otherwise a
 //! thick band would be split into two thin "sides"), and only when dropping it (its points going
 //! to the other sides) makes the BIC worse.
 //!
 //! **Refinement.** Gauss–Newton on (θ, offsets of the seen sides) minimising the squared signed
 //! distances of the points to their sides; the least-squares covariance is σ̂²(JᵀJ)⁻¹ with σ̂ from
-//! the residuals (floored at `min_point_std_m`), and each offset gets the cells' quantisation
-//! variance `cell_size_m²/12` on top (an axis-aligned edge's cells share it, so it does not
-//! average out).
+//! the residuals (floored at `min_point_std_m`), and each offset gets `offset_std_m²` on top (an
+//! error all the side's cells share, e.g. the quantisation of an edge parallel to the grid, does
+//! not average out).
 //!
 //! **Unseen sides.** A side whose neighbour is seen ends where that neighbour's points end (the
 //! extent along the seen side, variance `extent_std_m² + σ̂²`). With one side seen the depth is
@@ -196,17 +196,38 @@ fn present_count(offsets: &Offsets) -> usize {
 
 /// Drops sides too short to be sides, then, one at a time, any side whose removal does not
 /// worsen the BIC.
+///
+/// A side counts only by its points outside the bands of the perpendicular sides (farther than
+/// 2.5 σ̂ from their lines): the end of a thick band is closer to a perpendicular "side" at the
+/// band's end than to the band's middle line, but it lies entirely within the band.
 fn prune_sides(uv: &[[f64; 2]], mut offsets: Offsets, params: &Params) -> Offsets {
     let n = uv.len();
     let (_, labels, rss) = settle(uv, offsets, params);
-    let sigma_m = (rss / n as f64).sqrt().max(params.min_point_std_m);
-    let min_span_m = params.min_side_length_m.max(4.0 * sigma_m);
-    let stats = side_stats(uv, &labels);
+    let band_m = 2.5 * (rss / n as f64).sqrt().max(params.min_point_std_m);
+    let mut spans = [0.0f64; 4];
+    for k in (0..4).filter(|&k| offsets[k].is_some()) {
+        let along = 1 - k / 2;
+        let perpendicular: Vec<f64> = (0..4)
+            .filter(|&j| j / 2 != k / 2)
+            .filter_map(|j| offsets[j])
+            .collect();
+        let (mut lo, mut hi, mut count) = (f64::INFINITY, f64::NEG_INFINITY, 0usize);
+        for (p, _) in uv.iter().zip(&labels).filter(|(_, &l)| l == k) {
+            if perpendicular.iter().all(|c| (p[along] - c).abs() > band_m) {
+                lo = lo.min(p[along]);
+                hi = hi.max(p[along]);
+                count += 1;
+            }
+        }
+        if count >= params.min_side_points as usize {
+            spans[k] = hi - lo;
+        }
+    }
     let longest = (0..4)
         .filter(|&k| offsets[k].is_some())
-        .max_by(|&a, &b| stats[a].2.total_cmp(&stats[b].2));
+        .max_by(|&a, &b| spans[a].total_cmp(&spans[b]));
     for k in 0..4 {
-        if Some(k) != longest && stats[k].2 < min_span_m {
+        if Some(k) != longest && spans[k] < params.min_side_length_m {
             offsets[k] = None;
         }
     }
@@ -497,7 +518,7 @@ impl Layout {
         let m = info.nrows();
         let nz = self.z.len();
         let lsq = info.clone().try_inverse()? * sigma2;
-        let quantisation = params.cell_size_m.powi(2) / 12.0;
+        let shared = params.offset_std_m.powi(2);
         let mut sigma_z = DMatrix::<f64>::zeros(nz, nz);
         for i in 0..nz {
             sigma_z[(i, i)] = self.prior_variance[i];
@@ -505,7 +526,7 @@ impl Layout {
         // With one seen side, z's least-squares block is (θ, offset) = info's, at 0..m too.
         sigma_z.view_mut((0, 0), (m, m)).copy_from(&lsq);
         for i in 1..m {
-            sigma_z[(i, i)] += quantisation;
+            sigma_z[(i, i)] += shared;
         }
         let min_size_m = params.cell_size_m;
         let mean = self.outputs(&self.z, min_size_m);
