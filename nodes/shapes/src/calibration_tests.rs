@@ -20,6 +20,8 @@ struct Stats {
     kind_rate: f64,
     iou: f64,
     nees: f64,
+    nees_kind_correct: f64,
+    nees_median: f64,
     center_error_m: f64,
     failures: usize,
 }
@@ -34,6 +36,7 @@ fn run(
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let params = Params::default();
     let (mut kinds, mut ious, mut nees, mut errors) = (0usize, Vec::new(), Vec::new(), Vec::new());
+    let mut nees_correct = Vec::new();
     let mut failures = 0;
     for _ in 0..trials {
         let (points, viewpoints, truth) = case(&mut rng, sigma_m);
@@ -48,12 +51,21 @@ fn run(
         kinds += usize::from(e.kind_correct);
         ious.push(e.iou);
         nees.push(e.center_nees);
+        if e.kind_correct {
+            nees_correct.push(e.center_nees);
+        }
         errors.push(e.center_error_m);
     }
     let stats = Stats {
         kind_rate: kinds as f64 / trials as f64,
         iou: mean(&ious),
         nees: mean(&nees),
+        nees_kind_correct: mean(&nees_correct),
+        nees_median: {
+            let mut sorted = nees.clone();
+            sorted.sort_by(f64::total_cmp);
+            sorted.get(sorted.len() / 2).copied().unwrap_or(f64::NAN)
+        },
         center_error_m: mean(&errors),
         failures,
     };

@@ -7,7 +7,9 @@
 //! The covariance of (cx, cy, r) is σ̂²(JᵀJ)⁻¹ at the solution, σ̂ from the residuals (floored at
 //! `min_point_std_m`), plus `offset_std_m²` on each parameter (an error shared by all the cells).
 //! Points on a line make the algebraic system singular or the radius huge: no circle then
-//! (radius outside `[min_radius_m, max_radius_m]`), which model selection reads as "not a circle".
+//! (radius outside `[min_radius_m, max_radius_m]`), which model selection reads as "not a circle";
+//! so does a radius whose standard deviation exceeds `max_radius_relative_std` times itself: the
+//! curvature 1/r is then not significantly above zero (a noisy straight side bends either way).
 
 use nalgebra::{Matrix3, Vector3};
 
@@ -125,6 +127,10 @@ pub(crate) fn fit_circle(points: &[[f64; 2]], params: &Params) -> Option<CircleF
         .map(|(r, c)| (cov[(r, c)] + cov[(c, r)]) / 2.0)
         .collect();
     if !(covariance.iter().all(|v| v.is_finite()) && x.iter().all(|v| v.is_finite())) {
+        return None;
+    }
+    // A curvature not significantly above zero is a straight side with noise, not an arc.
+    if covariance[8].sqrt() > params.max_radius_relative_std * radius_m {
         return None;
     }
     Some(CircleFit {

@@ -56,6 +56,10 @@ pub struct Params {
     /// circle degenerates to a huge radius), metres. Finite, > `min_radius_m`, ≤ 1000.
     /// Default 5.0 (the largest circles of the scenes have 2 m).
     pub max_radius_m: f64,
+    /// A circle fit whose radius standard deviation exceeds this fraction of the radius is
+    /// refused: its curvature is not significant (a noisy straight side). Finite, > 0, ≤ 100.
+    /// Default 0.5 (curvature above zero by two standard deviations).
+    pub max_radius_relative_std: f64,
     /// A circle fit with a radius below this is refused, metres. Finite, ≥ 0. Default 0.1.
     pub min_radius_m: f64,
     /// Tracker: a segment is associated with a track only when their centres are at most this
@@ -90,6 +94,7 @@ impl Default for Params {
             unseen_depth_std_m: 1.0,
             max_radius_m: 5.0,
             min_radius_m: 0.1,
+            max_radius_relative_std: 0.5,
             gate_m: 3.0,
             kind_smoothing: 0.6,
             kind_switch_probability: 0.75,
@@ -148,6 +153,16 @@ impl Params {
                     "> min_radius_m = {} and <= 1000 (metres)",
                     self.min_radius_m
                 ),
+            ));
+        }
+        if !(self.max_radius_relative_std.is_finite()
+            && self.max_radius_relative_std > 0.0
+            && self.max_radius_relative_std <= 100.0)
+        {
+            return Err(InvalidParam::new(
+                "max_radius_relative_std",
+                self.max_radius_relative_std.to_string(),
+                "> 0 and <= 100",
             ));
         }
         if !(self.gate_m.is_finite() && self.gate_m > 0.0 && self.gate_m <= 1000.0) {
@@ -266,6 +281,13 @@ mod tests {
                 "max_radius_m",
             ),
             (Params { gate_m: 0.0, ..d() }, "gate_m"),
+            (
+                Params {
+                    max_radius_relative_std: 0.0,
+                    ..d()
+                },
+                "max_radius_relative_std",
+            ),
             (
                 Params {
                     kind_smoothing: 1.5,

@@ -211,16 +211,25 @@ fn prune_sides(uv: &[[f64; 2]], mut offsets: Offsets, params: &Params) -> Offset
             .filter(|&j| j / 2 != k / 2)
             .filter_map(|j| offsets[j])
             .collect();
-        let (mut lo, mut hi, mut count) = (f64::INFINITY, f64::NEG_INFINITY, 0usize);
+        // The perpendicular lines cut the axis into intervals; a real side lies in one of them
+        // (the tails of a thick band fall on both sides of its line and do not add up).
+        let mut cuts = perpendicular.clone();
+        cuts.sort_by(f64::total_cmp);
+        let mut lo = vec![f64::INFINITY; cuts.len() + 1];
+        let mut hi = vec![f64::NEG_INFINITY; cuts.len() + 1];
+        let mut count = vec![0usize; cuts.len() + 1];
         for (p, _) in uv.iter().zip(&labels).filter(|(_, &l)| l == k) {
-            if perpendicular.iter().all(|c| (p[along] - c).abs() > band_m) {
-                lo = lo.min(p[along]);
-                hi = hi.max(p[along]);
-                count += 1;
+            if cuts.iter().all(|c| (p[along] - c).abs() > band_m) {
+                let interval = cuts.iter().filter(|&&c| p[along] > c).count();
+                lo[interval] = lo[interval].min(p[along]);
+                hi[interval] = hi[interval].max(p[along]);
+                count[interval] += 1;
             }
         }
-        if count >= params.min_side_points as usize {
-            spans[k] = hi - lo;
+        for i in 0..count.len() {
+            if count[i] >= params.min_side_points as usize {
+                spans[k] = spans[k].max(hi[i] - lo[i]);
+            }
         }
     }
     let longest = (0..4)
@@ -329,7 +338,16 @@ pub(crate) fn fit_rectangle(
     if !(theta.is_finite() && rss.is_finite()) {
         return None;
     }
-    let layout = Layout::new(points, theta, offsets, &labels, params, sensor_side);
+    let sigma_m = (rss / n as f64).sqrt().max(params.min_point_std_m);
+    let layout = Layout::new(
+        points,
+        theta,
+        offsets,
+        &labels,
+        params,
+        sigma_m,
+        sensor_side,
+    );
     let parameters = 1 + present_count(&layout.offsets);
     let dof = n.saturating_sub(parameters);
     let sigma2 = if dof > 0 { rss / dof as f64 } else { 0.0 }.max(params.min_point_std_m.powi(2));
@@ -345,6 +363,28 @@ pub(crate) fn fit_rectangle(
     })
 }
 
+/// Which order statistic of the points' projections on `axis` (0 = u, 1 = v, at yaw θ) estimates
+/// where the outline ends: noise of standard deviation σ along the side pushes about
+/// λσ/√(2π) ≈ 0.4 λσ of the points (λ per metre) beyond the true end, so the extreme point is
+/// biased outward and the point that many in is not. σ along the side is taken equal to the
+/// residuals' σ̂ across it (isotropic noise).
+fn extent_rank(points: &[[f64; 2]], axis: usize, theta: f64, sigma_m: f64) -> usize {
+    let (e1, e2) = axes(theta);
+    let e = if axis == 0 { e1 } else { e2 };
+    let (lo, hi) = points
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &p| {
+            let t = dot(e, p);
+            (l.min(t), h.max(t))
+        });
+    let span = hi - lo;
+    if !(span > 0.0) {
+        return 0;
+    }
+    let per_m = points.len() as f64 / span;
+    ((0.4 * per_m * sigma_m).floor() as usize).min(points.len() / 4)
+}
+
 /// How each of the four side positions follows from the primitive estimates z.
 #[derive(Debug, Clone)]
 enum Position {
@@ -356,6 +396,8 @@ enum Position {
         points: Vec<[f64; 2]>,
         high: bool,
         index: usize,
+        /// Which extreme: 0 the outermost projection, k the (k+1)-th (see [`extent_rank`]).
+        rank: usize,
     },
     /// The single seen side `from` moved by `sign`·z[index] (the prior depth).
     Depth {
@@ -384,6 +426,7 @@ impl Layout {
         mut offsets: Offsets,
         labels: &[usize],
         params: &Params,
+        sigma_m: f64,
         sensor_side: &dyn Fn([f64; 2], [f64; 2]) -> f64,
     ) -> Self {
         let extent_variance = params.extent_std_m.powi(2) + params.min_point_std_m.powi(2);
@@ -426,6 +469,7 @@ impl Layout {
                     points: points.to_vec(),
                     high: high_end,
                     index: z.len(),
+                    rank: extent_rank(points, b, theta, sigma_m),
                 });
                 z.push(0.0);
                 prior_variance.push(extent_variance);
@@ -445,10 +489,12 @@ impl Layout {
                     .filter(|(_, &l)| l / 2 == other_axis)
                     .map(|(p, _)| *p)
                     .collect();
+                let rank = extent_rank(&adjacent, k / 2, theta, sigma_m);
                 positions[k] = Some(Position::Extent {
                     points: adjacent,
                     high: k % 2 == 1,
                     index: z.len(),
+                    rank,
                 });
                 z.push(0.0);
                 prior_variance.push(extent_variance);
@@ -477,13 +523,16 @@ impl Layout {
                     points,
                     high,
                     index,
+                    rank,
                 } => {
                     let axis = if k / 2 == 0 { e1 } else { e2 };
-                    let projections = points.iter().map(|&p| dot(axis, p));
+                    let mut projections: Vec<f64> = points.iter().map(|&p| dot(axis, p)).collect();
+                    projections.sort_by(f64::total_cmp);
+                    let i = (*rank).min(projections.len().saturating_sub(1));
                     let end = if *high {
-                        projections.fold(f64::NEG_INFINITY, f64::max)
+                        projections[projections.len() - 1 - i]
                     } else {
-                        projections.fold(f64::INFINITY, f64::min)
+                        projections[i]
                     };
                     end + z[*index]
                 }
