@@ -99,6 +99,16 @@ fn full_rectangle(rng: &mut ChaCha8Rng, sigma: f64) -> Case {
     (points, viewpoints, TruthShape::rectangle(center, size, yaw))
 }
 
+/// Axis-parallel: the cells of a side share one quantisation error.
+fn axis_parallel_rectangle(rng: &mut ChaCha8Rng, sigma: f64) -> Case {
+    let (points, viewpoints, truth) = full_rectangle(rng, sigma);
+    let _ = (points, viewpoints);
+    let yaw = if rng.random_bool(0.5) { 0.0 } else { PI / 2.0 };
+    let points = cells(&rectangle_samples(truth.center_m, truth.size_m, yaw, &[0, 1, 2, 3]), sigma, rng);
+    let views = vec![[0.0, 0.0], [24.0, 14.0]];
+    (points, views, TruthShape::rectangle(truth.center_m, truth.size_m, yaw))
+}
+
 fn l_view(rng: &mut ChaCha8Rng, sigma: f64) -> Case {
     let center = jitter([12.0, 7.0], rng);
     let size = [rng.random_range(1.5..6.0), rng.random_range(1.0..4.0)];
@@ -189,6 +199,15 @@ fn full_rectangle_is_calibrated() {
     let all: Vec<Stats> = [(1, 0.05), (2, 0.15)]
         .into_iter()
         .map(|(seed, sigma)| run("full rectangle", seed, TRIALS, sigma, full_rectangle))
+        .collect();
+    all.iter().for_each(|s| check(s, 0.8));
+}
+
+#[test]
+fn axis_parallel_rectangle_is_calibrated() {
+    let all: Vec<Stats> = [(11, 0.02), (12, 0.05)]
+        .into_iter()
+        .map(|(seed, sigma)| run("axis-parallel rectangle", seed, TRIALS, sigma, axis_parallel_rectangle))
         .collect();
     all.iter().for_each(|s| check(s, 0.8));
 }

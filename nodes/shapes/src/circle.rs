@@ -5,7 +5,7 @@
 //! toward small radii on short arcs.
 //!
 //! The covariance of (cx, cy, r) is σ̂²(JᵀJ)⁻¹ at the solution, σ̂ from the residuals (floored at
-//! `min_point_std_m`), plus `offset_std_m²` on each parameter (an error shared by all the cells).
+//! `min_point_std_m`).
 //! Points on a line make the algebraic system singular or the radius huge: no circle then
 //! (radius outside `[min_radius_m, max_radius_m]`), which model selection reads as "not a circle";
 //! so does a radius whose standard deviation exceeds `max_radius_relative_std` times itself: the
@@ -117,11 +117,9 @@ pub(crate) fn fit_circle(points: &[[f64; 2]], params: &Params) -> Option<CircleF
     let n = points.len();
     let dof = n.saturating_sub(3);
     let sigma2 = if dof > 0 { rss / dof as f64 } else { 0.0 }.max(params.min_point_std_m.powi(2));
-    let mut cov = jtj.try_inverse()? * sigma2;
-    let shared = params.offset_std_m.powi(2);
-    for i in 0..3 {
-        cov[(i, i)] += shared;
-    }
+    // No shared-error term (`offset_std_m`) here: a circle's cells face every direction, so the
+    // grid's quantisation errors do not line up along it as they do along a straight side.
+    let cov = jtj.try_inverse()? * sigma2;
     let covariance: Vec<f64> = (0..3)
         .flat_map(|r| (0..3).map(move |c| (r, c)))
         .map(|(r, c)| (cov[(r, c)] + cov[(c, r)]) / 2.0)

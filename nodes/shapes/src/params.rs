@@ -17,18 +17,17 @@ pub struct Params {
     /// Side of the map's cells, metres: the smallest size a fitted rectangle is given.
     /// Finite, 0.001..=10. Default 0.1.
     pub cell_size_m: f64,
-    /// Standard deviation of an error shared by all the cells of one side (or of one circle),
-    /// metres, added to each side offset's (and the circle's centre and radius) variance: the
-    /// residuals average out independent errors but not a shared one, such as the quantisation
-    /// of an edge parallel to the grid or a smeared map. Finite, 0..=10. Default 0.01.
+    /// Standard deviation of an error shared by all the cells of one rectangle side, metres,
+    /// added to each side offset's variance: the residuals average out independent errors but
+    /// not a shared one, such as the quantisation of an edge parallel to the grid. Finite, 0..=10. Default 0.003.
     pub offset_std_m: f64,
     /// Smallest standard deviation of a point's distance to the outline that the residuals may
     /// claim, metres: a noiseless, perfectly quantised outline would otherwise give a zero
     /// covariance. Finite, 0.001..=10. Default 0.03 (≈ 0.1 m / √12).
     pub min_point_std_m: f64,
     /// Standard deviation of where a seen side ends along its own direction, beyond the point
-    /// noise, metres: the outermost occupied cell of a side lies up to half a cell and a few
-    /// noise-spread cells from the true corner. Finite, 0..=10. Default 0.1.
+    /// noise (whose σ̂ is added in quadrature), metres: the end cell lies up to half a cell from
+    /// the true corner. Finite, 0..=10. Default 0.03.
     pub extent_std_m: f64,
     /// A side of a rectangle counts as seen when the points closest to it span at least this
     /// along it outside the perpendicular sides' bands (±2.5 point-noise standard deviations),
@@ -83,9 +82,9 @@ impl Default for Params {
         Self {
             min_points: 4,
             cell_size_m: 0.1,
-            offset_std_m: 0.01,
+            offset_std_m: 0.003,
             min_point_std_m: 0.03,
-            extent_std_m: 0.1,
+            extent_std_m: 0.03,
             min_side_length_m: 0.4,
             min_side_points: 4,
             min_opposite_sides_m: 0.8,

@@ -429,7 +429,7 @@ impl Layout {
         sigma_m: f64,
         sensor_side: &dyn Fn([f64; 2], [f64; 2]) -> f64,
     ) -> Self {
-        let extent_variance = params.extent_std_m.powi(2) + params.min_point_std_m.powi(2);
+        let extent_variance = params.extent_std_m.powi(2) + sigma_m.powi(2);
         let uv = project(points, theta);
         let mut z = vec![theta];
         let mut prior_variance = vec![0.0];
