@@ -15,7 +15,9 @@ use crate::{fit, Params};
 /// One synthetic case: points, viewpoints, truth.
 type Case = (Vec<[f64; 2]>, Vec<[f64; 2]>, TruthShape);
 
+/// Figures of one case; all are printed (Debug), some are asserted.
 #[derive(Debug)]
+#[allow(dead_code)]
 struct Stats {
     kind_rate: f64,
     iou: f64,
@@ -104,9 +106,17 @@ fn axis_parallel_rectangle(rng: &mut ChaCha8Rng, sigma: f64) -> Case {
     let (points, viewpoints, truth) = full_rectangle(rng, sigma);
     let _ = (points, viewpoints);
     let yaw = if rng.random_bool(0.5) { 0.0 } else { PI / 2.0 };
-    let points = cells(&rectangle_samples(truth.center_m, truth.size_m, yaw, &[0, 1, 2, 3]), sigma, rng);
+    let points = cells(
+        &rectangle_samples(truth.center_m, truth.size_m, yaw, &[0, 1, 2, 3]),
+        sigma,
+        rng,
+    );
     let views = vec![[0.0, 0.0], [24.0, 14.0]];
-    (points, views, TruthShape::rectangle(truth.center_m, truth.size_m, yaw))
+    (
+        points,
+        views,
+        TruthShape::rectangle(truth.center_m, truth.size_m, yaw),
+    )
 }
 
 fn l_view(rng: &mut ChaCha8Rng, sigma: f64) -> Case {
@@ -207,7 +217,15 @@ fn full_rectangle_is_calibrated() {
 fn axis_parallel_rectangle_is_calibrated() {
     let all: Vec<Stats> = [(11, 0.02), (12, 0.05)]
         .into_iter()
-        .map(|(seed, sigma)| run("axis-parallel rectangle", seed, TRIALS, sigma, axis_parallel_rectangle))
+        .map(|(seed, sigma)| {
+            run(
+                "axis-parallel rectangle",
+                seed,
+                TRIALS,
+                sigma,
+                axis_parallel_rectangle,
+            )
+        })
         .collect();
     all.iter().for_each(|s| check(s, 0.8));
 }

@@ -240,3 +240,151 @@ pub fn fit_candidates(
         selected,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn finite(shape: &FittedShape) -> bool {
+        shape
+            .center_m
+            .iter()
+            .chain(&shape.size_m)
+            .chain(&shape.covariance)
+            .all(|v| v.is_finite())
+            && shape.yaw_rad.is_finite()
+            && shape.radius_m.is_finite()
+            && shape.rms_residual_m.is_finite()
+            && shape.circle_probability.is_finite()
+    }
+
+    #[test]
+    fn too_few_and_coincident_points_are_refused() {
+        let p = Params::default();
+        assert_eq!(
+            fit(&[], &[], &p).unwrap_err(),
+            FitError::TooFewPoints {
+                distinct: 0,
+                min: 4
+            }
+        );
+        let two = [[0.0, 0.0], [1.0, 0.0]];
+        assert!(matches!(
+            fit(&two, &[], &p),
+            Err(FitError::TooFewPoints { distinct: 2, .. })
+        ));
+        let coincident = [[3.0, 4.0]; 50];
+        assert!(matches!(
+            fit(&coincident, &[], &p),
+            Err(FitError::TooFewPoints { distinct: 1, .. })
+        ));
+    }
+
+    #[test]
+    fn non_finite_input_and_bad_params_are_named() {
+        let p = Params::default();
+        let mut points: Vec<[f64; 2]> = (0..10).map(|k| [k as f64 * 0.1, 0.0]).collect();
+        points[3][1] = f64::NAN;
+        assert_eq!(
+            fit(&points, &[], &p).unwrap_err(),
+            FitError::NonFinitePoint { index: 3 }
+        );
+        points[3][1] = 0.0;
+        assert_eq!(
+            fit(&points, &[[0.0, 0.0], [f64::INFINITY, 0.0]], &p).unwrap_err(),
+            FitError::NonFiniteViewpoint { index: 1 }
+        );
+        let bad = Params {
+            gate_m: -1.0,
+            ..Params::default()
+        };
+        assert!(fit(&points, &[], &bad)
+            .unwrap_err()
+            .to_string()
+            .contains("gate_m"));
+    }
+
+    #[test]
+    fn a_straight_line_is_a_one_sided_rectangle_away_from_the_sensor() {
+        // Exactly collinear: the circle fit has no solution, the rectangle is the limiting shape.
+        let points: Vec<[f64; 2]> = (0..30).map(|k| [10.0 + k as f64 * 0.1, 5.0]).collect();
+        let p = Params::default();
+        for (viewpoint, side) in [([11.5, 0.0], 1.0), ([11.5, 10.0], -1.0)] {
+            let shape = fit(&points, &[viewpoint], &p).unwrap();
+            assert_eq!(shape.kind, ShapeKind::Rectangle);
+            assert_eq!(shape.sides_seen, 1);
+            assert!(finite(&shape));
+            // The seen length is 2.9 m, the depth prior clamps it to [1, 4]: 2.9 m deep, on the
+            // far side from the viewpoint.
+            let depth = if shape.yaw_rad.abs() < 0.1 {
+                shape.size_m[1]
+            } else {
+                shape.size_m[0]
+            };
+            assert!((depth - 2.9).abs() < 0.05, "{shape:?}");
+            assert!(
+                ((shape.center_m[1] - 5.0) * side - 1.45).abs() < 0.05,
+                "{shape:?}"
+            );
+            // The depth prior's 1 m standard deviation shows in the centre's variance.
+            let c = shape.center_covariance();
+            assert!(c[0][0].max(c[1][1]) > 0.2, "{c:?}");
+        }
+    }
+
+    #[test]
+    fn a_full_circle_of_points_is_a_circle() {
+        let points: Vec<[f64; 2]> = (0..64)
+            .map(|k| {
+                let phi = std::f64::consts::TAU * k as f64 / 64.0;
+                [5.0 + 1.5 * phi.cos(), -2.0 + 1.5 * phi.sin()]
+            })
+            .collect();
+        let shape = fit(&points, &[], &Params::default()).unwrap();
+        assert_eq!(shape.kind, ShapeKind::Circle);
+        assert!((shape.radius_m - 1.5).abs() < 1e-6 && finite(&shape));
+        assert_eq!(shape.samples().len(), 4);
+    }
+
+    #[test]
+    fn far_from_the_origin_is_as_good_as_near_it() {
+        let square: Vec<[f64; 2]> =
+            crate::synthetic::rectangle_samples([0.0, 0.0], [2.0, 1.0], 0.3, &[0, 1, 2, 3]);
+        let far: Vec<[f64; 2]> = square.iter().map(|p| [p[0] + 1e5, p[1] - 1e5]).collect();
+        let (a, b) = (
+            fit(&square, &[], &Params::default()).unwrap(),
+            fit(&far, &[], &Params::default()).unwrap(),
+        );
+        assert!((a.center_m[0] + 1e5 - b.center_m[0]).abs() < 1e-6);
+        assert!((a.size_m[0] - b.size_m[0]).abs() < 1e-6 && (a.yaw_rad - b.yaw_rad).abs() < 1e-6);
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        /// Whatever the points (clusters, lines, tiny spreads, duplicates), the fit returns a
+        /// finite shape with a positive semi-definite centre covariance, or an error.
+        #[test]
+        fn never_nan_never_panic(
+            points in proptest::collection::vec((-1e3..1e3f64, -1e3..1e3f64), 0..40),
+            scale in prop_oneof![Just(1e-9), Just(1e-3), Just(1.0)],
+            line in any::<bool>(),
+            viewpoints in proptest::collection::vec((-50.0..50.0f64, -50.0..50.0f64), 0..3),
+        ) {
+            let points: Vec<[f64; 2]> = points
+                .iter()
+                .map(|&(x, y)| if line { [x * scale, 2.0 * x * scale] } else { [x * scale, y * scale] })
+                .collect();
+            let viewpoints: Vec<[f64; 2]> = viewpoints.iter().map(|&(x, y)| [x, y]).collect();
+            if let Ok(shape) = fit(&points, &viewpoints, &Params::default()) {
+                prop_assert!(finite(&shape), "{shape:?}");
+                let c = shape.center_covariance();
+                prop_assert!(c[0][0] >= 0.0 && c[1][1] >= 0.0);
+                prop_assert!(c[0][0] * c[1][1] - c[0][1] * c[1][0] >= -1e-9 * (c[0][0] * c[1][1]).max(1e-300));
+                prop_assert!(shape.size_m[0] > 0.0 && shape.size_m[1] > 0.0);
+                prop_assert!((0.0..std::f64::consts::FRAC_PI_2).contains(&shape.yaw_rad));
+                prop_assert!(shape.outline().iter().all(|v| v[0].is_finite() && v[1].is_finite()));
+            }
+        }
+    }
+}

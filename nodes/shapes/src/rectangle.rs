@@ -60,8 +60,6 @@ pub(crate) struct RectangleFit {
     pub sides_seen: u8,
     /// Sum of squared residuals (m²).
     pub rss_m2: f64,
-    /// Free parameters of the least-squares model (yaw and one offset per seen side).
-    pub parameters: usize,
 }
 
 fn axes(theta: f64) -> ([f64; 2], [f64; 2]) {
@@ -359,7 +357,6 @@ pub(crate) fn fit_rectangle(
         covariance,
         sides_seen: present_count(&layout.offsets) as u8,
         rss_m2: rss,
-        parameters,
     })
 }
 
@@ -378,7 +375,8 @@ fn extent_rank(points: &[[f64; 2]], axis: usize, theta: f64, sigma_m: f64) -> us
             (l.min(t), h.max(t))
         });
     let span = hi - lo;
-    if !(span > 0.0) {
+    // Also catches a NaN span.
+    if span.is_nan() || span <= 0.0 {
         return 0;
     }
     let per_m = points.len() as f64 / span;
@@ -406,6 +404,9 @@ enum Position {
         index: usize,
     },
 }
+
+/// Centre, size, yaw and the row-major 5×5 covariance.
+type Estimate = ([f64; 2], [f64; 2], f64, Vec<f64>);
 
 /// The primitive estimates and how the rectangle follows from them.
 struct Layout {
@@ -558,12 +559,7 @@ impl Layout {
 
     /// Centre, size, yaw in [0, π/2) and the 5×5 covariance, from the least-squares information
     /// matrix (θ and the seen offsets) scaled by the point variance `sigma2`.
-    fn estimate(
-        &self,
-        info: &DMatrix<f64>,
-        sigma2: f64,
-        params: &Params,
-    ) -> Option<([f64; 2], [f64; 2], f64, Vec<f64>)> {
+    fn estimate(&self, info: &DMatrix<f64>, sigma2: f64, params: &Params) -> Option<Estimate> {
         let m = info.nrows();
         let nz = self.z.len();
         let lsq = info.clone().try_inverse()? * sigma2;
@@ -595,11 +591,14 @@ impl Layout {
         }
         let mut cov = &jacobian * sigma_z * jacobian.transpose();
         let [cx, cy, mut w, mut h, theta] = mean;
-        let quarter_turns = (theta / FRAC_PI_2).floor();
+        let mut quarter_turns = (theta / FRAC_PI_2).floor();
         let mut yaw = theta - quarter_turns * FRAC_PI_2;
+        // Rounding can leave θ = −ε at exactly π/2: that is one more quarter turn, to yaw 0.
         if yaw >= FRAC_PI_2 {
-            yaw = 0.0;
+            yaw -= FRAC_PI_2;
+            quarter_turns += 1.0;
         }
+        let yaw = yaw.max(0.0);
         if (quarter_turns as i64).rem_euclid(2) == 1 {
             std::mem::swap(&mut w, &mut h);
             cov.swap_rows(2, 3);

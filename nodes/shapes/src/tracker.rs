@@ -194,3 +194,97 @@ impl ShapeTracker {
         shape
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::synthetic::{arc_samples, rectangle_samples};
+
+    fn circle(center: [f64; 2], radius: f64, from: f64, to: f64) -> Vec<[f64; 2]> {
+        arc_samples(center, radius, from, to)
+    }
+
+    fn rectangle(sides: &[usize]) -> Vec<[f64; 2]> {
+        rectangle_samples([5.0, 5.0], [3.0, 2.0], 0.4, sides)
+    }
+
+    #[test]
+    fn ids_are_stable_as_segments_grow_and_new_targets_get_new_ids() {
+        let mut tracker = ShapeTracker::new(Params::default());
+        let views = [[5.0, -5.0], [20.0, 5.0]];
+        let c = [20.0, 20.0];
+        let first = tracker.update(&[rectangle(&[0]), circle(c, 1.5, -2.0, -1.0)], &views);
+        assert_eq!(first.len(), 2);
+        let (rect_id, circle_id) = (first[0].id, first[1].id);
+        assert_ne!(rect_id, circle_id);
+        // The segments grow (and come in another order): same ids, the estimate follows.
+        let second = tracker.update(&[circle(c, 1.5, -2.5, 0.5), rectangle(&[0, 1])], &views);
+        assert_eq!((second[0].id, second[1].id), (circle_id, rect_id));
+        assert_eq!(second[1].shape.sides_seen, 2);
+        assert_eq!(second[0].shape.kind, ShapeKind::Circle);
+        assert_eq!(second[1].updates, 2);
+        // The rectangle's centre is far better known with two sides than with one.
+        let var = |t: &TrackedTarget| {
+            let c = t.shape.center_covariance();
+            c[0][0] + c[1][1]
+        };
+        assert!(var(&second[1]) < var(&first[0]) / 4.0);
+        // A new target far from both: a new id.
+        let third = tracker.update(
+            &[
+                rectangle(&[0, 1, 2, 3]),
+                circle(c, 1.5, 0.0, 6.0),
+                circle([40.0, 0.0], 1.0, 0.0, 6.0),
+            ],
+            &views,
+        );
+        assert_eq!(third[0].id, rect_id);
+        assert_eq!(third[1].id, circle_id);
+        assert!(third[2].id != rect_id && third[2].id != circle_id);
+        assert_eq!(third[2].updates, 1);
+    }
+
+    #[test]
+    fn missed_tracks_keep_their_id_for_a_while_then_go() {
+        let params = Params {
+            max_missed_updates: 2,
+            ..Params::default()
+        };
+        let mut tracker = ShapeTracker::new(params);
+        let id = tracker.update(&[rectangle(&[0, 1])], &[])[0].id;
+        assert!(tracker.update(&[], &[]).is_empty());
+        assert!(tracker.update(&[], &[]).is_empty());
+        assert_eq!(tracker.update(&[rectangle(&[0, 1])], &[])[0].id, id);
+        for _ in 0..3 {
+            tracker.update(&[], &[]);
+        }
+        assert_eq!(tracker.track_count(), 0);
+        assert_ne!(tracker.update(&[rectangle(&[0, 1])], &[])[0].id, id);
+    }
+
+    #[test]
+    fn kind_changes_only_with_hysteresis() {
+        let mut tracker = ShapeTracker::new(Params::default());
+        let views = [[5.0, -5.0]];
+        let square = rectangle_samples([5.0, 5.0], [2.0, 2.0], 0.0, &[0, 1, 2, 3]);
+        let round = arc_samples([5.0, 5.0], 1.0, 0.0, 6.2);
+        let first = tracker.update(std::slice::from_ref(&square), &views);
+        assert_eq!(first[0].shape.kind, ShapeKind::Rectangle);
+        // One update that looks like a circle does not flip the track ...
+        let second = tracker.update(std::slice::from_ref(&round), &views);
+        assert_eq!(second[0].id, first[0].id);
+        assert_eq!(second[0].shape.kind, ShapeKind::Rectangle);
+        // ... but a persistent circle does, within a few updates.
+        let mut kinds = Vec::new();
+        for _ in 0..5 {
+            kinds.push(
+                tracker.update(std::slice::from_ref(&round), &views)[0]
+                    .shape
+                    .kind,
+            );
+        }
+        assert_eq!(kinds.last(), Some(&ShapeKind::Circle), "{kinds:?}");
+        // Unfittable segments are skipped, not reported.
+        assert!(tracker.update(&[vec![[0.0, 0.0]]], &views).is_empty());
+    }
+}
