@@ -8,13 +8,13 @@
 //! centres is one extended target, truly a rectangle or a circle, and this crate estimates which
 //! and its parameters:
 //!
-//! - [`fit`] / [`fit_candidates`]: a rectangle with partial visibility (one to four sides seen,
+//! - [`fit()`] / [`fit_candidates`]: a rectangle with partial visibility (one to four sides seen,
 //!   the least-squares generalisation of the L-shape fit of Zhang et al. 2017; module
 //!   [`rectangle`](mod@rectangle)) and a geometric circle (Kåsa start, Levenberg–Marquardt; module
 //!   [`circle`](mod@circle)), chosen by BIC (module [`fit`](mod@fit));
 //! - [`FittedShape`]: centre, size, yaw or radius, covariance, the ET-GOPSA samples and outline;
 //! - [`ShapeTracker`]: ids stable across map updates (module [`tracker`](mod@tracker));
-//! - [`evaluate`] and [`match_to_truth`]: errors against the true shapes (IoU, centre, size, yaw,
+//! - [`evaluate()`] and [`match_to_truth`]: errors against the true shapes (IoU, centre, size, yaw,
 //!   kind, centre NEES), for the evaluator and the Monte Carlo studies;
 //! - [`geometry`]: convex clipping, areas, [`convex_polygon_iou`];
 //! - [`Params`]: the parameters, with `validate()`.

@@ -54,7 +54,7 @@ pub struct FittedShape {
     pub rms_residual_m: f64,
     /// BIC of the rectangle model (lower is better), when a rectangle could be fitted.
     pub bic_rectangle: Option<f64>,
-    /// BIC of the circle model, when a plausible circle could be fitted (see [`crate::fit`]).
+    /// BIC of the circle model, when a plausible circle could be fitted (see [`mod@crate::fit`]).
     pub bic_circle: Option<f64>,
     /// Posterior probability of the circle model from the two BICs (equal prior odds);
     /// 0 when no circle is plausible, 1 when no rectangle could be fitted.
