@@ -6,7 +6,7 @@ use nrslam_runtime::{parse_params, Node, NodeContext, NodeError, ParamsError};
 #[derive(Debug, thiserror::Error)]
 pub enum BuildError {
     /// No such kind.
-    #[error("unknown node kind {0:?} (known: radar, estimator, association, mapper, segmenter, evaluator, sensor_adapter, viz, bag)")]
+    #[error("unknown node kind {0:?} (known: radar, estimator, association, mapper, segmenter, shapes, evaluator, sensor_adapter, viz, bag)")]
     UnknownKind(String),
     /// Bad parameters.
     #[error(transparent)]
@@ -38,6 +38,7 @@ pub fn build(
         "association" => build_kind!(nrslam_association, table, ctx),
         "mapper" => build_kind!(nrslam_mapper, table, ctx),
         "segmenter" => build_kind!(nrslam_segmenter, table, ctx),
+        "shapes" => build_kind!(nrslam_shapes, table, ctx),
         "evaluator" => build_kind!(nrslam_evaluator, table, ctx),
         "estimator" => build_kind!(nrslam_estimator, table, ctx),
         "sensor_adapter" => build_kind!(nrslam_sensor_adapter, table, ctx),

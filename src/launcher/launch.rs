@@ -36,10 +36,11 @@ pub fn launch(args: LaunchArgs) -> Result<()> {
     };
     let replayed = replayed_run(&launch)?;
     let started = Instant::now();
-    let reporter = match mode {
+    let mut reporter = match mode {
         Mode::InProcess => run_in_process(&args, built, recorder)?,
         Mode::Processes => run_processes(&args, &launch, built, &out, recorder)?,
     };
+    reporter.score_as(&launch);
     let mut summary = reporter.summary(
         &launch.arguments,
         args.seed,

@@ -11,6 +11,7 @@ use nrslam_msgs::topics;
 mod loops;
 mod metrics_csv;
 mod reporter;
+mod shapes;
 mod summary;
 #[cfg(test)]
 mod tests;
@@ -21,6 +22,7 @@ pub use loops::{LOOP_EDGE_CHI2_99, LOOP_EDGE_WRONG_M};
 #[allow(unused_imports)]
 pub use loops::ScoredLoopEdge;
 pub use reporter::Reporter;
+pub use shapes::ShapeSummary;
 pub use summary::Summary;
 
 /// Topics the reporter needs.

@@ -48,9 +48,23 @@ pub struct Reporter {
     pub dropped: BTreeMap<String, nrslam_runtime::receive::Drops>,
     /// Node processes restarted by supervision, and how many times.
     pub restarts: BTreeMap<String, u32>,
+    /// The evaluator's parameters (the launch's, else the paper's), for the final ET-GOPSA of
+    /// each choice of representatives in `summary.json`.
+    pub evaluator: nrslam_evaluator::Params,
 }
 
 impl Reporter {
+    /// Scores what the summary scores itself with the parameters of `launch`'s evaluator node,
+    /// if it has one whose parameters parse (else the paper's).
+    pub fn score_as(&mut self, launch: &nrslam_runtime::launch::Launch) {
+        self.evaluator = launch
+            .nodes
+            .iter()
+            .find(|node| node.kind == "evaluator")
+            .and_then(|node| nrslam_runtime::parse_params(node.params.clone()).ok())
+            .unwrap_or_default();
+    }
+
     /// Records `component`'s drops so far (a later report of the same component replaces it).
     pub fn note_drops(&mut self, component: &str, drops: &nrslam_runtime::receive::Drops) {
         if !drops.is_empty() {

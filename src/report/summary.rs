@@ -56,6 +56,7 @@ impl Reporter {
                 .collect(),
             dropped: self.dropped.clone(),
             restarts: self.restarts.clone(),
+            shapes: self.shape_summary(),
         }
     }
 }
@@ -114,6 +115,10 @@ pub struct Summary {
     /// Node processes restarted by supervision (absent when none).
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub restarts: BTreeMap<String, u32>,
+    /// The fitted shapes against the truth, and the final ET-GOPSA with each choice of
+    /// representatives (absent when the run fits no shapes; see `report/shapes.rs`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shapes: Option<super::ShapeSummary>,
 }
 
 fn toml_to_json(value: &toml::Value) -> serde_json::Value {

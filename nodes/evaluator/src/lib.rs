@@ -59,8 +59,8 @@ pub use node::{build, EvaluatorNode};
 pub use params::Params;
 pub use point::{distance_to_outline_m, Point2};
 pub use representatives::{
-    box_corners, representatives, representatives_with, ClusterRepresentatives, RepresentativeMode,
-    RepresentativesError,
+    box_corners, flatten, representatives, representatives_with, ClusterRepresentatives,
+    RepresentativeMode, RepresentativesError,
 };
 
 /// A node parameter outside its allowed range (the runtime's shared type).

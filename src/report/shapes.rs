@@ -1,0 +1,151 @@
+//! The `shapes` record of `summary.json`: the map's fitted shapes (`/map/targets`) against the
+//! true targets, and the final ET-GOPSA of the same map with each choice of representatives.
+//!
+//! Fitted shapes are paired with true targets one-to-one on centre distance, within
+//! [`MATCH_GATE_M`] ([`nrslam_shapes::match_to_truth`]); each pair is scored by
+//! [`nrslam_shapes::evaluate`] (IoU with the true outline, centre, size and yaw errors, kind,
+//! centre NEES). The three ET-GOPSA values take the final segments (`box-corners`,
+//! `farthest-point`) or the final shapes (`shape`) against the true targets with the run's
+//! evaluator parameters, so a run compares the representatives on one and the same map.
+
+use super::Reporter;
+use nrslam_evaluator::{etgospa, representatives_with, ExtendedTarget, Point2, RepresentativeMode};
+use nrslam_shapes::node::{shape_from_message, truth_from_target};
+use serde::Serialize;
+
+/// Fitted shapes farther than this from every true target's centre are not matched (m): half
+/// the paper's ET-GOPSA cut-off c = 5 m, beyond which ET-GOPSA counts an estimate as false.
+pub const MATCH_GATE_M: f64 = 2.5;
+
+/// Shapes against the truth, at the end of the run.
+#[derive(Debug, Serialize, PartialEq)]
+pub struct ShapeSummary {
+    /// Shapes in the last `/map/targets`.
+    pub fitted: u32,
+    /// Of those, rectangles.
+    pub rectangles: u32,
+    /// Of those, circles.
+    pub circles: u32,
+    /// True targets.
+    pub true_targets: u32,
+    /// Fitted shapes paired with a true target.
+    pub matched: u32,
+    /// Mean IoU of the matched shapes with their true outlines.
+    pub mean_iou: Option<f64>,
+    /// Mean centre error of the matched shapes (m).
+    pub mean_center_error_m: Option<f64>,
+    /// Mean size error (m): the distance between (width, height) fitted and true, in the pairing
+    /// of sides closest in yaw.
+    pub mean_size_error_m: Option<f64>,
+    /// Mean yaw error over matched rectangles fitted as rectangles (degrees, modulo 90°).
+    pub mean_yaw_error_deg: Option<f64>,
+    /// Matched shapes of the right kind (rectangle or circle).
+    pub kind_correct: u32,
+    /// Mean normalised estimation error squared of the centres under their published
+    /// covariance (2 if the covariance is honest).
+    pub mean_center_nees: Option<f64>,
+    /// Final ET-GOPSA with the segments' principal-axis box corners as representatives.
+    pub etgospa_box_corners: Option<f64>,
+    /// Final ET-GOPSA with farthest-point samples of the segments.
+    pub etgospa_farthest_point: Option<f64>,
+    /// Final ET-GOPSA with the fitted shapes' samples.
+    pub etgospa_shape: Option<f64>,
+}
+
+fn mean(values: &[f64]) -> Option<f64> {
+    (!values.is_empty()).then(|| values.iter().sum::<f64>() / values.len() as f64)
+}
+
+impl Reporter {
+    /// The shape record; `None` when the run published no `/map/targets`.
+    pub fn shape_summary(&self) -> Option<ShapeSummary> {
+        let shapes = self.map_targets.as_ref()?;
+        let fitted: Vec<_> = shapes
+            .targets
+            .iter()
+            .filter_map(shape_from_message)
+            .collect();
+        let truth: Vec<_> = self
+            .targets
+            .iter()
+            .flat_map(|set| &set.targets)
+            .filter_map(truth_from_target)
+            .collect();
+        let pairs = nrslam_shapes::match_to_truth(
+            &fitted.iter().map(|f| f.center_m).collect::<Vec<_>>(),
+            &truth.iter().map(|t| t.center_m).collect::<Vec<_>>(),
+            MATCH_GATE_M,
+        );
+        let errors: Vec<_> = pairs
+            .iter()
+            .map(|&(f, t)| nrslam_shapes::evaluate(&fitted[f], &truth[t]))
+            .collect();
+        let of = |get: fn(&nrslam_shapes::ShapeErrors) -> Option<f64>| {
+            mean(&errors.iter().filter_map(get).collect::<Vec<_>>())
+        };
+        let circles = shapes
+            .targets
+            .iter()
+            .filter(|t| t.shape == "circle")
+            .count();
+        let count = |n: usize| u32::try_from(n).unwrap_or(u32::MAX);
+        Some(ShapeSummary {
+            fitted: count(shapes.targets.len()),
+            rectangles: count(shapes.targets.len() - circles),
+            circles: count(circles),
+            true_targets: count(truth.len()),
+            matched: count(pairs.len()),
+            mean_iou: of(|e| Some(e.iou)),
+            mean_center_error_m: of(|e| Some(e.center_error_m)),
+            mean_size_error_m: of(|e| Some(e.size_error_m)),
+            mean_yaw_error_deg: of(|e| e.yaw_error_rad.map(f64::to_degrees)),
+            kind_correct: count(errors.iter().filter(|e| e.kind_correct).count()),
+            mean_center_nees: of(|e| e.center_nees.is_finite().then_some(e.center_nees)),
+            etgospa_box_corners: self.final_etgospa(Some(RepresentativeMode::BoxCorners)),
+            etgospa_farthest_point: self.final_etgospa(Some(RepresentativeMode::FarthestPoint)),
+            etgospa_shape: self.final_etgospa(None),
+        })
+    }
+
+    /// Final ET-GOPSA of the true targets against the representatives of the last segments
+    /// (`Some(mode)`) or the samples of the last shapes (`None`), with the run's evaluator
+    /// parameters; `None` if either input is missing or cannot be scored.
+    fn final_etgospa(&self, mode: Option<RepresentativeMode>) -> Option<f64> {
+        let planar = |points: &[nrslam_msgs::Point]| -> Vec<Point2> {
+            points.iter().map(|p| Point2::new(p.x, p.y)).collect()
+        };
+        let targets: Vec<ExtendedTarget> = self
+            .targets
+            .as_ref()?
+            .targets
+            .iter()
+            .map(|t| {
+                ExtendedTarget::from_samples(planar(&t.samples)).with_outline(planar(&t.outline))
+            })
+            .collect();
+        let estimates: Vec<Point2> = match mode {
+            Some(mode) => {
+                let segments = self.segments.as_ref()?;
+                let points = planar(&segments.points);
+                let clusters = representatives_with(
+                    &points,
+                    &segments.labels,
+                    self.evaluator.points_per_estimate as usize,
+                    mode,
+                )
+                .ok()?;
+                nrslam_evaluator::flatten(&clusters)
+            }
+            None => self
+                .map_targets
+                .as_ref()?
+                .targets
+                .iter()
+                .flat_map(|t| planar(&t.samples))
+                .collect(),
+        };
+        etgospa(&targets, &estimates, &self.evaluator.metric_params())
+            .ok()
+            .map(|r| r.total)
+    }
+}
