@@ -153,6 +153,7 @@ impl Reporter {
         crate::plot::segments_png(&dir.join("segments.png"), self)?;
         if self.map_targets.is_some() {
             crate::plot::shapes_png(&dir.join("shapes.png"), self)?;
+            self.write_shapes_csv(&dir.join("shapes.csv"))?;
         }
         Ok(())
     }

@@ -9,6 +9,7 @@
 //! evaluator parameters, so a run compares the representatives on one and the same map.
 
 use super::Reporter;
+use anyhow::{Context, Result};
 use nrslam_evaluator::{etgospa, representatives_with, ExtendedTarget, Point2, RepresentativeMode};
 use nrslam_shapes::node::{shape_from_message, truth_from_target};
 use serde::Serialize;
@@ -56,14 +57,25 @@ fn mean(values: &[f64]) -> Option<f64> {
     (!values.is_empty()).then(|| values.iter().sum::<f64>() / values.len() as f64)
 }
 
+/// One fitted shape of the final map and, if matched, its true target and errors.
+struct ScoredShape {
+    /// Track id.
+    id: u32,
+    fitted: nrslam_shapes::FittedShape,
+    /// Index of the true target and the true shape, when matched.
+    truth: Option<(usize, nrslam_shapes::TruthShape)>,
+    errors: Option<nrslam_shapes::ShapeErrors>,
+}
+
 impl Reporter {
-    /// The shape record; `None` when the run published no `/map/targets`.
-    pub fn shape_summary(&self) -> Option<ShapeSummary> {
+    /// Every fitted shape of the last `/map/targets` (those whose message is well formed),
+    /// matched to the true targets; and the number of true targets.
+    fn scored_shapes(&self) -> Option<(Vec<ScoredShape>, usize)> {
         let shapes = self.map_targets.as_ref()?;
         let fitted: Vec<_> = shapes
             .targets
             .iter()
-            .filter_map(shape_from_message)
+            .filter_map(|t| Some((t.id, shape_from_message(t)?)))
             .collect();
         let truth: Vec<_> = self
             .targets
@@ -72,14 +84,103 @@ impl Reporter {
             .filter_map(truth_from_target)
             .collect();
         let pairs = nrslam_shapes::match_to_truth(
-            &fitted.iter().map(|f| f.center_m).collect::<Vec<_>>(),
+            &fitted.iter().map(|(_, f)| f.center_m).collect::<Vec<_>>(),
             &truth.iter().map(|t| t.center_m).collect::<Vec<_>>(),
             MATCH_GATE_M,
         );
-        let errors: Vec<_> = pairs
-            .iter()
-            .map(|&(f, t)| nrslam_shapes::evaluate(&fitted[f], &truth[t]))
+        let scored = fitted
+            .into_iter()
+            .enumerate()
+            .map(|(index, (id, fitted))| {
+                let truth = pairs
+                    .iter()
+                    .find(|(f, _)| *f == index)
+                    .map(|&(_, t)| (t, truth[t].clone()));
+                let errors = truth
+                    .as_ref()
+                    .map(|(_, t)| nrslam_shapes::evaluate(&fitted, t));
+                ScoredShape {
+                    id,
+                    fitted,
+                    truth,
+                    errors,
+                }
+            })
             .collect();
+        Some((scored, truth.len()))
+    }
+
+    /// `shapes.csv`: one row per fitted shape of the final map, with its true target and errors
+    /// when matched (empty cells otherwise).
+    pub fn write_shapes_csv(&self, path: &std::path::Path) -> Result<()> {
+        let Some((scored, _)) = self.scored_shapes() else {
+            return Ok(());
+        };
+        let mut writer = csv::Writer::from_path(path)
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        writer.write_record([
+            "id",
+            "kind",
+            "center_x_m",
+            "center_y_m",
+            "width_m",
+            "height_m",
+            "yaw_rad",
+            "radius_m",
+            "sides_seen",
+            "support",
+            "center_std_x_m",
+            "center_std_y_m",
+            "true_target",
+            "true_kind",
+            "iou",
+            "center_error_m",
+            "size_error_m",
+            "yaw_error_deg",
+            "center_nees",
+        ])?;
+        let kind = |k: nrslam_shapes::ShapeKind| match k {
+            nrslam_shapes::ShapeKind::Rectangle => "rectangle",
+            nrslam_shapes::ShapeKind::Circle => "circle",
+        };
+        let optional = |v: Option<f64>| v.map_or_else(String::new, |v| v.to_string());
+        for s in &scored {
+            let f = &s.fitted;
+            let c = f.center_covariance();
+            let e = s.errors.as_ref();
+            writer.write_record([
+                s.id.to_string(),
+                kind(f.kind).to_owned(),
+                f.center_m[0].to_string(),
+                f.center_m[1].to_string(),
+                f.size_m[0].to_string(),
+                f.size_m[1].to_string(),
+                f.yaw_rad.to_string(),
+                f.radius_m.to_string(),
+                f.sides_seen.to_string(),
+                f.support.to_string(),
+                c[0][0].sqrt().to_string(),
+                c[1][1].sqrt().to_string(),
+                s.truth.as_ref().map_or_else(String::new, |(t, _)| t.to_string()),
+                s.truth
+                    .as_ref()
+                    .map_or_else(String::new, |(_, t)| kind(t.kind).to_owned()),
+                optional(e.map(|e| e.iou)),
+                optional(e.map(|e| e.center_error_m)),
+                optional(e.map(|e| e.size_error_m)),
+                optional(e.and_then(|e| e.yaw_error_rad.map(f64::to_degrees))),
+                optional(e.map(|e| e.center_nees)),
+            ])?;
+        }
+        writer.flush()?;
+        Ok(())
+    }
+
+    /// The shape record; `None` when the run published no `/map/targets`.
+    pub fn shape_summary(&self) -> Option<ShapeSummary> {
+        let shapes = self.map_targets.as_ref()?;
+        let (scored, true_targets) = self.scored_shapes()?;
+        let errors: Vec<_> = scored.iter().filter_map(|s| s.errors.clone()).collect();
         let of = |get: fn(&nrslam_shapes::ShapeErrors) -> Option<f64>| {
             mean(&errors.iter().filter_map(get).collect::<Vec<_>>())
         };
@@ -93,8 +194,8 @@ impl Reporter {
             fitted: count(shapes.targets.len()),
             rectangles: count(shapes.targets.len() - circles),
             circles: count(circles),
-            true_targets: count(truth.len()),
-            matched: count(pairs.len()),
+            true_targets: count(true_targets),
+            matched: count(errors.len()),
             mean_iou: of(|e| Some(e.iou)),
             mean_center_error_m: of(|e| Some(e.center_error_m)),
             mean_size_error_m: of(|e| Some(e.size_error_m)),
