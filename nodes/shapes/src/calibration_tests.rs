@@ -9,8 +9,8 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
 use crate::evaluate::{evaluate, TruthShape};
+use crate::fit;
 use crate::synthetic::{arc_samples, cells, jitter, mean, rectangle_samples};
-use crate::{fit, Params};
 
 /// One synthetic case: points, viewpoints, truth.
 type Case = (Vec<[f64; 2]>, Vec<[f64; 2]>, TruthShape);
@@ -36,7 +36,7 @@ fn run(
     case: impl Fn(&mut ChaCha8Rng, f64) -> Case,
 ) -> Stats {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let params = Params::default();
+    let params = crate::synthetic::unbiased_params();
     let (mut kinds, mut ious, mut nees, mut errors) = (0usize, Vec::new(), Vec::new(), Vec::new());
     let mut nees_correct = Vec::new();
     let mut failures = 0;
@@ -141,7 +141,7 @@ fn l_view(rng: &mut ChaCha8Rng, sigma: f64) -> Case {
 /// One side seen; the true depth is drawn from the fit's own prior (seen length clamped to
 /// [1, 4] m, standard deviation 1 m, redrawn below 0.8 m), so the covariance can be calibrated.
 fn one_side(rng: &mut ChaCha8Rng, sigma: f64) -> Case {
-    let params = Params::default();
+    let params = crate::synthetic::unbiased_params();
     let center = jitter([12.0, 7.0], rng);
     let seen: f64 = rng.random_range(1.5..6.0);
     let prior = seen.clamp(params.unseen_depth_min_m, params.unseen_depth_max_m);

@@ -117,9 +117,25 @@ pub(crate) fn fit_circle(points: &[[f64; 2]], params: &Params) -> Option<CircleF
     let n = points.len();
     let dof = n.saturating_sub(3);
     let sigma2 = if dof > 0 { rss / dof as f64 } else { 0.0 }.max(params.min_point_std_m.powi(2));
-    // No shared-error term (`offset_std_m`) here: a circle's cells face every direction, so the
-    // grid's quantisation errors do not line up along it as they do along a straight side.
-    let cov = jtj.try_inverse()? * sigma2;
+    // The error all the cells share (`offset_std_m`, `offset_std_per_std`: how far inside the
+    // surface the band lies) goes to the radius only: moving every point of an arc along its
+    // radius by the same amount is a change of radius about the same centre.
+    let mut cov = jtj.try_inverse()? * sigma2;
+    let shared = params.offset_std_m.powi(2) + params.offset_std_per_std.powi(2) * sigma2;
+    cov[(2, 2)] += shared;
+    // The offset is not the same along a partial arc (the near end of an arc is seen along
+    // its normal, the far end at a glancing angle), and that moves the centre of the arc's fit
+    // along its axis. The mean resultant length of the points' directions from the centre is
+    // 0 for a full circle and tends to 1 for a short arc: the share of the shared error that
+    // reaches the centre.
+    let (sum_cos, sum_sin) = points.iter().fold((0.0, 0.0), |(c, s), p| {
+        let (dx, dy) = (p[0] - x[0], p[1] - x[1]);
+        let r = dx.hypot(dy).max(f64::MIN_POSITIVE);
+        (c + dx / r, s + dy / r)
+    });
+    let resultant = sum_cos.hypot(sum_sin) / points.len() as f64;
+    cov[(0, 0)] += resultant.powi(2) * shared;
+    cov[(1, 1)] += resultant.powi(2) * shared;
     let covariance: Vec<f64> = (0..3)
         .flat_map(|r| (0..3).map(move |c| (r, c)))
         .map(|(r, c)| (cov[(r, c)] + cov[(c, r)]) / 2.0)
@@ -133,7 +149,9 @@ pub(crate) fn fit_circle(points: &[[f64; 2]], params: &Params) -> Option<CircleF
     }
     Some(CircleFit {
         center_m: [x[0], x[1]],
-        radius_m,
+        // Out from the band's middle to the surface (`surface_offset_per_std`); `rss_m2` stays
+        // the band's, for model selection.
+        radius_m: radius_m + params.surface_offset_per_std * sigma2.sqrt(),
         covariance,
         rss_m2: rss,
     })
@@ -151,7 +169,7 @@ mod tests {
                 [0.3 + 1.5 * phi.cos(), -0.2 + 1.5 * phi.sin()]
             })
             .collect();
-        let fit = fit_circle(&points, &Params::default()).unwrap();
+        let fit = fit_circle(&points, &crate::synthetic::unbiased_params()).unwrap();
         assert!((fit.center_m[0] - 0.3).abs() < 1e-8, "{fit:?}");
         assert!((fit.center_m[1] + 0.2).abs() < 1e-8);
         assert!((fit.radius_m - 1.5).abs() < 1e-8);

@@ -27,7 +27,7 @@
 use crate::circle::fit_circle;
 use crate::geometry::distance_to_boundary;
 use crate::rectangle::{bic, fit_rectangle};
-use crate::shape::{rectangle_corners, FittedShape, ShapeKind};
+use crate::shape::{FittedShape, ShapeKind};
 use crate::Params;
 
 /// Why a segment could not be fitted.
@@ -182,11 +182,11 @@ pub fn fit_candidates(
     let floor = params.min_point_std_m;
     // The rectangle's residuals are distances to its whole outline, whose 5 parameters all come
     // from the points except a depth set by the prior (one side seen).
+    // (Against the bands themselves: the surface correction is not evidence for either model.)
     let rectangle_rss = rectangle.as_ref().map(|r| {
-        let outline = rectangle_corners(r.center_m, r.size_m, r.yaw_rad);
         local
             .iter()
-            .map(|&p| distance_to_boundary(p, &outline).powi(2))
+            .map(|&p| distance_to_boundary(p, &r.band_outline_m).powi(2))
             .sum::<f64>()
     });
     let bic_rectangle = rectangle.as_ref().zip(rectangle_rss).map(|(r, rss)| {
@@ -341,10 +341,51 @@ mod tests {
                 [5.0 + 1.5 * phi.cos(), -2.0 + 1.5 * phi.sin()]
             })
             .collect();
-        let shape = fit(&points, &[], &Params::default()).unwrap();
+        let shape = fit(&points, &[], &crate::synthetic::unbiased_params()).unwrap();
         assert_eq!(shape.kind, ShapeKind::Circle);
         assert!((shape.radius_m - 1.5).abs() < 1e-6 && finite(&shape));
         assert_eq!(shape.samples().len(), 4);
+    }
+
+    #[test]
+    fn the_surface_offset_moves_every_side_and_radius_out_by_its_multiple_of_the_band_spread() {
+        use crate::synthetic::{arc_samples, cells, rectangle_samples, unbiased_params};
+        use rand::SeedableRng;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let sigma_m = 0.1;
+        let square = cells(
+            &rectangle_samples([3.0, 4.0], [4.0, 3.0], 0.3, &[0, 1, 2, 3]),
+            sigma_m,
+            &mut rng,
+        );
+        let ring = cells(
+            &arc_samples([3.0, 4.0], 1.5, 0.0, std::f64::consts::TAU),
+            sigma_m,
+            &mut rng,
+        );
+        let kappa = 0.6;
+        let with = Params {
+            surface_offset_per_std: kappa,
+            ..unbiased_params()
+        };
+        for points in [&square, &ring] {
+            let (band, out) = (
+                fit(points, &[], &unbiased_params()).unwrap(),
+                fit(points, &[], &with).unwrap(),
+            );
+            // The band's spread σ̂ is close to the points' RMS distance to the band's outline.
+            let expected_m = kappa * band.rms_residual_m;
+            for axis in 0..2 {
+                let grown_m = (out.size_m[axis] - band.size_m[axis]) / 2.0;
+                assert!(
+                    (grown_m - expected_m).abs() < 0.15 * expected_m,
+                    "{:?}: grew {grown_m} m, expected {expected_m} m",
+                    band.kind
+                );
+                // All sides (the whole circle) move out alike: the centre stays.
+                assert!((out.center_m[axis] - band.center_m[axis]).abs() < 1e-9);
+            }
+        }
     }
 
     #[test]

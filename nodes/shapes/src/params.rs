@@ -21,6 +21,20 @@ pub struct Params {
     /// added to each side offset's variance: the residuals average out independent errors but
     /// not a shared one, such as the quantisation of an edge parallel to the grid. Finite, 0..=10. Default 0.003.
     pub offset_std_m: f64,
+    /// How far inside the true outline the occupied cells lie on average, as a multiple of the
+    /// band's own spread σ̂ (the RMS distance of the cells to the fitted outline): the mapper's
+    /// free-space walks clear the outer half of a band of noisy hits (beams to the hits beyond
+    /// the surface cross it) more often than the inner half, so a band fitted through its middle
+    /// lies inside the surface, the more so the thicker the band. Every fitted side, and a
+    /// circle's radius, is moved out by this × σ̂. Finite, 0..=3. Default 0.6: measured at the
+    /// true poses over the hall and random scenes, 0.4–0.8 for the ideal radar at Δθ = 1° and
+    /// both 5G chains (docs/shapes.md).
+    pub surface_offset_per_std: f64,
+    /// Standard deviation of that inward offset from side to side, as a multiple of σ̂: an error
+    /// the cells of one side share, which their number does not average out; added to each
+    /// side offset's (and a circle radius's) variance with `offset_std_m`. Finite, 0..=3.
+    /// Default 0.4 (docs/shapes.md: what makes the centre NEES 2 at the true poses).
+    pub offset_std_per_std: f64,
     /// Smallest standard deviation of a point's distance to the outline that the residuals may
     /// claim, metres: a noiseless, perfectly quantised outline would otherwise give a zero
     /// covariance. Finite, 0.001..=10. Default 0.03 (≈ 0.1 m / √12).
@@ -83,6 +97,8 @@ impl Default for Params {
             min_points: 4,
             cell_size_m: 0.1,
             offset_std_m: 0.003,
+            surface_offset_per_std: 0.6,
+            offset_std_per_std: 0.4,
             min_point_std_m: 0.03,
             extent_std_m: 0.03,
             min_side_length_m: 0.4,
@@ -122,6 +138,13 @@ impl Params {
         }
         InvalidParam::check_range("cell_size_m", self.cell_size_m, 0.001, 10.0)?;
         InvalidParam::check_range("offset_std_m", self.offset_std_m, 0.0, 10.0)?;
+        InvalidParam::check_range(
+            "surface_offset_per_std",
+            self.surface_offset_per_std,
+            0.0,
+            3.0,
+        )?;
+        InvalidParam::check_range("offset_std_per_std", self.offset_std_per_std, 0.0, 3.0)?;
         InvalidParam::check_range("min_point_std_m", self.min_point_std_m, 0.001, 10.0)?;
         InvalidParam::check_range("extent_std_m", self.extent_std_m, 0.0, 10.0)?;
         InvalidParam::check_range("min_side_length_m", self.min_side_length_m, 0.0, 100.0)?;

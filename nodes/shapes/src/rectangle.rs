@@ -60,6 +60,9 @@ pub(crate) struct RectangleFit {
     pub sides_seen: u8,
     /// Sum of squared residuals (m²).
     pub rss_m2: f64,
+    /// The outline through the fitted bands themselves, before `surface_offset_m` moves the
+    /// sides out (the centred frame): what the points' residuals are measured against.
+    pub band_outline_m: [[f64; 2]; 4],
 }
 
 fn axes(theta: f64) -> ([f64; 2], [f64; 2]) {
@@ -350,6 +353,7 @@ pub(crate) fn fit_rectangle(
     let dof = n.saturating_sub(parameters);
     let sigma2 = if dof > 0 { rss / dof as f64 } else { 0.0 }.max(params.min_point_std_m.powi(2));
     let (center_m, size_m, yaw_rad, covariance) = layout.estimate(&info, sigma2, params)?;
+    let [cx, cy, w, h, band_theta] = layout.outputs(&layout.z, params.cell_size_m, 0.0);
     Some(RectangleFit {
         center_m,
         size_m,
@@ -357,6 +361,7 @@ pub(crate) fn fit_rectangle(
         covariance,
         sides_seen: present_count(&layout.offsets) as u8,
         rss_m2: rss,
+        band_outline_m: crate::shape::rectangle_corners([cx, cy], [w, h], band_theta),
     })
 }
 
@@ -513,13 +518,15 @@ impl Layout {
     }
 
     /// (cx, cy, w, h, yaw) in the centred frame for primitive estimates `z`.
-    fn outputs(&self, z: &[f64], min_size_m: f64) -> [f64; 5] {
+    fn outputs(&self, z: &[f64], min_size_m: f64, surface_offset_m: f64) -> [f64; 5] {
         let theta = z[0];
         let (e1, e2) = axes(theta);
         let mut pos = [0.0; 4];
         for (k, position) in self.positions.iter().enumerate() {
             pos[k] = match position {
-                Position::Seen(i) => z[*i],
+                // Sides 1 and 3 are the high ones: outward is +.
+                Position::Seen(i) if k % 2 == 1 => z[*i] + surface_offset_m,
+                Position::Seen(i) => z[*i] - surface_offset_m,
                 Position::Extent {
                     points,
                     high,
@@ -563,7 +570,7 @@ impl Layout {
         let m = info.nrows();
         let nz = self.z.len();
         let lsq = info.clone().try_inverse()? * sigma2;
-        let shared = params.offset_std_m.powi(2);
+        let shared = params.offset_std_m.powi(2) + params.offset_std_per_std.powi(2) * sigma2;
         let mut sigma_z = DMatrix::<f64>::zeros(nz, nz);
         for i in 0..nz {
             sigma_z[(i, i)] = self.prior_variance[i];
@@ -573,8 +580,11 @@ impl Layout {
         for i in 1..m {
             sigma_z[(i, i)] += shared;
         }
-        let min_size_m = params.cell_size_m;
-        let mean = self.outputs(&self.z, min_size_m);
+        let (min_size_m, surface_m) = (
+            params.cell_size_m,
+            params.surface_offset_per_std * sigma2.sqrt(),
+        );
+        let mean = self.outputs(&self.z, min_size_m, surface_m);
         let mut jacobian = DMatrix::<f64>::zeros(5, nz);
         for i in 0..nz {
             let h = 1e-6 * self.z[i].abs().max(1.0);
@@ -582,8 +592,8 @@ impl Layout {
             plus[i] += h;
             minus[i] -= h;
             let (fp, fm) = (
-                self.outputs(&plus, min_size_m),
-                self.outputs(&minus, min_size_m),
+                self.outputs(&plus, min_size_m, surface_m),
+                self.outputs(&minus, min_size_m, surface_m),
             );
             for r in 0..5 {
                 jacobian[(r, i)] = (fp[r] - fm[r]) / (2.0 * h);

@@ -78,3 +78,14 @@ pub fn jitter(base: [f64; 2], rng: &mut ChaCha8Rng) -> [f64; 2] {
 pub fn mean(values: &[f64]) -> f64 {
     values.iter().sum::<f64>() / values.len().max(1) as f64
 }
+
+/// The parameters for these segments: their cells come from independent noise, not from an
+/// occupancy map, so there is no free-space carving and no inward offset to undo or allow for
+/// (`surface_offset_per_std` and `offset_std_per_std` 0).
+pub fn unbiased_params() -> crate::Params {
+    crate::Params {
+        surface_offset_per_std: 0.0,
+        offset_std_per_std: 0.0,
+        ..crate::Params::default()
+    }
+}

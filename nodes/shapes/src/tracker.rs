@@ -29,7 +29,7 @@
 //! to one of the previous update's (same points, same order) takes that update's fit: the fit is
 //! a function of the points and the viewpoints, and a viewpoint added since that saw no new cell
 //! of the target only shifts the one-sided depth vote it has no evidence for. On the hall this
-//! skips most fits (a run's shapes cost 0.31 → see docs/shapes.md for the measured ratio).
+//! skips most fits (docs/shapes.md gives the measured cost).
 
 use std::collections::HashMap;
 use std::hash::{Hash, Hasher};
@@ -113,8 +113,7 @@ impl ShapeTracker {
         segments: &[Vec<[f64; 2]>],
         viewpoints: &[[f64; 2]],
     ) -> Vec<TrackedTarget> {
-        let mut this_update: HashMap<u64, Vec<(Vec<[f64; 2]>, crate::Candidates)>> =
-            HashMap::new();
+        let mut this_update: HashMap<u64, Vec<(Vec<[f64; 2]>, crate::Candidates)>> = HashMap::new();
         let mut fits: Vec<(usize, crate::Candidates)> = Vec::with_capacity(segments.len());
         for (i, points) in segments.iter().enumerate() {
             let hash = segment_hash(points);
