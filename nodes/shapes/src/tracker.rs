@@ -72,8 +72,11 @@ pub struct ShapeTracker {
     tracks: Vec<Track>,
     next_id: u32,
     /// The previous update's fits by the hash of their segment's points.
-    previous_fits: HashMap<u64, Vec<(Vec<[f64; 2]>, crate::Candidates)>>,
+    previous_fits: FitCache,
 }
+
+/// Fits of one update by the hash of their segment's points (segment points, fits).
+type FitCache = HashMap<u64, Vec<(Vec<[f64; 2]>, crate::Candidates)>>;
 
 /// Hash of a segment's points, bit for bit.
 fn segment_hash(points: &[[f64; 2]]) -> u64 {
@@ -113,7 +116,7 @@ impl ShapeTracker {
         segments: &[Vec<[f64; 2]>],
         viewpoints: &[[f64; 2]],
     ) -> Vec<TrackedTarget> {
-        let mut this_update: HashMap<u64, Vec<(Vec<[f64; 2]>, crate::Candidates)>> = HashMap::new();
+        let mut this_update = FitCache::new();
         let mut fits: Vec<(usize, crate::Candidates)> = Vec::with_capacity(segments.len());
         for (i, points) in segments.iter().enumerate() {
             let hash = segment_hash(points);
