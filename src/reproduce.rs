@@ -129,6 +129,9 @@ pub fn reproduce(args: ReproduceArgs) -> Result<()> {
             ros_domain_id: None,
             transport: TransportArgs::default(),
         })?;
+        // Figs. 6 and 7 need the metrics only: the trials skip the shapes and the viewers'
+        // topics, which feed no metric (the box corners are the paper's representatives).
+        assignments.extend(["shapes:=false".to_owned(), "viz:=false".to_owned()]);
         montecarlo::montecarlo(MonteCarloArgs {
             file: args.launch_dir.join(file),
             assignments,

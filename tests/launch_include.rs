@@ -73,7 +73,9 @@ fn the_pose_oracle_is_the_paper_file_with_its_differences_on_the_command_line() 
             "loop_closure",
             "range_std_m",
             "refinement",
+            "representatives",
             "scene",
+            "shapes",
             "viz"
         ]
     );
