@@ -213,6 +213,11 @@ pub fn match_loop(
     );
     let score = best.mean_value;
     let best = best.pose;
+    // Ambiguity needs only the search: checked before the refinement, which costs more than the
+    // search itself and cannot change it.
+    if runner_up > loop_params.max_ambiguity * score {
+        return Err(LoopRejection::Ambiguous { score, runner_up });
+    }
 
     // A peak on the window's edge (outermost ring of translations or of rotations) is a
     // truncated slope, not a verified maximum.
@@ -250,13 +255,10 @@ pub fn match_loop(
         return Err(LoopRejection::TooFewPoints);
     }
     let inlier_ratio = inliers as f64 / overlapping as f64;
-    let information = match_information(&map, &query_m, &relative, inlier_m2);
-    if runner_up > loop_params.max_ambiguity * score {
-        return Err(LoopRejection::Ambiguous { score, runner_up });
-    }
     if inlier_ratio < loop_params.min_inlier_ratio {
         return Err(LoopRejection::LowInlierRatio(inlier_ratio));
     }
+    let information = match_information(&map, &query_m, &relative, inlier_m2);
     Ok(LoopMatch {
         candidate: 0,
         query: 0,
