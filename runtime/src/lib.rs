@@ -26,7 +26,7 @@ pub mod supervisor;
 pub mod type_hash;
 
 pub use config::{parse_params, InvalidParam, ParamsError};
-pub use node::{Node, NodeContext, NodeError, Outbox, Tick};
+pub use node::{Node, NodeContext, NodeError, NodeResult, Outbox, Tick};
 #[cfg(feature = "zenoh")]
 pub mod receive;
 #[cfg(feature = "zenoh")]
