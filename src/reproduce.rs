@@ -11,6 +11,7 @@
 use crate::flags::{self, Whole};
 use crate::launcher::{self, LaunchArgs};
 use crate::montecarlo::{self, MonteCarloArgs};
+use crate::plot::{canvas, draw_axes, draw_legend, framed, line_key, plot_error};
 use crate::TransportArgs;
 use anyhow::{anyhow, Context, Result};
 use clap::Args;
@@ -221,11 +222,8 @@ fn curves(out: &Path, column: &str, name: &str, y_label: &str, caption: &str) ->
         writer.write_record(&row)?;
     }
     writer.flush()?;
-    crate::plot::register_font();
     let path = out.join(format!("{name}.png"));
-    let root = BitMapBackend::new(&path, (1000, 640)).into_drawing_area();
-    let err = |e: &dyn std::fmt::Display| anyhow!("plotting failed: {e}");
-    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let root = canvas(&path, (1000, 640))?;
     let all: Vec<(f64, f64)> = series
         .iter()
         .flat_map(|(_, _, p)| p.iter().copied())
@@ -233,19 +231,10 @@ fn curves(out: &Path, column: &str, name: &str, y_label: &str, caption: &str) ->
         .collect();
     let t_max = all.iter().map(|p| p.0).fold(1.0, f64::max);
     let v_max = all.iter().map(|p| p.1).fold(1e-9, f64::max) * 1.1;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(caption, ("sans-serif", 22))
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(60)
+    let mut chart = framed(&root, caption, 22, 12, (40, 60))
         .build_cartesian_2d(0.0..t_max, 0.0..v_max)
-        .map_err(|e| err(&e))?;
-    chart
-        .configure_mesh()
-        .x_desc("time (s)")
-        .y_desc(y_label)
-        .draw()
-        .map_err(|e| err(&e))?;
+        .map_err(plot_error)?;
+    draw_axes(&mut chart, "time (s)", y_label, true)?;
     for (index, (_, legend, points)) in series.iter().enumerate() {
         let color = Palette99::pick(index).to_rgba();
         chart
@@ -253,17 +242,12 @@ fn curves(out: &Path, column: &str, name: &str, y_label: &str, caption: &str) ->
                 points.iter().copied(),
                 color.stroke_width(2),
             ))
-            .map_err(|e| err(&e))?
+            .map_err(plot_error)?
             .label(*legend)
-            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2)));
+            .legend(line_key(color.stroke_width(2)));
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()
-        .map_err(|e| err(&e))?;
-    root.present().map_err(|e| err(&e))?;
+    draw_legend(&mut chart, SeriesLabelPosition::MiddleRight)?;
+    root.present().map_err(plot_error)?;
     Ok(())
 }
 
@@ -314,46 +298,32 @@ fn fig4(out: &Path) -> Result<()> {
         ])?;
     }
     writer.flush()?;
-    crate::plot::register_font();
     let path = out.join("fig4.png");
-    let root = BitMapBackend::new(&path, (800, 420)).into_drawing_area();
-    let err = |e: &dyn std::fmt::Display| anyhow!("plotting failed: {e}");
-    root.fill(&WHITE).map_err(|e| err(&e))?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(
-            "Fig. 4: extended targets x1, x2 and estimates y1, y2 (values in fig4.csv)",
-            ("sans-serif", 18),
-        )
-        .margin(12)
-        .x_label_area_size(30)
-        .y_label_area_size(40)
+    let root = canvas(&path, (800, 420))?;
+    let caption = "Fig. 4: extended targets x1, x2 and estimates y1, y2 (values in fig4.csv)";
+    let mut chart = framed(&root, caption, 18, 12, (30, 40))
         .build_cartesian_2d(-4.0..8.0, -3.0..3.0)
-        .map_err(|e| err(&e))?;
-    chart
-        .configure_mesh()
-        .x_desc("x (m)")
-        .y_desc("y (m)")
-        .draw()
-        .map_err(|e| err(&e))?;
+        .map_err(plot_error)?;
+    draw_axes(&mut chart, "x (m)", "y (m)", true)?;
     for (target, name) in [(&x1, "x1"), (&x2, "x2")] {
         let mut ring: Vec<(f64, f64)> = target.iter().map(|p| (p.x_m, p.y_m)).collect();
         ring.push(ring[0]);
         chart
             .draw_series(LineSeries::new(ring, BLUE.stroke_width(2)))
-            .map_err(|e| err(&e))?;
+            .map_err(plot_error)?;
         chart
             .draw_series(
                 target
                     .iter()
                     .map(|p| Circle::new((p.x_m, p.y_m), 4, BLUE.filled())),
             )
-            .map_err(|e| err(&e))?;
+            .map_err(plot_error)?;
         let c = target
             .iter()
             .fold((0.0, 0.0), |a, p| (a.0 + p.x_m / 4.0, a.1 + p.y_m / 4.0));
         chart
             .draw_series(std::iter::once(Text::new(name, c, ("sans-serif", 18))))
-            .map_err(|e| err(&e))?;
+            .map_err(plot_error)?;
     }
     for (point, name) in [(y1, "y1"), (y2, "y2")] {
         chart
@@ -362,15 +332,15 @@ fn fig4(out: &Path) -> Result<()> {
                 6,
                 RED.filled(),
             )))
-            .map_err(|e| err(&e))?;
+            .map_err(plot_error)?;
         chart
             .draw_series(std::iter::once(Text::new(
                 name,
                 (point.x_m + 0.2, point.y_m + 0.3),
                 ("sans-serif", 18),
             )))
-            .map_err(|e| err(&e))?;
+            .map_err(plot_error)?;
     }
-    root.present().map_err(|e| err(&e))?;
+    root.present().map_err(plot_error)?;
     Ok(())
 }
