@@ -11,13 +11,7 @@ use std::process::Stdio;
 use std::time::{Duration, Instant};
 
 fn ok(args: &[&str]) -> String {
-    let output = run(args);
-    assert!(
-        output.status.success(),
-        "nrslam {args:?} failed: {}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-    String::from_utf8_lossy(&output.stdout).into_owned()
+    stdout(&run_ok(args))
 }
 
 fn info_json(dir: &Path, recover: bool) -> serde_json::Value {
@@ -358,15 +352,7 @@ fn play_with_a_ros_domain_id_speaks_rmw_zenoh_key_expressions_and_attachments() 
     ]);
     let recorded = bag::open(&source, ReadMode::Strict).unwrap();
     let endpoint = format!("tcp/127.0.0.1:{}", free_port());
-    let mut config = zenoh::Config::default();
-    config.insert_json5("mode", "\"peer\"").unwrap();
-    config
-        .insert_json5("scouting/multicast/enabled", "false")
-        .unwrap();
-    config
-        .insert_json5("listen/endpoints", &format!("[\"{endpoint}\"]"))
-        .unwrap();
-    let session = zenoh::Wait::wait(zenoh::open(config)).unwrap();
+    let session = zenoh_peer(std::slice::from_ref(&endpoint), &[]);
     let (sender, received) = std::sync::mpsc::channel();
     let _subscriber =
         zenoh::Wait::wait(session.declare_subscriber("7/**").callback(move |sample| {
