@@ -367,6 +367,14 @@ mod tests {
         points.iter().map(|p| inv.transform_point(*p)).collect()
     }
 
+    /// The scene, a candidate keyframe's pose and a query pose that revisits it, and the true
+    /// motion from the candidate to the query.
+    fn revisit() -> (Vec<[f64; 2]>, Pose2, Pose2, Pose2) {
+        let candidate = Pose2::new(0.0, 0.0, 0.3);
+        let query = Pose2::new(1.0, 0.5, 0.35);
+        (scene(), candidate, query, candidate.between(&query))
+    }
+
     #[test]
     fn a_straight_edge_leaves_the_slide_along_it_free_and_boxes_pin_everything() {
         let params = Params::default();
@@ -413,10 +421,7 @@ mod tests {
 
     #[test]
     fn finds_a_loop_several_metres_off_the_prediction() {
-        let points = scene();
-        let candidate = Pose2::new(0.0, 0.0, 0.3);
-        let query = Pose2::new(1.0, 0.5, 0.35);
-        let truth = candidate.between(&query);
+        let (points, candidate, query, truth) = revisit();
         let predicted = truth.compose(&Pose2::new(1.6, -1.2, 6f64.to_radians()));
         let found = match_loop(
             &seen_from(&query, &points),
@@ -452,10 +457,7 @@ mod tests {
     fn a_match_beyond_the_window_is_refused_not_truncated() {
         // The truth lies 4.3 m from the prediction, just beyond a 4 m window: the best motion
         // inside is on the window's edge, a truncated slope rather than a verified peak.
-        let points = scene();
-        let candidate = Pose2::new(0.0, 0.0, 0.3);
-        let query = Pose2::new(1.0, 0.5, 0.35);
-        let truth = candidate.between(&query);
+        let (points, candidate, query, truth) = revisit();
         let beyond = truth.compose(&Pose2::new(3.44, -2.58, 0.0));
         let outcome = |predicted: Pose2| {
             match_loop(
@@ -527,10 +529,7 @@ mod tests {
 
     #[test]
     fn non_finite_points_are_ignored() {
-        let points = scene();
-        let candidate = Pose2::new(0.0, 0.0, 0.3);
-        let query = Pose2::new(1.0, 0.5, 0.35);
-        let truth = candidate.between(&query);
+        let (points, candidate, query, truth) = revisit();
         let mut query_m = seen_from(&query, &points);
         let mut submap_m = seen_from(&candidate, &points);
         query_m.insert(3, [f64::NAN, 1.0]);
