@@ -45,6 +45,24 @@ impl InvalidParam {
             ))
         }
     }
+
+    /// Checks `lower <= value <= upper` for the whole-number parameter `field`.
+    pub fn check_count<T: PartialOrd + std::fmt::Display>(
+        field: &str,
+        value: T,
+        lower: T,
+        upper: T,
+    ) -> Result<(), InvalidParam> {
+        if lower <= value && value <= upper {
+            Ok(())
+        } else {
+            Err(Self::new(
+                field,
+                format!("{value} is out of range"),
+                format!("{lower} to {upper}"),
+            ))
+        }
+    }
 }
 
 /// Why a parameter table could not become typed parameters.
