@@ -8,7 +8,7 @@
 //! ([`Node::on_message`] takes `&Message`), so a node copies only what it decides to keep.
 
 use crate::merge::Merger;
-use crate::node::{Node, NodeError, NodeResult, Outbox, Tick};
+use crate::node::{Node, NodeError, Outbox, Tick};
 use nrslam_msgs::{Clock, Message};
 use std::collections::{BTreeMap, VecDeque};
 use std::sync::Arc;
@@ -276,7 +276,12 @@ mod tests {
         fn outputs(&self) -> Vec<&'static str> {
             vec![]
         }
-        fn on_message(&mut self, topic: &str, _: &Message, _: &mut Outbox) -> NodeResult {
+        fn on_message(
+            &mut self,
+            topic: &str,
+            _: &Message,
+            _: &mut Outbox,
+        ) -> crate::node::NodeResult {
             let mut seen = self.seen.lock().unwrap();
             seen.0 += 1;
             if seen.0 == self.fail_at {

@@ -11,7 +11,9 @@
 //! - `transport` (feature `zenoh`): the zenoh session, node adapters and the start barrier.
 //! - `receive` (feature `zenoh`): the one receive path: bounded queues, unusable samples dropped
 //!   and counted, `/diagnostics`.
-//! - `supervisor`: node processes watched and respawned as ROS 2 launch does.
+//! - `supervisor`: node processes watched and respawned as ROS 2 launch does; `supervised`
+//!   (feature `zenoh`): the launcher's receive loop over them, restarting the ones that die.
+//! - [`wiring`]: the checks that a graph's nodes fit together before it runs.
 #![warn(missing_docs)]
 
 pub mod bag;
@@ -24,10 +26,13 @@ pub mod rmw_zenoh;
 pub mod seed;
 pub mod supervisor;
 pub mod type_hash;
+pub mod wiring;
 
 pub use config::{parse_params, InvalidParam, ParamsError};
 pub use node::{Node, NodeContext, NodeError, NodeResult, Outbox, Tick};
 #[cfg(feature = "zenoh")]
 pub mod receive;
+#[cfg(feature = "zenoh")]
+pub mod supervised;
 #[cfg(feature = "zenoh")]
 pub mod transport;
