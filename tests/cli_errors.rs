@@ -52,21 +52,17 @@ fn malformed_and_unknown_arguments() {
 fn unknown_field_in_launch_and_in_node_params() {
     let dir = temp();
     let file = dir.path().join("bad.toml");
-    std::fs::write(
+    assert_launch_refused(
         &file,
         "[launch]\nmodee = \"in-process\"\n[[node]]\nname = \"r\"\nkind = \"radar\"\n",
-    )
-    .unwrap();
-    let output = run(&["launch", file.to_str().unwrap()]);
-    assert_one_line_failure(&output, &["bad.toml", "modee", "line 2"]);
+        &["bad.toml", "modee", "line 2"],
+    );
 
-    std::fs::write(
+    assert_launch_refused(
         &file,
         "[[node]]\nname = \"r\"\nkind = \"radar\"\n[node.params]\nrange_sdt_m = 1.0\n",
-    )
-    .unwrap();
-    let output = run(&["launch", file.to_str().unwrap()]);
-    assert_one_line_failure(&output, &["bad.toml", "node r", "range_sdt_m"]);
+        &["bad.toml", "node r", "range_sdt_m"],
+    );
 }
 
 #[test]

@@ -117,3 +117,11 @@ pub fn metric(truth: &Path, estimates: &Path, extra: &[&str]) -> Output {
     args.extend_from_slice(extra);
     run(&args)
 }
+
+/// Writes `text` as the launch file `file`, launches it, and asserts the one-line failure of
+/// [`assert_one_line_failure`].
+pub fn assert_launch_refused(file: &Path, text: &str, must_contain: &[&str]) {
+    std::fs::write(file, text).unwrap_or_else(|e| panic!("{}: {e}", file.display()));
+    let output = run(&["launch", file.to_str().unwrap()]);
+    assert_one_line_failure(&output, must_contain);
+}

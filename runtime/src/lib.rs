@@ -16,6 +16,14 @@
 //! - [`wiring`]: the checks that a graph's nodes fit together before it runs.
 #![warn(missing_docs)]
 
+// The bag tests' fixtures (tests/bag_common), shared with the unit tests; the file names the
+// crate as the integration tests do.
+#[cfg(test)]
+extern crate self as nrslam_runtime;
+#[cfg(test)]
+#[path = "../tests/bag_common/mod.rs"]
+mod bag_common;
+
 pub mod bag;
 pub mod compose;
 pub mod config;
