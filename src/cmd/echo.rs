@@ -2,8 +2,8 @@
 //! standard output, until --count messages, the topic's end-of-stream, or Ctrl-C.
 
 use super::{observer_options, report_drops, session_for};
+use crate::flags::TransportArgs;
 use crate::flags::{self, Whole};
-use crate::TransportArgs;
 use anyhow::{anyhow, Result};
 use clap::Args;
 use nrslam_msgs::topics;
@@ -55,7 +55,7 @@ pub fn echo(args: EchoArgs) -> Result<()> {
         observer_options(&args.transport)?,
     )?;
     let mut seen = 0u64;
-    let stop = crate::bag::interrupted();
+    let stop = crate::cmd::bag::interrupted();
     while !stop.load(std::sync::atomic::Ordering::SeqCst) {
         match inbox.recv_timeout(Duration::from_millis(200)) {
             Ok(Some(Delivery::End { .. })) | Err(ReceiveError::Closed) => break,

@@ -8,11 +8,11 @@
 //!   against time for 5G and the four ideal conditions (`fig6.csv`/`.png`, `fig7.csv`/`.png`;
 //!   raw trials in `montecarlo/<condition>/`).
 
+use crate::cmd::launch::{self, LaunchArgs};
+use crate::cmd::montecarlo::{self, MonteCarloArgs};
+use crate::flags::TransportArgs;
 use crate::flags::{self, Whole};
-use crate::launcher::{self, LaunchArgs};
-use crate::montecarlo::{self, MonteCarloArgs};
 use crate::plot::{canvas, draw_axes, draw_legend, framed, line_key, plot_error};
-use crate::TransportArgs;
 use anyhow::{anyhow, Context, Result};
 use clap::Args;
 use nrslam_evaluator::{etgospa, gospa, EtGospaParams, ExtendedTarget, Point2};
@@ -26,7 +26,7 @@ pub struct ReproduceArgs {
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
     /// Monte Carlo trials per condition for Figs. 6 and 7 (the paper: 500), 1 to 100000.
-    #[arg(long, default_value_t = 500, value_parser = crate::montecarlo::TRIALS.parser::<u64>(), allow_hyphen_values = true)]
+    #[arg(long, default_value_t = 500, value_parser = crate::cmd::montecarlo::TRIALS.parser::<u64>(), allow_hyphen_values = true)]
     pub trials: u64,
     /// Base seed (0 to 2^64 − 1).
     #[arg(long, default_value_t = 1, value_parser = flags::SEED.parser::<u64>(), allow_hyphen_values = true)]
@@ -49,7 +49,10 @@ pub(crate) const FRAMES: Whole = Whole::new(0, 1_000_000, "0 to 1000000 frames")
 impl ReproduceArgs {
     /// Checks every numeric flag; the error names the flag.
     pub fn validate(&self) -> Result<()> {
-        flags::check("--trials", crate::montecarlo::TRIALS.check(self.trials))?;
+        flags::check(
+            "--trials",
+            crate::cmd::montecarlo::TRIALS.check(self.trials),
+        )?;
         flags::check("--frames", FRAMES.check(self.frames))?;
         Ok(())
     }
@@ -109,7 +112,7 @@ pub fn reproduce(args: ReproduceArgs) -> Result<()> {
         } else {
             args.out.join("fig3").join(name)
         };
-        launcher::launch(LaunchArgs {
+        launch::launch(LaunchArgs {
             file: args.launch_dir.join(file),
             assignments: assignments.clone(),
             seed: args.seed,
@@ -119,10 +122,10 @@ pub fn reproduce(args: ReproduceArgs) -> Result<()> {
             start_timeout_s: 30,
             record: None,
             record_topics: Vec::new(),
-            chunk: crate::bag::ChunkArgs {
+            chunk: crate::cmd::bag::ChunkArgs {
                 chunk_size_kib: 768,
             },
-            storage: crate::bag::StorageArgs {
+            storage: crate::cmd::bag::StorageArgs {
                 compression: nrslam_runtime::bag::Compression::None,
                 max_bag_size: 0,
                 max_bag_duration: 0.0,

@@ -3,8 +3,8 @@
 //! publishes during --duration-s and how many messages each carried.
 
 use super::{observer_options, report_drops, session_for};
+use crate::flags::TransportArgs;
 use crate::flags::{self, Real};
-use crate::TransportArgs;
 use anyhow::Result;
 use clap::Args;
 use nrslam_msgs::topics;

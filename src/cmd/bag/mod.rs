@@ -7,7 +7,7 @@ mod play;
 mod record;
 mod selection;
 
-use crate::TransportArgs;
+use crate::flags::TransportArgs;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};

@@ -2,7 +2,7 @@
 //! chunk compression and file splitting.
 
 use super::{catalogue_topics, interrupted, session, ChunkArgs};
-use crate::TransportArgs;
+use crate::flags::TransportArgs;
 use anyhow::{bail, Result};
 use clap::Args;
 use nrslam_runtime::bag::{BagWriter, Compression, StorageOptions, WriterOptions};

@@ -3,7 +3,7 @@
 
 use super::build::Built;
 use super::recorder::Recorder;
-use super::{progress, transport_config, LaunchArgs};
+use super::{progress, LaunchArgs};
 use crate::flags;
 use crate::report::{Reporter, REPORTED};
 use anyhow::{anyhow, bail, Context, Result};
@@ -113,7 +113,7 @@ pub(super) fn run_processes(
     let endpoint = format!("tcp/127.0.0.1:{port}");
     let mut transport_args = args.transport.clone();
     transport_args.listen.push(endpoint.clone());
-    let session = transport::open(&transport_config(SessionMode::Router, &transport_args))
+    let session = transport::open(&transport_args.config(SessionMode::Router))
         .context("opening the launcher's zenoh router")?;
     let mut inbox = Inbox::subscribe(
         &session,
