@@ -38,11 +38,7 @@ impl InvalidParam {
         if value.is_finite() && value >= lower && value <= upper {
             Ok(())
         } else {
-            Err(Self::new(
-                field,
-                format!("{value} is out of range"),
-                format!("{lower} to {upper}"),
-            ))
+            Err(Self::out_of_range(field, value, lower, upper))
         }
     }
 
@@ -56,12 +52,17 @@ impl InvalidParam {
         if lower <= value && value <= upper {
             Ok(())
         } else {
-            Err(Self::new(
-                field,
-                format!("{value} is out of range"),
-                format!("{lower} to {upper}"),
-            ))
+            Err(Self::out_of_range(field, value, lower, upper))
         }
+    }
+
+    /// `field`'s `value` is outside `lower` to `upper`.
+    fn out_of_range<T: std::fmt::Display>(field: &str, value: T, lower: T, upper: T) -> Self {
+        Self::new(
+            field,
+            format!("{value} is out of range"),
+            format!("{lower} to {upper}"),
+        )
     }
 }
 

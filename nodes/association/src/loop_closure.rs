@@ -367,6 +367,25 @@ mod tests {
         points.iter().map(|p| inv.transform_point(*p)).collect()
     }
 
+    /// [`match_loop`] of `points` seen from `query` against them seen from `candidate`, from
+    /// `predicted` in a 4 m window.
+    fn match_views(
+        points: &[[f64; 2]],
+        candidate: &Pose2,
+        query: &Pose2,
+        predicted: Pose2,
+        params: &LoopClosureParams,
+    ) -> Result<LoopMatch, LoopRejection> {
+        match_loop(
+            &seen_from(query, points),
+            &seen_from(candidate, points),
+            predicted,
+            4.0,
+            params,
+            &Params::default(),
+        )
+    }
+
     /// The scene, a candidate keyframe's pose and a query pose that revisits it, and the true
     /// motion from the candidate to the query.
     fn revisit() -> (Vec<[f64; 2]>, Pose2, Pose2, Pose2) {
@@ -423,13 +442,12 @@ mod tests {
     fn finds_a_loop_several_metres_off_the_prediction() {
         let (points, candidate, query, truth) = revisit();
         let predicted = truth.compose(&Pose2::new(1.6, -1.2, 6f64.to_radians()));
-        let found = match_loop(
-            &seen_from(&query, &points),
-            &seen_from(&candidate, &points),
+        let found = match_views(
+            &points,
+            &candidate,
+            &query,
             predicted,
-            4.0,
             &LoopClosureParams::default(),
-            &Params::default(),
         )
         .unwrap();
         assert!(found.relative.distance_m(&truth) < 0.05, "{found:?}");
@@ -440,15 +458,7 @@ mod tests {
             search_sigma_m: 0.2,
             ..LoopClosureParams::default()
         };
-        let found = match_loop(
-            &seen_from(&query, &points),
-            &seen_from(&candidate, &points),
-            predicted,
-            4.0,
-            &blurred,
-            &Params::default(),
-        )
-        .unwrap();
+        let found = match_views(&points, &candidate, &query, predicted, &blurred).unwrap();
         assert!(found.relative.distance_m(&truth) < 0.05, "{found:?}");
         assert!(found.score > 0.8 && found.score < 1.0, "{found:?}");
     }
@@ -460,13 +470,12 @@ mod tests {
         let (points, candidate, query, truth) = revisit();
         let beyond = truth.compose(&Pose2::new(3.44, -2.58, 0.0));
         let outcome = |predicted: Pose2| {
-            match_loop(
-                &seen_from(&query, &points),
-                &seen_from(&candidate, &points),
+            match_views(
+                &points,
+                &candidate,
+                &query,
                 predicted,
-                4.0,
                 &LoopClosureParams::default(),
-                &Params::default(),
             )
         };
         assert_eq!(outcome(beyond), Err(LoopRejection::AtSearchEdge));
