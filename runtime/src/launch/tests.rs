@@ -195,23 +195,34 @@ fn substitution_cycles_are_reported_with_their_arguments() {
     );
 }
 
+/// `n` arguments `{prefix}00`, `{prefix}01`, ..., each defaulting to `link` with `{next}` the
+/// next one's name, the last to `end`.
+fn chain(prefix: &str, n: usize, link: &str, end: &str) -> Vec<(String, String)> {
+    let names: Vec<String> = (0..n).map(|i| format!("{prefix}{i:02}")).collect();
+    (0..n)
+        .map(|i| {
+            let default = match names.get(i + 1) {
+                Some(next) => link.replace("{next}", next),
+                None => end.to_owned(),
+            };
+            (names[i].clone(), default)
+        })
+        .collect()
+}
+
+/// `chain` as the (name, default) pairs [`substitution`] takes.
+fn as_pairs(chain: &[(String, String)]) -> Vec<(&str, &str)> {
+    chain
+        .iter()
+        .map(|(n, d)| (n.as_str(), d.as_str()))
+        .collect()
+}
+
 #[test]
 fn substitution_depth_and_length_are_bounded() {
     // A chain longer than the depth bound.
-    let names: Vec<String> = (0..=MAX_SUBSTITUTION_DEPTH + 1)
-        .map(|i| format!("a{i:02}"))
-        .collect();
-    let defaults: Vec<String> = (0..names.len())
-        .map(|i| match names.get(i + 1) {
-            Some(next) => format!("$(var {next})"),
-            None => "end".to_owned(),
-        })
-        .collect();
-    let arguments: Vec<(&str, &str)> = names
-        .iter()
-        .zip(&defaults)
-        .map(|(n, d)| (n.as_str(), d.as_str()))
-        .collect();
+    let deep = chain("a", MAX_SUBSTITUTION_DEPTH + 2, "$(var {next})", "end");
+    let arguments = as_pairs(&deep);
     assert_refused(
         substitution(&arguments, "$(var a00)"),
         &[&format!("deeper than {MAX_SUBSTITUTION_DEPTH}")],
@@ -221,18 +232,8 @@ fn substitution_depth_and_length_are_bounded() {
     let launch = substitution(short, &format!("$(var {})", short[0].0)).unwrap();
     assert_eq!(launch.nodes[0].params["x"].as_str(), Some("end"));
     // Doubling at each of 30 levels would make 2^30 copies: refused, quickly.
-    let names: Vec<String> = (0..30).map(|i| format!("d{i:02}")).collect();
-    let defaults: Vec<String> = (0..30)
-        .map(|i| match names.get(i + 1) {
-            Some(next) => format!("$(var {next})$(var {next})"),
-            None => "xxxxxxxx".to_owned(),
-        })
-        .collect();
-    let arguments: Vec<(&str, &str)> = names
-        .iter()
-        .zip(&defaults)
-        .map(|(n, d)| (n.as_str(), d.as_str()))
-        .collect();
+    let doubling = chain("d", 30, "$(var {next})$(var {next})", "xxxxxxxx");
+    let arguments = as_pairs(&doubling);
     let started = std::time::Instant::now();
     assert_refused(
         substitution(&arguments, "$(var d00)"),
