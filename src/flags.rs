@@ -8,7 +8,7 @@
 //! `Duration`s and `Instant`s: checked, so a value that slipped past a range still gives an
 //! error, not a panic.
 
-use anyhow::{anyhow, Result};
+use anyhow::{anyhow, Context, Result};
 use clap::Args;
 use std::time::{Duration, Instant};
 
@@ -260,6 +260,16 @@ pub struct TransportArgs {
 }
 
 impl TransportArgs {
+    /// A peer session on the endpoints given, for the verbs that observe or feed a running graph;
+    /// refused when there is none to listen or connect on.
+    pub fn peer_session(&self) -> Result<zenoh::Session> {
+        if self.listen.is_empty() && self.connect.is_empty() && self.ros_router.is_none() {
+            anyhow::bail!("give --connect ENDPOINT (e.g. the --listen endpoint of a running `nrslam launch`), --listen ENDPOINT or --ros-router ENDPOINT");
+        }
+        let config = self.config(nrslam_runtime::transport::SessionMode::Peer);
+        nrslam_runtime::transport::open(&config).context("opening the zenoh session")
+    }
+
     /// The receive path's options for --on-bad-input (back-pressure on full queues).
     pub fn inbox_options(&self) -> anyhow::Result<nrslam_runtime::receive::InboxOptions> {
         Ok(nrslam_runtime::receive::InboxOptions {

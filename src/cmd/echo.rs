@@ -1,7 +1,7 @@
 //! `nrslam echo TOPIC`: the messages of one topic of a live graph, one JSON object per line on
 //! standard output, until --count messages, the topic's end-of-stream, or Ctrl-C.
 
-use super::{observer_options, report_drops, session_for};
+use super::{observer_options, report_drops};
 use crate::flags::TransportArgs;
 use crate::flags::{self, Whole};
 use anyhow::{anyhow, Result};
@@ -47,7 +47,7 @@ pub fn echo(args: EchoArgs) -> Result<()> {
                 .join(", ")
         )
     })?;
-    let session = session_for(&args.transport)?;
+    let session = args.transport.peer_session()?;
     let mut inbox = Inbox::subscribe(
         &session,
         &args.transport.namespace,

@@ -31,18 +31,8 @@ pub mod topics;
 pub mod tradeoff;
 
 use crate::flags::TransportArgs;
-use anyhow::{bail, Context, Result};
+use anyhow::Result;
 use nrslam_runtime::receive::{Inbox, InboxOptions, Overload};
-use nrslam_runtime::transport::{self, SessionMode};
-
-/// A peer session on the endpoints given; refused when there is none to listen or connect on.
-fn session_for(args: &TransportArgs) -> Result<zenoh::Session> {
-    if args.listen.is_empty() && args.connect.is_empty() {
-        bail!("give --connect ENDPOINT (e.g. the --listen endpoint of a running `nrslam launch`) or --listen ENDPOINT");
-    }
-    let config = args.config(SessionMode::Peer);
-    transport::open(&config).context("opening the zenoh session")
-}
 
 /// An observer keeps the newest samples rather than slow the graph down, and shows them in
 /// arrival order (a bag played in a loop starts its stamps over).

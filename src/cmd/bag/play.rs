@@ -4,7 +4,7 @@
 //! published as recorded (raw CDR); with `--ros-domain-id`, under the type hash the bag recorded.
 
 use super::selection::{endpoint, select, PlayTopic};
-use super::{byte_progress, interrupted, open_bag, print_losses, session};
+use super::{byte_progress, interrupted, open_bag, print_losses};
 use crate::flags::TransportArgs;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
@@ -159,7 +159,7 @@ pub fn play(args: PlayArgs) -> Result<()> {
         None => bag.survey()?.topics,
     };
     let played = select(&args, &bag, &recorded)?;
-    let session = session(&args.transport)?;
+    let session = args.transport.peer_session()?;
     let style = match args.ros_domain_id {
         Some(domain_id) => KeyStyle::RmwZenoh { domain_id },
         None => KeyStyle::Nrslam,
