@@ -16,7 +16,7 @@
 //! (is a wrong loop the clouds' fault or the data's?), and `DUMP=DIR` writes those clouds as
 //! `DIR/cloud_OLD_NEW.csv` (`s` submap, `q` query at the truth, `m` query where it matched).
 
-use nrslam_association::{detection_to_agv_m, Association, Params, Pose2};
+use nrslam_association::{detection_to_agv_m, Association, LoopMatch, Params, Pose2};
 
 fn main() -> anyhow::Result<()> {
     tracing_subscriber::fmt()
@@ -24,73 +24,7 @@ fn main() -> anyhow::Result<()> {
         .with_writer(std::io::stderr)
         .init();
     let args: Vec<String> = std::env::args().collect();
-    let get = |i: usize, d: &str| args.get(i).cloned().unwrap_or_else(|| d.to_owned());
-    let mut radar = nrslam_radar::Params {
-        range_std_m: get(1, "0").parse()?,
-        angle_std_deg: get(2, "1").parse()?,
-        ..nrslam_radar::Params::default()
-    };
-    if let Ok(scene) = std::env::var("SCENE") {
-        radar.scene = scene.into();
-    }
-    let seed: u64 = get(3, "1").parse()?;
-    let mut params = Params {
-        robust_scale_m: 0.5,
-        ..Params::default()
-    };
-    params.loop_closure.enabled = get(4, "true").parse()?;
-    let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f64>().ok());
-    if let Some(v) = env("CELL") {
-        params.cell_m = v;
-    }
-    if let Some(v) = env("NEIGH") {
-        params.cell_neighbours = v as u32;
-    }
-    if let Some(v) = env("CORR") {
-        params.max_correspondence_m = v;
-    }
-    if let Some(v) = env("ROBUST") {
-        params.robust_sigma = v;
-    }
-    if let Some(v) = env("PRIOR_M") {
-        params.prior_std_m = v;
-    }
-    if let Some(v) = env("PRIOR_DEG") {
-        params.prior_std_deg = v;
-    }
-    if let Some(v) = env("MAPSTD") {
-        params.map_std_m = v;
-    }
-    // Positional overrides apply only where given: the shipped defaults otherwise.
-    let lc = &mut params.loop_closure;
-    let opt = |i: usize| args.get(i).and_then(|v| v.parse::<f64>().ok());
-    if let Some(v) = opt(5) {
-        lc.local_map_m = v;
-    }
-    if let Some(v) = opt(7) {
-        lc.overlap_distance_m = v;
-    }
-    if let Some(v) = opt(8) {
-        lc.min_inlier_ratio = v;
-    }
-    if let Some(v) = opt(9) {
-        lc.search_radius_per_m = v;
-    }
-    if let Some(v) = opt(10) {
-        lc.max_search_radius_m = v;
-    }
-    if let Some(v) = opt(11) {
-        lc.loop_std_deg = v;
-    }
-    if let Some(v) = opt(12) {
-        lc.query_keyframes = v as u32;
-    }
-    if let Some(v) = opt(13) {
-        lc.submap_keyframes = v as u32;
-    }
-    if let Some(v) = opt(14) {
-        lc.max_ambiguity = v;
-    }
+    let (radar, seed, params) = configure(&args)?;
     let ctx = nrslam_runtime::NodeContext::for_tests(seed);
     let mut sim = nrslam_radar::Simulator::from_params(
         &radar,
@@ -126,94 +60,14 @@ fn main() -> anyhow::Result<()> {
         if let Some(id) = out.keyframe_id {
             truths.push(truth);
             online_at_keyframe.push(err);
-            if let Some(m) = out.loop_match {
-                let j = m.candidate;
-                let true_rel = truths[j].between(&truths[m.query]);
-                if std::env::var("DISTORT").is_ok() {
-                    // How far the query's and the submap's keyframes are from their true
-                    // placement relative to the keyframe they are expressed in.
-                    let records = slam.keyframe_records();
-                    let spread = |from: usize, to: usize, frame: usize| {
-                        (from..=to.min(records.len() - 1))
-                            .map(|k| {
-                                let est = records[frame].pose.between(&records[k].pose);
-                                let tru = truths[frame].between(&truths[k]);
-                                format!(
-                                    "{:.2}/{:.1}",
-                                    est.distance_m(&tru),
-                                    est.rotation_to_rad(&tru).to_degrees()
-                                )
-                            })
-                            .collect::<Vec<_>>()
-                            .join(" ")
-                    };
-                    let cur = records.len() - 1;
-                    println!("  query  {}", spread(cur.saturating_sub(9), cur, m.query));
-                    println!("  submap {}", spread(j.saturating_sub(10), j + 10, j));
-                }
-                if std::env::var("TRUECLOUD").is_ok() {
-                    let records = slam.keyframe_records();
-                    let cur = records.len() - 1;
-                    let cloud = |from: usize, to: usize, frame: usize, truth: bool| {
-                        let mut pts = Vec::new();
-                        for k in from..=to.min(cur) {
-                            let pose_of =
-                                |i: usize| if truth { truths[i] } else { records[i].pose };
-                            let rel = pose_of(frame).between(&pose_of(k));
-                            pts.extend(
-                                records[k]
-                                    .scan_agv_m
-                                    .iter()
-                                    .map(|p| rel.transform_point(*p)),
-                            );
-                        }
-                        pts
-                    };
-                    let lc = slam.params().loop_closure.clone();
-                    let refine = Params {
-                        max_correspondence_m: lc.refine_correspondence_m,
-                        ..slam.params().clone()
-                    };
-                    for truth in [true, false] {
-                        let q = cloud(cur.saturating_sub(9), cur, m.query, truth);
-                        let sm = cloud(j.saturating_sub(10), j + 10, j, truth);
-                        let r =
-                            nrslam_association::match_loop(&q, &sm, true_rel, 2.0, &lc, &refine);
-                        if truth {
-                            if let Ok(dir) = std::env::var("DUMP") {
-                                use std::io::Write as _;
-                                let mut f = std::fs::File::create(format!(
-                                    "{dir}/cloud_{j}_{}.csv",
-                                    m.query
-                                ))?;
-                                for p in &sm {
-                                    writeln!(f, "s,{},{}", p[0], p[1])?;
-                                }
-                                for p in &q {
-                                    let t = true_rel.transform_point(*p);
-                                    writeln!(f, "q,{},{}", t[0], t[1])?;
-                                }
-                                if let Ok(found) = &r {
-                                    for p in &q {
-                                        let t = found.relative.transform_point(*p);
-                                        writeln!(f, "m,{},{}", t[0], t[1])?;
-                                    }
-                                }
-                                let a = true_rel;
-                                writeln!(f, "a,{},{}", a.x_m, a.y_m)?;
-                            }
-                        }
-                        match r {
-                            Ok(f) => println!("  clouds from {}: from true prediction error {:.2} m {:.2}° score {:.2}", if truth {"truth"} else {"estimate"}, f.relative.distance_m(&true_rel), f.relative.rotation_to_rad(&true_rel).to_degrees(), f.score),
-                            Err(e) => println!("  clouds from {}: {e:?}", if truth {"truth"} else {"estimate"}),
-                        }
-                    }
-                }
+            if let Some(m) = &out.loop_match {
+                trace_loop(&slam, &truths, m)?;
+                let true_rel = truths[m.candidate].between(&truths[m.query]);
                 println!(
                     "frame {:3} kf {:3} LOOP with kf {:3}: relative error {:.2} m {:.2}°, inliers {:.2}, score {:.2}/{:.2}",
                     frame.index,
                     id,
-                    j,
+                    m.candidate,
                     m.relative.distance_m(&true_rel),
                     m.relative.rotation_to_rad(&true_rel).to_degrees(),
                     m.inlier_ratio,
@@ -236,13 +90,190 @@ fn main() -> anyhow::Result<()> {
             );
         }
     }
+    print_keyframe_errors(&slam, &truths, &online_at_keyframe, (sum2 / n).sqrt());
+    Ok(())
+}
+
+/// The radar's and the association's parameters and the seed, from the positional arguments and
+/// the environment (module docs).
+fn configure(args: &[String]) -> anyhow::Result<(nrslam_radar::Params, u64, Params)> {
+    let get = |i: usize, d: &str| args.get(i).cloned().unwrap_or_else(|| d.to_owned());
+    let mut radar = nrslam_radar::Params {
+        range_std_m: get(1, "0").parse()?,
+        angle_std_deg: get(2, "1").parse()?,
+        ..nrslam_radar::Params::default()
+    };
+    if let Ok(scene) = std::env::var("SCENE") {
+        radar.scene = scene.into();
+    }
+    let seed: u64 = get(3, "1").parse()?;
+    let mut params = Params {
+        robust_scale_m: 0.5,
+        ..Params::default()
+    };
+    params.loop_closure.enabled = get(4, "true").parse()?;
+    let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f64>().ok());
+    let set = |field: &mut f64, value: Option<f64>| {
+        if let Some(v) = value {
+            *field = v;
+        }
+    };
+    let set_count = |field: &mut u32, value: Option<f64>| {
+        if let Some(v) = value {
+            *field = v as u32;
+        }
+    };
+    set(&mut params.cell_m, env("CELL"));
+    set_count(&mut params.cell_neighbours, env("NEIGH"));
+    set(&mut params.max_correspondence_m, env("CORR"));
+    set(&mut params.robust_sigma, env("ROBUST"));
+    set(&mut params.prior_std_m, env("PRIOR_M"));
+    set(&mut params.prior_std_deg, env("PRIOR_DEG"));
+    set(&mut params.map_std_m, env("MAPSTD"));
+    // Positional overrides apply only where given: the shipped defaults otherwise.
+    let lc = &mut params.loop_closure;
+    let opt = |i: usize| args.get(i).and_then(|v| v.parse::<f64>().ok());
+    set(&mut lc.local_map_m, opt(5));
+    set(&mut lc.overlap_distance_m, opt(7));
+    set(&mut lc.min_inlier_ratio, opt(8));
+    set(&mut lc.search_radius_per_m, opt(9));
+    set(&mut lc.max_search_radius_m, opt(10));
+    set(&mut lc.loop_std_deg, opt(11));
+    set_count(&mut lc.query_keyframes, opt(12));
+    set_count(&mut lc.submap_keyframes, opt(13));
+    set(&mut lc.max_ambiguity, opt(14));
+    Ok((radar, seed, params))
+}
+
+/// What `DISTORT` and `TRUECLOUD` ask for about the loop closure `m` (module docs).
+fn trace_loop(slam: &Association, truths: &[Pose2], m: &LoopMatch) -> anyhow::Result<()> {
+    let j = m.candidate;
+    let records = slam.keyframe_records();
+    let cur = records.len() - 1;
+    if std::env::var("DISTORT").is_ok() {
+        // How far the query's and the submap's keyframes are from their true placement relative
+        // to the keyframe they are expressed in.
+        let spread = |from: usize, to: usize, frame: usize| {
+            (from..=to.min(records.len() - 1))
+                .map(|k| {
+                    let est = records[frame].pose.between(&records[k].pose);
+                    let tru = truths[frame].between(&truths[k]);
+                    format!(
+                        "{:.2}/{:.1}",
+                        est.distance_m(&tru),
+                        est.rotation_to_rad(&tru).to_degrees()
+                    )
+                })
+                .collect::<Vec<_>>()
+                .join(" ")
+        };
+        println!("  query  {}", spread(cur.saturating_sub(9), cur, m.query));
+        println!("  submap {}", spread(j.saturating_sub(10), j + 10, j));
+    }
+    if std::env::var("TRUECLOUD").is_ok() {
+        rematch_clouds(slam, truths, m)?;
+    }
+    Ok(())
+}
+
+/// Re-matches the loop's query and submap built at the true poses and at the estimated ones,
+/// from the true relative pose; `DUMP=DIR` writes the true-pose clouds.
+fn rematch_clouds(slam: &Association, truths: &[Pose2], m: &LoopMatch) -> anyhow::Result<()> {
+    let j = m.candidate;
+    let true_rel = truths[j].between(&truths[m.query]);
+    let records = slam.keyframe_records();
+    let cur = records.len() - 1;
+    let cloud = |from: usize, to: usize, frame: usize, truth: bool| {
+        let mut pts = Vec::new();
+        for k in from..=to.min(cur) {
+            let pose_of = |i: usize| if truth { truths[i] } else { records[i].pose };
+            let rel = pose_of(frame).between(&pose_of(k));
+            pts.extend(
+                records[k]
+                    .scan_agv_m
+                    .iter()
+                    .map(|p| rel.transform_point(*p)),
+            );
+        }
+        pts
+    };
+    let lc = slam.params().loop_closure.clone();
+    let refine = Params {
+        max_correspondence_m: lc.refine_correspondence_m,
+        ..slam.params().clone()
+    };
+    for truth in [true, false] {
+        let q = cloud(cur.saturating_sub(9), cur, m.query, truth);
+        let sm = cloud(j.saturating_sub(10), j + 10, j, truth);
+        let r = nrslam_association::match_loop(&q, &sm, true_rel, 2.0, &lc, &refine);
+        if truth {
+            if let Ok(dir) = std::env::var("DUMP") {
+                let found = r.as_ref().ok().map(|f| f.relative);
+                dump_clouds(
+                    &format!("{dir}/cloud_{j}_{}.csv", m.query),
+                    &sm,
+                    &q,
+                    true_rel,
+                    found,
+                )?;
+            }
+        }
+        let from = if truth { "truth" } else { "estimate" };
+        match r {
+            Ok(f) => println!(
+                "  clouds from {from}: from true prediction error {:.2} m {:.2}° score {:.2}",
+                f.relative.distance_m(&true_rel),
+                f.relative.rotation_to_rad(&true_rel).to_degrees(),
+                f.score
+            ),
+            Err(e) => println!("  clouds from {from}: {e:?}"),
+        }
+    }
+    Ok(())
+}
+
+/// Writes the submap (`s`), the query at the true relative pose (`q`) and where it matched (`m`),
+/// and the true relative position (`a`) to `path`.
+fn dump_clouds(
+    path: &str,
+    submap: &[[f64; 2]],
+    query: &[[f64; 2]],
+    true_rel: Pose2,
+    found: Option<Pose2>,
+) -> anyhow::Result<()> {
+    use std::io::Write as _;
+    let mut f = std::fs::File::create(path)?;
+    for p in submap {
+        writeln!(f, "s,{},{}", p[0], p[1])?;
+    }
+    for p in query {
+        let t = true_rel.transform_point(*p);
+        writeln!(f, "q,{},{}", t[0], t[1])?;
+    }
+    if let Some(found) = found {
+        for p in query {
+            let t = found.transform_point(*p);
+            writeln!(f, "m,{},{}", t[0], t[1])?;
+        }
+    }
+    writeln!(f, "a,{},{}", true_rel.x_m, true_rel.y_m)?;
+    Ok(())
+}
+
+/// Every tenth keyframe's online and final error, and the run's RMSEs.
+fn print_keyframe_errors(
+    slam: &Association,
+    truths: &[Pose2],
+    online_at_keyframe: &[f64],
+    pose_rmse_m: f64,
+) {
     let kf_err: Vec<f64> = slam
         .keyframe_records()
         .iter()
-        .zip(&truths)
+        .zip(truths)
         .map(|(r, t)| r.pose.distance_m(t))
         .collect();
-    for (k, (final_m, online_m)) in kf_err.iter().zip(&online_at_keyframe).enumerate() {
+    for (k, (final_m, online_m)) in kf_err.iter().zip(online_at_keyframe).enumerate() {
         if k % 10 == 0 {
             println!("keyframe {k:3}: error online {online_m:.2} m, final {final_m:.2} m");
         }
@@ -250,9 +281,8 @@ fn main() -> anyhow::Result<()> {
     let kf_rmse = (kf_err.iter().map(|e| e * e).sum::<f64>() / kf_err.len() as f64).sqrt();
     println!(
         "pose RMSE {:.3} m, final keyframe RMSE {:.3} m, loops {}",
-        (sum2 / n).sqrt(),
+        pose_rmse_m,
         kf_rmse,
         slam.loop_closures()
     );
-    Ok(())
 }

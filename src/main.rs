@@ -21,24 +21,18 @@ macro_rules! outln {
     }};
 }
 
-mod accuracy;
-mod bag;
 #[cfg(test)]
 mod cli_tests;
 mod cmd;
 mod flags;
-mod launcher;
-mod montecarlo;
 mod plot;
 mod registry;
 mod report;
-mod reproduce;
-#[cfg(feature = "ros2")]
-mod ros2;
-mod scene;
-mod tradeoff;
 
-use clap::{Args, Parser, Subcommand};
+use clap::{Parser, Subcommand};
+#[cfg(feature = "ros2")]
+use cmd::ros2;
+use cmd::{accuracy, bag, launch, montecarlo, reproduce, run, scene, tradeoff};
 
 /// SLAM for multiple extended targets with 5G OFDM sensing: a ROS-style node graph over zenoh.
 #[derive(Parser, Debug)]
@@ -48,75 +42,12 @@ struct Cli {
     command: Command,
 }
 
-/// Where the zenoh session listens and connects. Multicast scouting is always off; nothing is
-/// exposed beyond the endpoints given here.
-#[derive(Args, Debug, Clone, Default)]
-pub struct TransportArgs {
-    /// zenoh endpoint to listen on, e.g. tcp/127.0.0.1:7447 (repeatable). Outside clients connect here.
-    #[arg(long = "listen", value_name = "ENDPOINT")]
-    pub listen: Vec<String>,
-    /// zenoh endpoint to connect to, e.g. tcp/127.0.0.1:7447 (repeatable): a router, or a peer that listens.
-    #[arg(long = "connect", value_name = "ENDPOINT")]
-    pub connect: Vec<String>,
-    /// Prefix of every key expression (e.g. `robot1` → `robot1/map`); empty: none.
-    #[arg(long, default_value = "", value_name = "PREFIX")]
-    pub namespace: String,
-    /// zenoh configuration file (.json5, .json or .yaml) for every session of the run: TLS,
-    /// mutual TLS, access control (docs/security.md). Its endpoints come before --listen; a
-    /// --connect replaces its connect endpoints; the session's role stays nrslam's.
-    #[arg(long = "zenoh-config", value_name = "FILE")]
-    pub zenoh_config: Option<std::path::PathBuf>,
-    /// Join ROS 2 through this rmw_zenohd router, e.g. tcp/localhost:7447 (`ros2 run
-    /// rmw_zenoh_cpp rmw_zenohd`): the session becomes the router's client, as rmw_zenoh asks of
-    /// non-ROS sessions (a router forwards a client's data and tokens to its ROS nodes, not a
-    /// peer's). With --ros-domain-id: `ros2 topic list` and `ros2 node list` show the graph.
-    #[arg(long = "ros-router", value_name = "ENDPOINT")]
-    pub ros_router: Option<String>,
-    /// What a received sample that cannot be used (bad CDR, NaN where a number is needed, a
-    /// stamp older than the last on its topic, ...) does: `drop` counts it (summary.json
-    /// "dropped", /diagnostics) and goes on; `fail` stops with an error naming it.
-    #[arg(long, default_value = "drop", value_name = "POLICY", value_parser = ["drop", "fail"])]
-    pub on_bad_input: String,
-}
-
-impl TransportArgs {
-    /// The receive path's options for --on-bad-input (back-pressure on full queues).
-    pub fn inbox_options(&self) -> anyhow::Result<nrslam_runtime::receive::InboxOptions> {
-        Ok(nrslam_runtime::receive::InboxOptions {
-            bad_input: self
-                .on_bad_input
-                .parse()
-                .map_err(|e| anyhow::anyhow!("--on-bad-input: {e}"))?,
-            overload: nrslam_runtime::receive::Overload::BackPressure,
-            in_order: true,
-        })
-    }
-
-    /// The session configuration for these flags, in role `mode`.
-    pub fn config(
-        &self,
-        mode: nrslam_runtime::transport::SessionMode,
-    ) -> nrslam_runtime::transport::TransportConfig {
-        let config = nrslam_runtime::transport::TransportConfig {
-            mode,
-            listen: self.listen.clone(),
-            connect: self.connect.clone(),
-            namespace: self.namespace.clone(),
-            config_file: self.zenoh_config.clone(),
-        };
-        match &self.ros_router {
-            Some(router) => config.via_ros_router(router),
-            None => config,
-        }
-    }
-}
-
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Run a launch file's graph to its end and write summary.json, metrics.csv, map.png, segments.png.
-    Launch(launcher::LaunchArgs),
+    Launch(launch::LaunchArgs),
     /// Run one node as its own process, talking over zenoh.
-    Run(launcher::RunArgs),
+    Run(run::RunArgs),
     /// List the topics of the catalogue and, with --connect, what a live graph publishes.
     Topics(cmd::topics::TopicsArgs),
     /// Print the messages of one topic of a live graph, one JSON object per line.
@@ -161,7 +92,7 @@ impl Command {
             Command::Reproduce(args) => args.validate(),
             Command::Tradeoff(args) => args.validate(),
             Command::Scene(args) => args.validate(),
-            // `nrslam bag` checks its own flags (src/bag.rs).
+            // `nrslam bag` checks its own flags (src/cmd/bag/).
             Command::Bag(_) => Ok(()),
             #[cfg(feature = "ros2")]
             Command::Ros2Bridge(_) => Ok(()),
@@ -233,8 +164,8 @@ fn main() -> std::process::ExitCode {
         Err(Refused::Clap(error)) => error.exit(),
     };
     let result = match cli.command {
-        Command::Launch(args) => launcher::launch(args),
-        Command::Run(args) => launcher::run(args),
+        Command::Launch(args) => launch::launch(args),
+        Command::Run(args) => run::run(args),
         Command::Topics(args) => cmd::topics::topics(args),
         Command::Echo(args) => cmd::echo::echo(args),
         Command::Metric(args) => cmd::metric::metric(args),

@@ -3,6 +3,8 @@
 
 use crate::report::Reporter;
 use anyhow::{anyhow, Result};
+use plotters::coord::ranged1d::ValueFormatter;
+use plotters::coord::{CoordTranslate, Shift};
 use plotters::prelude::*;
 use std::path::Path;
 use std::sync::Once;
@@ -17,8 +19,77 @@ pub fn register_font() {
     });
 }
 
-fn plot_error(error: impl std::fmt::Display) -> anyhow::Error {
+/// Why a figure could not be drawn, for `map_err` on any plotters call.
+pub(crate) fn plot_error(error: impl std::fmt::Display) -> anyhow::Error {
     anyhow!("plotting failed: {error}")
+}
+
+/// A white canvas of `size_px` that writes a PNG to `path`, the embedded font registered.
+pub(crate) fn canvas(
+    path: &Path,
+    size_px: (u32, u32),
+) -> Result<DrawingArea<BitMapBackend<'_>, Shift>> {
+    register_font();
+    let root = BitMapBackend::new(path, size_px).into_drawing_area();
+    root.fill(&WHITE).map_err(plot_error)?;
+    Ok(root)
+}
+
+/// The frame every figure draws its chart in: a sans-serif caption of `caption_px`, a margin of
+/// `margin_px` and label areas of `label_px` (x axis, y axis).
+pub(crate) fn framed<'a, 'b, DB: DrawingBackend>(
+    area: &'a DrawingArea<DB, Shift>,
+    caption: impl AsRef<str>,
+    caption_px: u32,
+    margin_px: u32,
+    label_px: (u32, u32),
+) -> ChartBuilder<'a, 'b, DB> {
+    let mut builder = ChartBuilder::on(area);
+    builder
+        .caption(caption, ("sans-serif", caption_px))
+        .margin(margin_px)
+        .x_label_area_size(label_px.0)
+        .y_label_area_size(label_px.1);
+    builder
+}
+
+/// Axes described by `x_desc` and `y_desc`; `grid` draws the mesh lines as well.
+pub(crate) fn draw_axes<DB, X, Y, XT, YT>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<X, Y>>,
+    x_desc: impl Into<String>,
+    y_desc: impl Into<String>,
+    grid: bool,
+) -> Result<()>
+where
+    DB: DrawingBackend,
+    X: Ranged<ValueType = XT> + ValueFormatter<XT>,
+    Y: Ranged<ValueType = YT> + ValueFormatter<YT>,
+{
+    let mut mesh = chart.configure_mesh();
+    mesh.x_desc(x_desc).y_desc(y_desc);
+    if !grid {
+        mesh.disable_mesh();
+    }
+    mesh.draw().map_err(plot_error)
+}
+
+/// The legend box (translucent white, black border) at `position`.
+pub(crate) fn draw_legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    position: SeriesLabelPosition,
+) -> Result<()> {
+    chart
+        .configure_series_labels()
+        .position(position)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(plot_error)
+}
+
+/// A legend key for a line series: a 20-pixel stroke in `style`.
+pub(crate) fn line_key(style: ShapeStyle) -> impl Fn((i32, i32)) -> PathElement<(i32, i32)> {
+    move |(x, y)| PathElement::new([(x, y), (x + 20, y)], style)
 }
 
 /// Bounds of everything drawn: targets and paths, with a margin (m).
@@ -108,9 +179,9 @@ fn draw_outlines<DB: DrawingBackend>(
             .draw_series(LineSeries::new(points, color.stroke_width(2)))
             .map_err(plot_error)?;
         if index == 0 {
-            series.label("true outlines").legend(move |(x, y)| {
-                PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2))
-            });
+            series
+                .label("true outlines")
+                .legend(line_key(color.stroke_width(2)));
         }
     }
     Ok(())
@@ -119,27 +190,18 @@ fn draw_outlines<DB: DrawingBackend>(
 /// `map.png`: grid (free white, occupied black, unknown grey), truth outlines, true path (green,
 /// dashed) and SLAM path (red).
 pub fn map_png(path: &Path, report: &Reporter) -> Result<()> {
-    register_font();
-    let root = BitMapBackend::new(path, (1100, 850)).into_drawing_area();
-    root.fill(&WHITE).map_err(plot_error)?;
+    let root = canvas(path, (1100, 850))?;
     let (x_range, y_range) = bounds(report);
-    let mut chart = ChartBuilder::on(&root)
-        .caption(
-            "Occupancy map, truth outlines, AGV paths",
-            ("sans-serif", 24),
-        )
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(50)
-        .build_cartesian_2d(x_range.clone(), y_range.clone())
-        .map_err(plot_error)?;
-    chart
-        .configure_mesh()
-        .x_desc("x (m)")
-        .y_desc("y (m)")
-        .disable_mesh()
-        .draw()
-        .map_err(plot_error)?;
+    let mut chart = framed(
+        &root,
+        "Occupancy map, truth outlines, AGV paths",
+        24,
+        12,
+        (40, 50),
+    )
+    .build_cartesian_2d(x_range.clone(), y_range.clone())
+    .map_err(plot_error)?;
+    draw_axes(&mut chart, "x (m)", "y (m)", false)?;
     chart
         .draw_series(std::iter::once(Rectangle::new(
             [(x_range.start, y_range.start), (x_range.end, y_range.end)],
@@ -178,7 +240,7 @@ pub fn map_png(path: &Path, report: &Reporter) -> Result<()> {
         ))
         .map_err(plot_error)?
         .label("true AGV path")
-        .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], green.stroke_width(2)));
+        .legend(line_key(green.stroke_width(2)));
     chart
         .draw_series(LineSeries::new(
             report.slam_path.iter().copied(),
@@ -186,40 +248,22 @@ pub fn map_png(path: &Path, report: &Reporter) -> Result<()> {
         ))
         .map_err(plot_error)?
         .label("SLAM AGV path")
-        .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], RED.stroke_width(2)));
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()
-        .map_err(plot_error)?;
+        .legend(line_key(RED.stroke_width(2)));
+    draw_legend(&mut chart, SeriesLabelPosition::MiddleRight)?;
     root.present().map_err(plot_error)?;
     Ok(())
 }
 
 /// `segments.png`: occupied cells coloured by DBSCAN cluster (noise grey), truth outlines.
 pub fn segments_png(path: &Path, report: &Reporter) -> Result<()> {
-    register_font();
-    let root = BitMapBackend::new(path, (1100, 850)).into_drawing_area();
-    root.fill(&WHITE).map_err(plot_error)?;
+    let root = canvas(path, (1100, 850))?;
     let (x_range, y_range) = bounds(report);
     let clusters = report.segments.as_ref().map_or(0, |s| s.cluster_count);
-    let mut chart = ChartBuilder::on(&root)
-        .caption(
-            format!("DBSCAN segments: {clusters} clusters"),
-            ("sans-serif", 24),
-        )
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(50)
+    let caption = format!("DBSCAN segments: {clusters} clusters");
+    let mut chart = framed(&root, caption, 24, 12, (40, 50))
         .build_cartesian_2d(x_range, y_range)
         .map_err(plot_error)?;
-    chart
-        .configure_mesh()
-        .x_desc("x (m)")
-        .y_desc("y (m)")
-        .draw()
-        .map_err(plot_error)?;
+    draw_axes(&mut chart, "x (m)", "y (m)", true)?;
     if let Some(segments) = &report.segments {
         let points = segments
             .points
@@ -236,12 +280,7 @@ pub fn segments_png(path: &Path, report: &Reporter) -> Result<()> {
         chart.draw_series(points).map_err(plot_error)?;
     }
     draw_outlines(&mut chart, report, RGBColor(0, 0, 0))?;
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()
-        .map_err(plot_error)?;
+    draw_legend(&mut chart, SeriesLabelPosition::MiddleRight)?;
     root.present().map_err(plot_error)?;
     Ok(())
 }
@@ -250,34 +289,21 @@ pub fn segments_png(path: &Path, report: &Reporter) -> Result<()> {
 /// 2σ ellipse of its centre and its sample points) over the segmented cells (grey) and the truth
 /// outlines (black).
 pub fn shapes_png(path: &Path, report: &Reporter) -> Result<()> {
-    register_font();
-    let root = BitMapBackend::new(path, (1100, 850)).into_drawing_area();
-    root.fill(&WHITE).map_err(plot_error)?;
+    let root = canvas(path, (1100, 850))?;
     let (x_range, y_range) = bounds(report);
     let shapes = report
         .map_targets
         .as_ref()
         .map_or(&[][..], |t| &t.targets[..]);
     let circles = shapes.iter().filter(|t| t.shape == "circle").count();
-    let mut chart = ChartBuilder::on(&root)
-        .caption(
-            format!(
-                "Fitted shapes: {} rectangles, {circles} circles",
-                shapes.len() - circles
-            ),
-            ("sans-serif", 24),
-        )
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(50)
+    let caption = format!(
+        "Fitted shapes: {} rectangles, {circles} circles",
+        shapes.len() - circles
+    );
+    let mut chart = framed(&root, caption, 24, 12, (40, 50))
         .build_cartesian_2d(x_range, y_range)
         .map_err(plot_error)?;
-    chart
-        .configure_mesh()
-        .x_desc("x (m)")
-        .y_desc("y (m)")
-        .draw()
-        .map_err(plot_error)?;
+    draw_axes(&mut chart, "x (m)", "y (m)", true)?;
     if let Some(segments) = &report.segments {
         let cells = segments
             .points
@@ -301,9 +327,9 @@ pub fn shapes_png(path: &Path, report: &Reporter) -> Result<()> {
             .draw_series(LineSeries::new(outline, color.stroke_width(2)))
             .map_err(plot_error)?;
         if index == 0 {
-            series.label("fitted shapes").legend(move |(x, y)| {
-                PathElement::new([(x, y), (x + 20, y)], orange.stroke_width(2))
-            });
+            series
+                .label("fitted shapes")
+                .legend(line_key(orange.stroke_width(2)));
         }
         let ellipse = centre_ellipse_2sigma(shape);
         chart
@@ -318,12 +344,7 @@ pub fn shapes_png(path: &Path, report: &Reporter) -> Result<()> {
             )
             .map_err(plot_error)?;
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()
-        .map_err(plot_error)?;
+    draw_legend(&mut chart, SeriesLabelPosition::MiddleRight)?;
     root.present().map_err(plot_error)?;
     Ok(())
 }

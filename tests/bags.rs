@@ -11,13 +11,7 @@ use std::process::Stdio;
 use std::time::{Duration, Instant};
 
 fn ok(args: &[&str]) -> String {
-    let output = run(args);
-    assert!(
-        output.status.success(),
-        "nrslam {args:?} failed: {}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-    String::from_utf8_lossy(&output.stdout).into_owned()
+    stdout(&run_ok(args))
 }
 
 fn info_json(dir: &Path, recover: bool) -> serde_json::Value {
@@ -229,25 +223,40 @@ fn a_recorder_killed_mid_run_loses_at_most_the_chunk_it_was_filling() {
     );
 }
 
+/// Records `topics` of a paper-ideal run of `frames` (`frames:=N`) into the bag `dir`/source
+/// (the run's report in `dir`/run).
+fn recorded_run(dir: &Path, frames: &str, topics: &[&str]) -> std::path::PathBuf {
+    let source = dir.join("source");
+    let (run, bag) = (dir.join("run"), source.to_str().unwrap().to_owned());
+    let mut args = vec![
+        "launch",
+        "launch/paper-ideal.toml",
+        frames,
+        "--out",
+        run.to_str().unwrap(),
+        "--record",
+        &bag,
+        "--record-topics",
+    ];
+    args.extend_from_slice(topics);
+    ok(&args);
+    source
+}
+
 #[test]
 fn play_at_rate_zero_delivers_every_message_to_a_recorder_over_zenoh() {
     let dir = temp();
-    let source = dir.path().join("source");
-    ok(&[
-        "launch",
-        "launch/paper-ideal.toml",
+    let source = recorded_run(
+        dir.path(),
         "frames:=10",
-        "--out",
-        dir.path().join("run").to_str().unwrap(),
-        "--record",
-        source.to_str().unwrap(),
-        "--record-topics",
-        "/clock",
-        "/odom",
-        "/radar/detections",
-        "/ground_truth/targets",
-        "/map",
-    ]);
+        &[
+            "/clock",
+            "/odom",
+            "/radar/detections",
+            "/ground_truth/targets",
+            "/map",
+        ],
+    );
     let copy = dir.path().join("copy");
     let endpoint = format!("tcp/127.0.0.1:{}", free_port());
     let recorder = nrslam()
@@ -343,30 +352,10 @@ type Sample = (String, Vec<u8>, Option<Vec<u8>>);
 #[test]
 fn play_with_a_ros_domain_id_speaks_rmw_zenoh_key_expressions_and_attachments() {
     let dir = temp();
-    let source = dir.path().join("source");
-    ok(&[
-        "launch",
-        "launch/paper-ideal.toml",
-        "frames:=3",
-        "--out",
-        dir.path().join("run").to_str().unwrap(),
-        "--record",
-        source.to_str().unwrap(),
-        "--record-topics",
-        "/map",
-        "/slam/pose",
-    ]);
+    let source = recorded_run(dir.path(), "frames:=3", &["/map", "/slam/pose"]);
     let recorded = bag::open(&source, ReadMode::Strict).unwrap();
     let endpoint = format!("tcp/127.0.0.1:{}", free_port());
-    let mut config = zenoh::Config::default();
-    config.insert_json5("mode", "\"peer\"").unwrap();
-    config
-        .insert_json5("scouting/multicast/enabled", "false")
-        .unwrap();
-    config
-        .insert_json5("listen/endpoints", &format!("[\"{endpoint}\"]"))
-        .unwrap();
-    let session = zenoh::Wait::wait(zenoh::open(config)).unwrap();
+    let session = zenoh_peer(std::slice::from_ref(&endpoint), &[]);
     let (sender, received) = std::sync::mpsc::channel();
     let _subscriber =
         zenoh::Wait::wait(session.declare_subscriber("7/**").callback(move |sample| {

@@ -4,25 +4,10 @@
 mod common;
 use common::*;
 
-fn assert_clean_failure(output: &std::process::Output, must_contain: &[&str]) {
-    assert!(!output.status.success(), "should fail");
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    assert!(!stderr.contains("panicked"), "panicked: {stderr}");
-    let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
-    assert_eq!(lines.len(), 1, "one line expected, got: {stderr}");
-    for needle in must_contain {
-        assert!(
-            lines[0].contains(needle),
-            "{needle:?} missing from: {}",
-            lines[0]
-        );
-    }
-}
-
 #[test]
 fn missing_launch_file() {
     let output = run(&["launch", "launch/does-not-exist.toml"]);
-    assert_clean_failure(&output, &["launch/does-not-exist.toml", "cannot read"]);
+    assert_one_line_failure(&output, &["launch/does-not-exist.toml", "cannot read"]);
 }
 
 #[test]
@@ -36,7 +21,7 @@ fn argument_out_of_range_names_file_node_field_and_range() {
         "--out",
         out,
     ]);
-    assert_clean_failure(
+    assert_one_line_failure(
         &output,
         &[
             "launch/paper-ideal.toml",
@@ -50,38 +35,34 @@ fn argument_out_of_range_names_file_node_field_and_range() {
 #[test]
 fn malformed_and_unknown_arguments() {
     let output = run(&["launch", "launch/paper-ideal.toml", "angle_std_deg:=five"]);
-    assert_clean_failure(
+    assert_one_line_failure(
         &output,
         &["launch/paper-ideal.toml", "angle_std_deg", "not a number"],
     );
     let output = run(&["launch", "launch/paper-ideal.toml", "speed:=2"]);
-    assert_clean_failure(
+    assert_one_line_failure(
         &output,
         &["launch/paper-ideal.toml", "speed", "not declared"],
     );
     let output = run(&["launch", "launch/paper-ideal.toml", "angle_std_deg=2"]);
-    assert_clean_failure(&output, &["name:=value"]);
+    assert_one_line_failure(&output, &["name:=value"]);
 }
 
 #[test]
 fn unknown_field_in_launch_and_in_node_params() {
     let dir = temp();
     let file = dir.path().join("bad.toml");
-    std::fs::write(
+    assert_launch_refused(
         &file,
         "[launch]\nmodee = \"in-process\"\n[[node]]\nname = \"r\"\nkind = \"radar\"\n",
-    )
-    .unwrap();
-    let output = run(&["launch", file.to_str().unwrap()]);
-    assert_clean_failure(&output, &["bad.toml", "modee", "line 2"]);
+        &["bad.toml", "modee", "line 2"],
+    );
 
-    std::fs::write(
+    assert_launch_refused(
         &file,
         "[[node]]\nname = \"r\"\nkind = \"radar\"\n[node.params]\nrange_sdt_m = 1.0\n",
-    )
-    .unwrap();
-    let output = run(&["launch", file.to_str().unwrap()]);
-    assert_clean_failure(&output, &["bad.toml", "node r", "range_sdt_m"]);
+        &["bad.toml", "node r", "range_sdt_m"],
+    );
 }
 
 #[test]
@@ -89,12 +70,12 @@ fn unknown_kind_and_unwired_input() {
     let dir = temp();
     let file = dir.path().join("bad.toml");
     std::fs::write(&file, "[[node]]\nname = \"x\"\nkind = \"lidar\"\n").unwrap();
-    assert_clean_failure(
+    assert_one_line_failure(
         &run(&["launch", file.to_str().unwrap()]),
         &["bad.toml", "node x", "lidar", "known:"],
     );
     std::fs::write(&file, "[[node]]\nname = \"m\"\nkind = \"mapper\"\n").unwrap();
-    assert_clean_failure(
+    assert_one_line_failure(
         &run(&["launch", file.to_str().unwrap()]),
         &["bad.toml", "node m", "/slam/keyframe", "no node"],
     );
@@ -105,7 +86,7 @@ fn missing_scene_file_names_the_path() {
     let dir = temp();
     let file = dir.path().join("bad.toml");
     std::fs::write(&file, "[[node]]\nname = \"radar\"\nkind = \"radar\"\n[node.params]\nscene = \"nowhere/hall.toml\"\n").unwrap();
-    assert_clean_failure(
+    assert_one_line_failure(
         &run(&["launch", file.to_str().unwrap()]),
         &["bad.toml", "node radar", "nowhere/hall.toml"],
     );
@@ -113,7 +94,7 @@ fn missing_scene_file_names_the_path() {
 
 #[test]
 fn bad_rate_is_refused() {
-    assert_clean_failure(
+    assert_one_line_failure(
         &run(&["launch", "launch/paper-ideal.toml", "--rate", "-2"]),
         &["--rate", "allowed"],
     );
@@ -126,24 +107,10 @@ fn bad_metric_input_names_file_line_and_column() {
     let estimates = dir.path().join("estimates.csv");
     std::fs::write(&truth, "target,x,y\n0,1,1\n0,abc,2\n").unwrap();
     std::fs::write(&estimates, "x,y\n1,1\n").unwrap();
-    let output = run(&[
-        "metric",
-        "--truth",
-        truth.to_str().unwrap(),
-        "--estimates",
-        estimates.to_str().unwrap(),
-    ]);
-    assert_clean_failure(&output, &["truth.csv", "3"]);
-    let output = run(&[
-        "metric",
-        "--truth",
-        truth.to_str().unwrap(),
-        "--estimates",
-        estimates.to_str().unwrap(),
-        "--c",
-        "-1",
-    ]);
-    assert_clean_failure(&output, &["c"]);
+    let output = metric(&truth, &estimates, &[]);
+    assert_one_line_failure(&output, &["truth.csv", "3"]);
+    let output = metric(&truth, &estimates, &["--c", "-1"]);
+    assert_one_line_failure(&output, &["c"]);
 }
 
 #[test]

@@ -55,3 +55,73 @@ pub fn free_port() -> u16 {
 pub fn summary(dir: &Path) -> serde_json::Value {
     serde_json::from_str(&read(&dir.join("summary.json"))).expect("summary.json is JSON")
 }
+
+/// Runs `nrslam` with `args` in `dir` and asserts that it succeeded, showing its stderr if not.
+pub fn run_ok_in(dir: &Path, args: &[&str]) -> Output {
+    let output = nrslam()
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .expect("nrslam runs");
+    assert!(
+        output.status.success(),
+        "nrslam {args:?} in {} failed: {}",
+        dir.display(),
+        String::from_utf8_lossy(&output.stderr)
+    );
+    output
+}
+
+/// The standard output of a run, as text.
+pub fn stdout(output: &Output) -> String {
+    String::from_utf8_lossy(&output.stdout).into_owned()
+}
+
+/// Asserts that `output` is a failure reported as one line of stderr (no panic) that contains
+/// each of `must_contain`.
+pub fn assert_one_line_failure(output: &Output, must_contain: &[&str]) {
+    assert!(!output.status.success(), "should fail");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!stderr.contains("panicked"), "panicked: {stderr}");
+    let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "one line expected, got: {stderr}");
+    for needle in must_contain {
+        assert!(
+            lines[0].contains(needle),
+            "{needle:?} missing from: {}",
+            lines[0]
+        );
+    }
+}
+
+/// A zenoh peer of this test process, without scouting, listening on `listen` and connecting to
+/// `connect`, set up as nrslam's own sessions are.
+pub fn zenoh_peer(listen: &[String], connect: &[String]) -> zenoh::Session {
+    let config = nrslam_runtime::transport::TransportConfig {
+        listen: listen.to_vec(),
+        connect: connect.to_vec(),
+        ..Default::default()
+    };
+    nrslam_runtime::transport::open(&config).expect("the test's zenoh session opens")
+}
+
+/// `nrslam metric` on the `truth` and `estimates` CSV files, with `extra` flags.
+pub fn metric(truth: &Path, estimates: &Path, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "metric",
+        "--truth",
+        truth.to_str().unwrap(),
+        "--estimates",
+        estimates.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    run(&args)
+}
+
+/// Writes `text` as the launch file `file`, launches it, and asserts the one-line failure of
+/// [`assert_one_line_failure`].
+pub fn assert_launch_refused(file: &Path, text: &str, must_contain: &[&str]) {
+    std::fs::write(file, text).unwrap_or_else(|e| panic!("{}: {e}", file.display()));
+    let output = run(&["launch", file.to_str().unwrap()]);
+    assert_one_line_failure(&output, must_contain);
+}

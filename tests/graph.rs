@@ -15,12 +15,7 @@ fn launch(out: &Path, extra: &[&str]) {
         out.to_str().unwrap(),
     ];
     args.extend_from_slice(extra);
-    let output = run(&args);
-    assert!(
-        output.status.success(),
-        "launch failed: {}",
-        String::from_utf8_lossy(&output.stderr)
-    );
+    run_ok(&args);
 }
 
 fn column(csv: &str, name: &str) -> Vec<f64> {

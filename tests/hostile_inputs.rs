@@ -12,14 +12,6 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 use zenoh::Wait;
 
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
-
 fn launch(launch_file: &str, out: &std::path::Path, extra: &[&str]) -> Child {
     let mut command = nrslam();
     command

@@ -113,16 +113,10 @@ fn an_included_file_resolves_its_paths_against_its_own_folder() {
     )
     .unwrap();
     let out = dir.path().join("out");
-    let output = nrslam()
-        .current_dir(dir.path())
-        .args(["launch", "coarse.toml", "frames:=3", "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
+    let out_dir = out.to_str().unwrap();
+    run_ok_in(
+        dir.path(),
+        &["launch", "coarse.toml", "frames:=3", "--out", out_dir],
     );
     // paper-ideal.toml's arguments are the variant's; its scene default was found from launch/.
     let s = summary(&out);

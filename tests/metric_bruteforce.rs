@@ -63,20 +63,17 @@ fn metric_cli_equals_brute_force_gospa_on_small_random_sets() {
             text += &format!("{px:?},{py:?}\n");
         }
         std::fs::write(&estimates, text).unwrap();
-        let output = run(&[
-            "metric",
-            "--truth",
-            truth.to_str().unwrap(),
-            "--estimates",
-            estimates.to_str().unwrap(),
+        let (c_text, p_text, alpha_text) = (c.to_string(), p.to_string(), alpha.to_string());
+        let flags = [
             "--c",
-            &c.to_string(),
+            &c_text,
             "--p",
-            &p.to_string(),
+            &p_text,
             "--alpha",
-            &alpha.to_string(),
+            &alpha_text,
             "--json",
-        ]);
+        ];
+        let output = metric(&truth, &estimates, &flags);
         assert!(
             output.status.success(),
             "{}",

@@ -17,12 +17,7 @@ fn study(out: &Path, extra: &[&str]) {
         out.to_str().unwrap(),
     ];
     args.extend_from_slice(extra);
-    let output = run(&args);
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
-    );
+    run_ok(&args);
 }
 
 #[test]
@@ -34,18 +29,13 @@ fn threads_and_shards_do_not_change_the_numbers() {
     study(&root.join("shard1"), &["--shard", "1/2"]);
     study(&root.join("shard2"), &["--shard", "2/2"]);
     let merged = root.join("merged");
-    let output = run(&[
+    run_ok(&[
         "merge",
         root.join("shard1").to_str().unwrap(),
         root.join("shard2").to_str().unwrap(),
         "--out",
         merged.to_str().unwrap(),
     ]);
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
-    );
     for file in ["trials.csv", "montecarlo.csv"] {
         let reference = read(&root.join("one-thread").join(file));
         assert_eq!(

@@ -39,17 +39,8 @@ fn random_scene_is_written_reproducibly_and_launched_from_the_current_directory(
         "--out",
         "scenes/s5.toml",
     ];
-    let output = nrslam()
-        .current_dir(work.path())
-        .args(scene_args)
-        .args(["--png", "scenes/s5.png"])
-        .output()
-        .unwrap();
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
-    );
+    let with_png = [&scene_args[..], &["--png", "scenes/s5.png"]].concat();
+    let output = run_ok_in(work.path(), &with_png);
     let stdout = String::from_utf8_lossy(&output.stdout);
     assert!(
         stdout.starts_with("wrote scenes/s5.toml: 7 targets") && stdout.contains("1 lap"),
@@ -67,41 +58,25 @@ fn random_scene_is_written_reproducibly_and_launched_from_the_current_directory(
 
     // The same command elsewhere writes the same bytes; another seed, another scene.
     let again = temp();
-    let output = nrslam()
-        .current_dir(again.path())
-        .args(scene_args)
-        .output()
-        .unwrap();
-    assert!(output.status.success());
+    run_ok_in(again.path(), &scene_args);
     assert_eq!(read(&again.path().join("scenes/s5.toml")), text);
     let mut other_seed = scene_args;
     other_seed[3] = "6";
-    let output = nrslam()
-        .current_dir(again.path())
-        .args(other_seed)
-        .output()
-        .unwrap();
-    assert!(output.status.success());
+    run_ok_in(again.path(), &other_seed);
     assert_ne!(read(&again.path().join("scenes/s5.toml")), text);
 
     // The launch file lives in the repository; the scene path is relative to `work`.
     let launch = root().join("launch/paper-ideal.toml");
-    let output = nrslam()
-        .current_dir(work.path())
-        .args([
+    run_ok_in(
+        work.path(),
+        &[
             "launch",
             launch.to_str().unwrap(),
             "scene:=scenes/s5.toml",
             "frames:=20",
             "--out",
             "run",
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
+        ],
     );
     let run = work.path().join("run");
     let summary = summary(&run);

@@ -9,24 +9,6 @@ use std::sync::mpsc;
 use std::time::Duration;
 use zenoh::Wait;
 
-fn client(listen: &[String], connect: &[String]) -> zenoh::Session {
-    let mut config = zenoh::Config::default();
-    config.insert_json5("mode", "\"peer\"").unwrap();
-    config
-        .insert_json5("scouting/multicast/enabled", "false")
-        .unwrap();
-    config
-        .insert_json5("listen/endpoints", &serde_json::to_string(listen).unwrap())
-        .unwrap();
-    config
-        .insert_json5(
-            "connect/endpoints",
-            &serde_json::to_string(connect).unwrap(),
-        )
-        .unwrap();
-    zenoh::open(config).wait().unwrap()
-}
-
 /// Samples as (key, payload).
 type Samples = mpsc::Receiver<(String, Vec<u8>)>;
 
@@ -81,7 +63,7 @@ fn collect(receiver: &Samples) -> (Vec<OccupancyGrid>, Vec<PoseStamped>) {
 #[test]
 fn client_listening_where_launch_connects_receives_every_pose() {
     let endpoint = format!("tcp/127.0.0.1:{}", free_port());
-    let session = client(std::slice::from_ref(&endpoint), &[]);
+    let session = zenoh_peer(std::slice::from_ref(&endpoint), &[]);
     let (_subscribers, receiver) = subscribe(&session);
     let dir = temp();
     let output = run(&[
@@ -132,7 +114,7 @@ fn client_connecting_to_launch_listen_endpoint_receives_map_and_pose() {
         .stderr(std::process::Stdio::null())
         .spawn()
         .unwrap();
-    let session = client(&[], std::slice::from_ref(&endpoint));
+    let session = zenoh_peer(&[], std::slice::from_ref(&endpoint));
     let (_subscribers, receiver) = subscribe(&session);
     let (maps, poses) = collect(&receiver);
     assert!(child.wait().unwrap().success());

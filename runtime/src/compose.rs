@@ -281,7 +281,7 @@ mod tests {
             topic: &str,
             _: &Message,
             _: &mut Outbox,
-        ) -> Result<(), NodeError> {
+        ) -> crate::node::NodeResult {
             let mut seen = self.seen.lock().unwrap();
             seen.0 += 1;
             if seen.0 == self.fail_at {

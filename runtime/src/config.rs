@@ -38,12 +38,31 @@ impl InvalidParam {
         if value.is_finite() && value >= lower && value <= upper {
             Ok(())
         } else {
-            Err(Self::new(
-                field,
-                format!("{value} is out of range"),
-                format!("{lower} to {upper}"),
-            ))
+            Err(Self::out_of_range(field, value, lower, upper))
         }
+    }
+
+    /// Checks `lower <= value <= upper` for the whole-number parameter `field`.
+    pub fn check_count<T: PartialOrd + std::fmt::Display>(
+        field: &str,
+        value: T,
+        lower: T,
+        upper: T,
+    ) -> Result<(), InvalidParam> {
+        if lower <= value && value <= upper {
+            Ok(())
+        } else {
+            Err(Self::out_of_range(field, value, lower, upper))
+        }
+    }
+
+    /// `field`'s `value` is outside `lower` to `upper`.
+    fn out_of_range<T: std::fmt::Display>(field: &str, value: T, lower: T, upper: T) -> Self {
+        Self::new(
+            field,
+            format!("{value} is out of range"),
+            format!("{lower} to {upper}"),
+        )
     }
 }
 

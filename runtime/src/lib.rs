@@ -11,8 +11,18 @@
 //! - `transport` (feature `zenoh`): the zenoh session, node adapters and the start barrier.
 //! - `receive` (feature `zenoh`): the one receive path: bounded queues, unusable samples dropped
 //!   and counted, `/diagnostics`.
-//! - `supervisor`: node processes watched and respawned as ROS 2 launch does.
+//! - `supervisor`: node processes watched and respawned as ROS 2 launch does; `supervised`
+//!   (feature `zenoh`): the launcher's receive loop over them, restarting the ones that die.
+//! - [`wiring`]: the checks that a graph's nodes fit together before it runs.
 #![warn(missing_docs)]
+
+// The bag tests' fixtures (tests/bag_common), shared with the unit tests; the file names the
+// crate as the integration tests do.
+#[cfg(test)]
+extern crate self as nrslam_runtime;
+#[cfg(test)]
+#[path = "../tests/bag_common/mod.rs"]
+mod bag_common;
 
 pub mod bag;
 pub mod compose;
@@ -24,10 +34,13 @@ pub mod rmw_zenoh;
 pub mod seed;
 pub mod supervisor;
 pub mod type_hash;
+pub mod wiring;
 
 pub use config::{parse_params, InvalidParam, ParamsError};
-pub use node::{Node, NodeContext, NodeError, Outbox, Tick};
+pub use node::{Node, NodeContext, NodeError, NodeResult, Outbox, Tick};
 #[cfg(feature = "zenoh")]
 pub mod receive;
+#[cfg(feature = "zenoh")]
+pub mod supervised;
 #[cfg(feature = "zenoh")]
 pub mod transport;

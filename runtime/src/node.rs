@@ -98,6 +98,9 @@ impl NodeError {
     }
 }
 
+/// What a node's handlers return: nothing, or why the node failed.
+pub type NodeResult<T = ()> = Result<T, NodeError>;
+
 /// A stage of the graph.
 pub trait Node: Send {
     /// Topics subscribed, in the order ties in stamp are broken (earlier is delivered first).
@@ -107,12 +110,7 @@ pub trait Node: Send {
     fn outputs(&self) -> Vec<&'static str>;
 
     /// Handles one input message; results go to `outbox`.
-    fn on_message(
-        &mut self,
-        topic: &str,
-        message: &Message,
-        outbox: &mut Outbox,
-    ) -> Result<(), NodeError>;
+    fn on_message(&mut self, topic: &str, message: &Message, outbox: &mut Outbox) -> NodeResult;
 
     /// Sources (nodes without inputs) are ticked until they return [`Tick::Done`].
     fn tick(&mut self, _outbox: &mut Outbox) -> Result<Tick, NodeError> {

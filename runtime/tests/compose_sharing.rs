@@ -6,7 +6,7 @@
 use nrslam_msgs::topics::{CLOCK, ECHO};
 use nrslam_msgs::{Clock, Header, Message, RadarEcho, Time};
 use nrslam_runtime::compose::Graph;
-use nrslam_runtime::node::{Node, NodeError, Outbox, Tick};
+use nrslam_runtime::node::{Node, NodeError, NodeResult, Outbox, Tick};
 use std::sync::{Arc, Mutex};
 
 /// Payload length of each echo (f64 values): 8 MB, so a copy is not an accident of small sizes.
@@ -75,12 +75,7 @@ impl Node for Subscriber {
     fn outputs(&self) -> Vec<&'static str> {
         vec![]
     }
-    fn on_message(
-        &mut self,
-        topic: &str,
-        message: &Message,
-        _: &mut Outbox,
-    ) -> Result<(), NodeError> {
+    fn on_message(&mut self, topic: &str, message: &Message, _: &mut Outbox) -> NodeResult {
         let address = if topic == ECHO { payload(message) } else { 0 };
         self.seen
             .lock()

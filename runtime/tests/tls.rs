@@ -87,18 +87,34 @@ fn free_port() -> u16 {
         .port()
 }
 
-fn open(
-    mode: SessionMode,
-    listen: &[String],
-    connect: &[String],
-    file: &Path,
-) -> Result<Session, TransportError> {
+/// A session of `mode` with the configuration `file`: a router listens on `endpoint`, the others
+/// connect to it.
+fn open(mode: SessionMode, endpoint: &str, file: &Path) -> Result<Session, TransportError> {
+    let endpoints = vec![endpoint.to_owned()];
+    let (listen, connect) = match mode {
+        SessionMode::Router => (endpoints, Vec::new()),
+        _ => (Vec::new(), endpoints),
+    };
     transport::open(&TransportConfig {
         mode,
-        listen: listen.to_vec(),
-        connect: connect.to_vec(),
+        listen,
+        connect,
         config_file: Some(file.to_owned()),
         ..TransportConfig::default()
+    })
+}
+
+/// A client that tries to connect to `endpoint` on another thread: its result and how long it
+/// took.
+fn client_in_background(
+    endpoint: &str,
+    file: &Path,
+) -> std::thread::JoinHandle<(Result<(), TransportError>, Duration)> {
+    let (endpoint, file) = (endpoint.to_owned(), file.to_owned());
+    std::thread::spawn(move || {
+        let started = Instant::now();
+        let result = open(SessionMode::Client, &endpoint, &file);
+        (result.map(|_| ()), started.elapsed())
     })
 }
 
@@ -159,51 +175,22 @@ fn mutual_tls_admits_only_certificates_of_the_ca() {
     .unwrap();
 
     let endpoint = format!("tls/127.0.0.1:{}", free_port());
-    let router = open(
-        SessionMode::Router,
-        std::slice::from_ref(&endpoint),
-        &[],
-        &router_file,
-    )
-    .expect("router with a valid certificate");
+    let router = open(SessionMode::Router, &endpoint, &router_file)
+        .expect("router with a valid certificate");
     let (_router_sub, router_got) = collect(&router, "nrslam/tls/**");
 
     // The invalid clients try to connect meanwhile: a refused handshake, retried until the
     // connect timeout (10 s by nrslam's default; 2 s from the anonymous one's file).
-    let rogue_client = {
-        let (endpoint, file) = (endpoint.clone(), rogue_file.clone());
-        std::thread::spawn(move || {
-            let started = Instant::now();
-            let result = open(SessionMode::Client, &[], &[endpoint], &file);
-            (result.map(|_| ()), started.elapsed())
-        })
-    };
-    let anonymous_client = {
-        let (endpoint, file) = (endpoint.clone(), anonymous_file.clone());
-        std::thread::spawn(move || {
-            let started = Instant::now();
-            let result = open(SessionMode::Client, &[], &[endpoint], &file);
-            (result.map(|_| ()), started.elapsed())
-        })
-    };
+    let rogue_client = client_in_background(&endpoint, &rogue_file);
+    let anonymous_client = client_in_background(&endpoint, &anonymous_file);
 
-    let client = open(
-        SessionMode::Client,
-        &[],
-        std::slice::from_ref(&endpoint),
-        &client_file,
-    )
-    .expect("client with a certificate of the CA");
+    let client = open(SessionMode::Client, &endpoint, &client_file)
+        .expect("client with a certificate of the CA");
     let (_client_sub, client_got) = collect(&client, "nrslam/tls/**");
     // A peer with the rogue certificate opens (a peer retries its connections in the
     // background) and subscribes and publishes; none of it may cross.
-    let rogue_peer = open(
-        SessionMode::Peer,
-        &[],
-        std::slice::from_ref(&endpoint),
-        &rogue_file,
-    )
-    .expect("a peer opens even when its connection is refused");
+    let rogue_peer = open(SessionMode::Peer, &endpoint, &rogue_file)
+        .expect("a peer opens even when its connection is refused");
     let (_rogue_sub, rogue_got) = collect(&rogue_peer, "nrslam/tls/**");
     std::thread::sleep(Duration::from_millis(300));
 
@@ -291,21 +278,11 @@ fn access_control_limits_what_a_viewer_may_publish() {
     );
     let viewer_file = config_from_doc("mtls.json5", &viewer_dir, &tmp.path().join("viewer.json5"));
     let endpoint = format!("tls/127.0.0.1:{}", free_port());
-    let router = open(
-        SessionMode::Router,
-        std::slice::from_ref(&endpoint),
-        &[],
-        &router_file,
-    )
-    .expect("router with access control");
+    let router =
+        open(SessionMode::Router, &endpoint, &router_file).expect("router with access control");
     let (_router_sub, router_got) = collect(&router, "**");
-    let viewer = open(
-        SessionMode::Client,
-        &[],
-        std::slice::from_ref(&endpoint),
-        &viewer_file,
-    )
-    .expect("viewer with a certificate of the CA");
+    let viewer = open(SessionMode::Client, &endpoint, &viewer_file)
+        .expect("viewer with a certificate of the CA");
     let (_viewer_sub, viewer_got) = collect(&viewer, "map");
     std::thread::sleep(Duration::from_millis(300));
 

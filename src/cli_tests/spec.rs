@@ -36,7 +36,7 @@ pub(super) enum Range {
     },
     /// Whole numbers in [min, max].
     Whole { min: u128, max: u128 },
-    /// Not this test's to say (the flag belongs to `nrslam bag`, src/bag.rs): only "no panic,
+    /// Not this test's to say (the flag belongs to `nrslam bag`, src/cmd/bag/): only "no panic,
     /// one line naming the flag".
     Unchecked,
 }

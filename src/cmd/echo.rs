@@ -1,9 +1,9 @@
 //! `nrslam echo TOPIC`: the messages of one topic of a live graph, one JSON object per line on
 //! standard output, until --count messages, the topic's end-of-stream, or Ctrl-C.
 
-use super::{observer_options, report_drops, session_for};
+use super::{observer_options, report_drops};
+use crate::flags::TransportArgs;
 use crate::flags::{self, Whole};
-use crate::TransportArgs;
 use anyhow::{anyhow, Result};
 use clap::Args;
 use nrslam_msgs::topics;
@@ -47,7 +47,7 @@ pub fn echo(args: EchoArgs) -> Result<()> {
                 .join(", ")
         )
     })?;
-    let session = session_for(&args.transport)?;
+    let session = args.transport.peer_session()?;
     let mut inbox = Inbox::subscribe(
         &session,
         &args.transport.namespace,
@@ -55,7 +55,7 @@ pub fn echo(args: EchoArgs) -> Result<()> {
         observer_options(&args.transport)?,
     )?;
     let mut seen = 0u64;
-    let stop = crate::bag::interrupted();
+    let stop = crate::cmd::bag::interrupted();
     while !stop.load(std::sync::atomic::Ordering::SeqCst) {
         match inbox.recv_timeout(Duration::from_millis(200)) {
             Ok(Some(Delivery::End { .. })) | Err(ReceiveError::Closed) => break,

@@ -1,31 +1,38 @@
-//! The CLI verbs that inspect a live graph or score files, one module per verb: each holds its
-//! clap arguments, their ranges, and a thin run function over the library crates.
+//! The CLI verbs, one module per verb: each holds its clap arguments, their ranges, and a thin
+//! run function over the library crates (graph, transport and supervision work is the runtime's).
 //!
+//! - [`launch`]: a launch file's graph, in one process or one process per node; [`run`]: one node
+//!   as its own process (what `launch --mode processes` starts).
+//! - [`montecarlo`]: trials of a launch in parallel, and `merge` of sharded studies.
+//! - [`reproduce`]: the paper's figures; [`tradeoff`]: the speed/accuracy sweep; [`accuracy`]:
+//!   single-scatterer RMSE against the Cramér–Rao bounds; [`scene`]: random scene files.
+//! - [`bag`]: rosbag2 record, info and play.
 //! - [`topics`]: the topic catalogue, or what a live graph publishes (zenoh).
 //! - [`echo`]: one live topic's messages as JSON lines (zenoh).
 //! - [`metric`]: GOSPA and ET-GOPSA of CSV files (offline, `nrslam_evaluator`).
 //! - [`segment`]: DBSCAN labels for a CSV of points (offline, `nrslam_segmenter`).
+//! - `ros2` (feature `ros2`): the bridge to ROS 2.
 //!
-//! The two live verbs share the session and observer-queue helpers below.
+//! The two live observers (`topics`, `echo`) share the session and observer-queue helpers below.
 
+pub mod accuracy;
+pub mod bag;
 pub mod echo;
+pub mod launch;
 pub mod metric;
+pub mod montecarlo;
+pub mod reproduce;
+#[cfg(feature = "ros2")]
+pub mod ros2;
+pub mod run;
+pub mod scene;
 pub mod segment;
 pub mod topics;
+pub mod tradeoff;
 
-use crate::TransportArgs;
-use anyhow::{bail, Context, Result};
+use crate::flags::TransportArgs;
+use anyhow::Result;
 use nrslam_runtime::receive::{Inbox, InboxOptions, Overload};
-use nrslam_runtime::transport::{self, SessionMode};
-
-/// A peer session on the endpoints given; refused when there is none to listen or connect on.
-fn session_for(args: &TransportArgs) -> Result<zenoh::Session> {
-    if args.listen.is_empty() && args.connect.is_empty() {
-        bail!("give --connect ENDPOINT (e.g. the --listen endpoint of a running `nrslam launch`) or --listen ENDPOINT");
-    }
-    let config = args.config(SessionMode::Peer);
-    transport::open(&config).context("opening the zenoh session")
-}
 
 /// An observer keeps the newest samples rather than slow the graph down, and shows them in
 /// arrival order (a bag played in a loop starts its stamps over).

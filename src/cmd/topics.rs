@@ -2,9 +2,9 @@
 //! message type, durability, description); with --connect or --listen, the topics a live graph
 //! publishes during --duration-s and how many messages each carried.
 
-use super::{observer_options, report_drops, session_for};
+use super::{observer_options, report_drops};
+use crate::flags::TransportArgs;
 use crate::flags::{self, Real};
-use crate::TransportArgs;
 use anyhow::Result;
 use clap::Args;
 use nrslam_msgs::topics;
@@ -43,7 +43,7 @@ pub fn topics(args: TopicsArgs) -> Result<()> {
     }
     let listen = flags::seconds("--duration-s", args.duration_s)?;
     flags::deadline("--duration-s", listen)?;
-    let session = session_for(&args.transport)?;
+    let session = args.transport.peer_session()?;
     let names: Vec<&'static str> = topics::CATALOGUE.iter().map(|t| t.name).collect();
     let mut inbox = Inbox::subscribe(
         &session,

@@ -32,11 +32,11 @@
 #[path = "common/mod.rs"]
 mod common;
 
-use common::scene;
+use common::{build_grids, scene};
 use criterion::{criterion_group, criterion_main, Criterion};
 use nrslam_association::correlative::{
-    exhaustive_search, runner_up, search_with, suggested_depth, Exclusion, Kernel,
-    MultiResolutionGrid, ProbabilityGrid, SearchOptions, SearchWindow,
+    exhaustive_search, runner_up, search_with, suggested_depth, CorrelativeError, Exclusion,
+    Kernel, Match, MultiResolutionGrid, SearchOptions, SearchWindow,
 };
 use nrslam_association::Pose2;
 use rand::SeedableRng;
@@ -79,103 +79,72 @@ fn case() -> Case {
     }
 }
 
-fn build_grids(
-    points: &[[f64; 2]],
-    cell_m: f64,
-    kernel: Kernel,
-    depth: u32,
-) -> MultiResolutionGrid {
-    MultiResolutionGrid::new(
-        ProbabilityGrid::with_kernel(points, cell_m, kernel).unwrap(),
-        depth,
-    )
-    .unwrap()
+impl Case {
+    /// The branch and bound over `grids` from the case's prediction and window.
+    fn fast(&self, grids: &MultiResolutionGrid, options: &SearchOptions) -> Found {
+        search_with(
+            grids,
+            black_box(&self.query),
+            self.initial,
+            &self.window,
+            options,
+            0.0,
+        )
+    }
+
+    /// The exhaustive search of the finest grid, the reference the branch and bound must equal.
+    fn slow(&self, grids: &MultiResolutionGrid, options: &SearchOptions) -> Found {
+        exhaustive_search(
+            grids.grid(),
+            black_box(&self.query),
+            self.initial,
+            &self.window,
+            options,
+            0.0,
+        )
+    }
 }
 
-fn correlative(c: &mut Criterion) {
-    let case = case();
-    eprintln!(
-        "submap {} points, query {} points",
-        case.submap.len(),
-        case.query.len()
-    );
-    let linear_m = case.window.linear_m;
+type Found = Result<Option<Match>, CorrelativeError>;
+
+/// Tracking's step: a Gaussian grid, best match only, at two cell sizes.
+fn paper_step(c: &mut Criterion, case: &Case) {
     for cell_m in [0.1, 0.25] {
         let gaussian = Kernel::Gaussian { sigma_m: cell_m };
-        let grids = build_grids(
-            &case.submap,
-            cell_m,
-            gaussian,
-            suggested_depth(linear_m, cell_m),
-        );
+        let depth = suggested_depth(case.window.linear_m, cell_m);
+        let grids = build_grids(&case.submap, cell_m, gaussian, depth);
         let options = SearchOptions::default();
-        let fast = search_with(
-            &grids,
-            &case.query,
-            case.initial,
-            &case.window,
-            &options,
-            0.0,
-        );
-        let slow = exhaustive_search(
-            grids.grid(),
-            &case.query,
-            case.initial,
-            &case.window,
-            &options,
-            0.0,
-        );
-        assert_eq!(fast, slow);
+        let fast = case.fast(&grids, &options);
+        assert_eq!(fast, case.slow(&grids, &options));
         eprintln!("paper_step/{cell_m}: {:?}", fast.unwrap().unwrap());
         let mut group = c.benchmark_group(format!("paper_step/{cell_m}"));
         group.sample_size(10);
         group.bench_function("branch_and_bound", |b| {
-            b.iter(|| {
-                search_with(
-                    &grids,
-                    black_box(&case.query),
-                    case.initial,
-                    &case.window,
-                    &options,
-                    0.0,
-                )
-            })
+            b.iter(|| case.fast(&grids, &options))
         });
-        group.bench_function("exhaustive", |b| {
-            b.iter(|| {
-                exhaustive_search(
-                    grids.grid(),
-                    black_box(&case.query),
-                    case.initial,
-                    &case.window,
-                    &options,
-                    0.0,
-                )
-            })
-        });
+        group.bench_function("exhaustive", |b| b.iter(|| case.slow(&grids, &options)));
         group.finish();
     }
+}
 
-    // What match_loop does with the default parameters: the hit raster, best, then runner-up
-    // 2 m away.
-    let hit = Kernel::Hit { cells: 1 };
-    let grids = build_grids(&case.submap, 0.25, hit, suggested_depth(linear_m, 0.25));
-    let options = SearchOptions {
+/// The search options of loop closure's defaults.
+fn loop_options() -> SearchOptions {
+    SearchOptions {
         angular_step_rad: Some(1f64.to_radians()),
         prior_sigma_m: Some(3.0),
         exclude: None,
-    };
+    }
+}
+
+/// What match_loop does with the default parameters: the hit raster, best, then runner-up 2 m
+/// away.
+fn loop_closure(c: &mut Criterion, case: &Case) {
+    let hit = Kernel::Hit { cells: 1 };
+    let depth = suggested_depth(case.window.linear_m, 0.25);
+    let grids = build_grids(&case.submap, 0.25, hit, depth);
+    let options = loop_options();
     let both_fast = || {
-        let best = search_with(
-            &grids,
-            &case.query,
-            case.initial,
-            &case.window,
-            &options,
-            0.0,
-        )
-        .unwrap()
-        .unwrap();
+        let best = case.fast(&grids, &options).unwrap().unwrap();
         let second = runner_up(
             &grids,
             &case.query,
@@ -189,16 +158,7 @@ fn correlative(c: &mut Criterion) {
         (best, second)
     };
     let both_slow = || {
-        let best = exhaustive_search(
-            grids.grid(),
-            &case.query,
-            case.initial,
-            &case.window,
-            &options,
-            0.0,
-        )
-        .unwrap()
-        .unwrap();
+        let best = case.slow(&grids, &options).unwrap().unwrap();
         let exclude = SearchOptions {
             exclude: Some(Exclusion {
                 center_m: [best.pose.x_m, best.pose.y_m],
@@ -206,65 +166,43 @@ fn correlative(c: &mut Criterion) {
             }),
             ..options
         };
-        let second = exhaustive_search(
-            grids.grid(),
-            &case.query,
-            case.initial,
-            &case.window,
-            &exclude,
-            0.0,
-        )
-        .unwrap();
-        (best, second)
+        (best, case.slow(&grids, &exclude).unwrap())
     };
     assert_eq!(both_fast(), both_slow());
     eprintln!("loop_closure: {:?}", both_fast());
     let mut group = c.benchmark_group("loop_closure");
     group.sample_size(10);
     group.bench_function("branch_and_bound_best_only", |b| {
-        b.iter(|| {
-            search_with(
-                &grids,
-                &case.query,
-                case.initial,
-                &case.window,
-                &options,
-                0.0,
-            )
-        })
+        b.iter(|| case.fast(&grids, &options))
     });
     group.bench_function("exhaustive_best_only", |b| {
-        b.iter(|| {
-            exhaustive_search(
-                grids.grid(),
-                &case.query,
-                case.initial,
-                &case.window,
-                &options,
-                0.0,
-            )
-        })
+        b.iter(|| case.slow(&grids, &options))
     });
     group.bench_function("branch_and_bound", |b| b.iter(both_fast));
     group.bench_function("exhaustive", |b| b.iter(both_slow));
     group.finish();
+}
 
+/// Building the grids, per kernel and cell size.
+fn precompute(c: &mut Criterion, case: &Case) {
     let mut group = c.benchmark_group("precompute");
     for (name, cell_m, kernel) in [
         ("gaussian/0.1", 0.1, Kernel::Gaussian { sigma_m: 0.1 }),
         ("gaussian/0.25", 0.25, Kernel::Gaussian { sigma_m: 0.25 }),
-        ("hit/0.25", 0.25, hit),
+        ("hit/0.25", 0.25, Kernel::Hit { cells: 1 }),
     ] {
-        let depth = suggested_depth(linear_m, cell_m);
+        let depth = suggested_depth(case.window.linear_m, cell_m);
         group.bench_function(name, |b| {
             b.iter(|| build_grids(black_box(&case.submap), cell_m, kernel, depth))
         });
     }
     group.finish();
+}
 
+/// The branch and bound at every depth of the grid pyramid.
+fn depth(c: &mut Criterion, case: &Case) {
     let mut group = c.benchmark_group("depth");
     group.sample_size(20);
-    let loop_options = options;
     for (name, cell_m, kernel, options) in [
         (
             "paper_step/0.25",
@@ -278,25 +216,34 @@ fn correlative(c: &mut Criterion) {
             Kernel::Gaussian { sigma_m: 0.1 },
             SearchOptions::default(),
         ),
-        ("loop_closure", 0.25, hit, loop_options),
+        (
+            "loop_closure",
+            0.25,
+            Kernel::Hit { cells: 1 },
+            loop_options(),
+        ),
     ] {
         for depth in 1..=7 {
             let grids = build_grids(&case.submap, cell_m, kernel, depth);
             group.bench_function(format!("{name}/{depth}"), |b| {
-                b.iter(|| {
-                    search_with(
-                        &grids,
-                        black_box(&case.query),
-                        case.initial,
-                        &case.window,
-                        &options,
-                        0.0,
-                    )
-                })
+                b.iter(|| case.fast(&grids, &options))
             });
         }
     }
     group.finish();
+}
+
+fn correlative(c: &mut Criterion) {
+    let case = case();
+    eprintln!(
+        "submap {} points, query {} points",
+        case.submap.len(),
+        case.query.len()
+    );
+    paper_step(c, &case);
+    loop_closure(c, &case);
+    precompute(c, &case);
+    depth(c, &case);
 }
 
 criterion_group!(benches, correlative);

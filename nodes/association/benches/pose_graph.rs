@@ -37,59 +37,15 @@ use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, BatchSize, BenchmarkId, Criterion};
 use nrslam_association::pose_graph::OptimiseReport;
-use nrslam_association::{Edge, EdgeKind, OptimiserSettings, Pose2, PoseGraph};
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
+use nrslam_association::{OptimiserSettings, PoseGraph};
+
+mod common;
+use common::{laps, multi_lap_graph};
 
 /// Keyframes per side of the square lap (1 m apart).
 const SIDE: usize = 25;
 /// Keyframes per lap.
 const LAP: usize = 4 * SIDE;
-
-/// A multi-lap graph of `n` keyframes with `n / 20` loop edges.
-fn multi_lap_graph(n: usize, seed: u64) -> PoseGraph {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let mut truth = vec![Pose2::IDENTITY];
-    for k in 1..n {
-        let turn_rad = if k % SIDE == 0 {
-            std::f64::consts::FRAC_PI_2
-        } else {
-            0.0
-        };
-        let last = *truth.last().expect("starts with one pose");
-        truth.push(last.compose(&Pose2::new(1.0, 0.0, turn_rad)));
-    }
-    let mut graph = PoseGraph::new();
-    let mut estimate = truth[0];
-    graph.add_node(estimate);
-    for k in 1..n {
-        let exact = truth[k - 1].between(&truth[k]);
-        let noisy = Pose2::new(
-            exact.x_m + rng.random_range(-0.01..0.01),
-            exact.y_m + rng.random_range(-0.01..0.01),
-            exact.yaw_rad + 0.0005 + rng.random_range(-0.002..0.002),
-        );
-        estimate = estimate.compose(&noisy);
-        graph.add_node(estimate);
-        graph.add_edge(Edge::with_std(
-            k - 1,
-            k,
-            noisy,
-            0.02,
-            0.005,
-            EdgeKind::Odometry,
-        ));
-    }
-    let loops = n / 20;
-    for m in 0..loops {
-        let to = LAP + m * (n - 1 - LAP) / (loops - 1);
-        let laps_back = 1 + m % 3.min(to / LAP);
-        let from = to - laps_back * LAP;
-        let z = truth[from].between(&truth[to]);
-        graph.add_edge(Edge::with_std(from, to, z, 0.05, 0.01, EdgeKind::Loop));
-    }
-    graph
-}
 
 fn bench_pose_graph(c: &mut Criterion) {
     let sizes = [300, 1000, 3000];
@@ -103,7 +59,7 @@ fn bench_pose_graph(c: &mut Criterion) {
         group.sample_size(10);
         group.warm_up_time(Duration::from_secs(1));
         for n in sizes {
-            let graph = multi_lap_graph(n, 7);
+            let graph = multi_lap_graph(&laps(SIDE, n), LAP, n / 20, 7);
             // What each timed run does (the same for both solvers).
             let report = graph.clone().optimise(&settings);
             println!(
@@ -151,7 +107,7 @@ fn time_once(
 
 /// One iteration at 3000 nodes, sparse and dense, timed once each.
 fn dense_3000_once() {
-    let graph = multi_lap_graph(3000, 7);
+    let graph = multi_lap_graph(&laps(SIDE, 3000), LAP, 3000 / 20, 7);
     let one = OptimiserSettings {
         max_iterations: 1,
         ..OptimiserSettings::default()

@@ -237,15 +237,7 @@ impl ProbabilityGrid {
                 f64::from(cells + 1) * cell_m
             }
         };
-        if points_m.is_empty() {
-            return Err(CorrelativeError::EmptyMap);
-        }
-        if !points_m
-            .iter()
-            .all(|p| p[0].is_finite() && p[1].is_finite())
-        {
-            return Err(CorrelativeError::NonFinite("a map point"));
-        }
+        check_points(points_m, CorrelativeError::EmptyMap, "a map point")?;
         let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
         for p in points_m {
             for axis in 0..2 {
@@ -720,15 +712,7 @@ impl Lattice {
         options: &SearchOptions,
         min_score: f64,
     ) -> Result<Self, CorrelativeError> {
-        if scan_points_m.is_empty() {
-            return Err(CorrelativeError::EmptyScan);
-        }
-        if !scan_points_m
-            .iter()
-            .all(|p| p[0].is_finite() && p[1].is_finite())
-        {
-            return Err(CorrelativeError::NonFinite("a scan point"));
-        }
+        check_points(scan_points_m, CorrelativeError::EmptyScan, "a scan point")?;
         if !initial.is_finite() {
             return Err(CorrelativeError::NonFinite("the initial pose"));
         }
@@ -957,6 +941,24 @@ impl Lattice {
     }
 }
 
+/// `empty` for no point, [`CorrelativeError::NonFinite`] naming `point` for a non-finite one.
+fn check_points(
+    points_m: &[[f64; 2]],
+    empty: CorrelativeError,
+    point: &'static str,
+) -> Result<(), CorrelativeError> {
+    if points_m.is_empty() {
+        return Err(empty);
+    }
+    if !points_m
+        .iter()
+        .all(|p| p[0].is_finite() && p[1].is_finite())
+    {
+        return Err(CorrelativeError::NonFinite(point));
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -967,31 +969,16 @@ mod tests {
 
     /// Outlines of boxes and circles over about 20 m, a point every `spacing_m`.
     fn scene(spacing_m: f64) -> Vec<[f64; 2]> {
-        let mut points = Vec::new();
-        for &(x0, y0, w, h) in &[
-            (2.0, 3.0, 4.0, 2.0),
-            (9.0, 1.0, 1.5, 3.0),
-            (4.0, 9.0, 3.0, 1.0),
-            (-6.0, -4.0, 2.0, 5.0),
-        ] {
-            let corners = [[x0, y0], [x0 + w, y0], [x0 + w, y0 + h], [x0, y0 + h]];
-            for i in 0..4 {
-                let (a, b): ([f64; 2], [f64; 2]) = (corners[i], corners[(i + 1) % 4]);
-                let n = ((b[0] - a[0]).hypot(b[1] - a[1]) / spacing_m).round() as usize;
-                for k in 0..n {
-                    let s = k as f64 / n as f64;
-                    points.push([a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1])]);
-                }
-            }
-        }
-        for &(cx, cy, r) in &[(12.0, 8.0, 1.0), (-3.0, 7.0, 0.6), (6.0, -5.0, 1.5)] {
-            let n = (2.0 * PI * r / spacing_m).round() as usize;
-            for k in 0..n {
-                let a = 2.0 * PI * k as f64 / n as f64;
-                points.push([cx + r * a.cos(), cy + r * a.sin()]);
-            }
-        }
-        points
+        crate::fixtures::outlines(
+            &[
+                (2.0, 3.0, 4.0, 2.0),
+                (9.0, 1.0, 1.5, 3.0),
+                (4.0, 9.0, 3.0, 1.0),
+                (-6.0, -4.0, 2.0, 5.0),
+            ],
+            &[(12.0, 8.0, 1.0), (-3.0, 7.0, 0.6), (6.0, -5.0, 1.5)],
+            spacing_m,
+        )
     }
 
     fn seen_from(pose: &Pose2, points: &[[f64; 2]]) -> Vec<[f64; 2]> {
@@ -1000,20 +987,7 @@ mod tests {
     }
 
     fn grids(points: &[[f64; 2]], cell_m: f64, sigma_m: f64, depth: u32) -> MultiResolutionGrid {
-        grids_with(points, cell_m, Kernel::Gaussian { sigma_m }, depth)
-    }
-
-    fn grids_with(
-        points: &[[f64; 2]],
-        cell_m: f64,
-        kernel: Kernel,
-        depth: u32,
-    ) -> MultiResolutionGrid {
-        MultiResolutionGrid::new(
-            ProbabilityGrid::with_kernel(points, cell_m, kernel).unwrap(),
-            depth,
-        )
-        .unwrap()
+        crate::fixtures::build_grids(points, cell_m, Kernel::Gaussian { sigma_m }, depth)
     }
 
     /// The branch and bound with its count of scored nodes.
@@ -1496,7 +1470,7 @@ mod tests {
         fn branch_and_bound_equals_the_exhaustive_search(
             (map, scan, initial, cell_m, kernel, window, options, depth, min_score) in case()
         ) {
-            let grids = grids_with(&map, cell_m, kernel, depth);
+            let grids = crate::fixtures::build_grids(&map, cell_m, kernel, depth);
             let fast = search_with(&grids, &scan, initial, &window, &options, min_score);
             let slow =
                 exhaustive_search(grids.grid(), &scan, initial, &window, &options, min_score);

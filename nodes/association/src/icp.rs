@@ -401,9 +401,33 @@ impl IcpResult {
             correction_rad: 0.0,
         }
     }
+
+    /// This run, ended at `pose` from `initial`, with its correction recorded: applied, or, when
+    /// larger than `max_correction_m` or `max_correction_rad`, rejected with `initial` kept.
+    pub(crate) fn gated(
+        self,
+        initial: Pose2,
+        pose: Pose2,
+        max_correction_m: f64,
+        max_correction_rad: f64,
+    ) -> IcpResult {
+        let result = IcpResult {
+            correction_m: initial.distance_m(&pose),
+            correction_rad: wrap_angle_rad(pose.yaw_rad - initial.yaw_rad).abs(),
+            ..self
+        };
+        if result.correction_m > max_correction_m || result.correction_rad > max_correction_rad {
+            return IcpResult {
+                pose: initial,
+                status: IcpStatus::CorrectionRejected,
+                ..result
+            };
+        }
+        IcpResult { pose, ..result }
+    }
 }
 
-/// The thresholds both solvers use, squared once.
+/// The thresholds of [`align`], squared once.
 struct Limits {
     max_distance_m2: f64,
     tolerance_rad: f64,
@@ -612,18 +636,12 @@ pub fn align(
         }
     }
 
-    result.correction_m = initial.distance_m(&pose);
-    result.correction_rad = wrap_angle_rad(pose.yaw_rad - initial.yaw_rad).abs();
-    if result.correction_m > params.max_correction_m
-        || result.correction_rad > params.max_correction_rad()
-    {
-        return IcpResult {
-            pose: initial,
-            status: IcpStatus::CorrectionRejected,
-            ..result
-        };
-    }
-    IcpResult { pose, ..result }
+    result.gated(
+        initial,
+        pose,
+        params.max_correction_m,
+        params.max_correction_rad(),
+    )
 }
 
 #[cfg(test)]

@@ -45,6 +45,14 @@
 //! assert!((second.pose.x_m - 1.0).abs() < 0.02, "{second:?}");
 //! ```
 
+// The benches' scenes and graphs, shared with the unit tests; the file names the crate as the
+// benches do.
+#[cfg(test)]
+extern crate self as nrslam_association;
+#[cfg(test)]
+#[path = "../benches/common/mod.rs"]
+mod fixtures;
+
 pub mod correlative;
 pub mod icp;
 pub mod keyframe;

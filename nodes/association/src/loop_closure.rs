@@ -369,6 +369,33 @@ mod tests {
         points.iter().map(|p| inv.transform_point(*p)).collect()
     }
 
+    /// [`match_loop`] of `points` seen from `query` against them seen from `candidate`, from
+    /// `predicted` in a 4 m window.
+    fn match_views(
+        points: &[[f64; 2]],
+        candidate: &Pose2,
+        query: &Pose2,
+        predicted: Pose2,
+        params: &LoopClosureParams,
+    ) -> Result<LoopMatch, LoopRejection> {
+        match_loop(
+            &seen_from(query, points),
+            &seen_from(candidate, points),
+            predicted,
+            4.0,
+            params,
+            &Params::default(),
+        )
+    }
+
+    /// The scene, a candidate keyframe's pose and a query pose that revisits it, and the true
+    /// motion from the candidate to the query.
+    fn revisit() -> (Vec<[f64; 2]>, Pose2, Pose2, Pose2) {
+        let candidate = Pose2::new(0.0, 0.0, 0.3);
+        let query = Pose2::new(1.0, 0.5, 0.35);
+        (scene(), candidate, query, candidate.between(&query))
+    }
+
     #[test]
     fn a_straight_edge_leaves_the_slide_along_it_free_and_boxes_pin_everything() {
         let params = Params::default();
@@ -415,18 +442,14 @@ mod tests {
 
     #[test]
     fn finds_a_loop_several_metres_off_the_prediction() {
-        let points = scene();
-        let candidate = Pose2::new(0.0, 0.0, 0.3);
-        let query = Pose2::new(1.0, 0.5, 0.35);
-        let truth = candidate.between(&query);
+        let (points, candidate, query, truth) = revisit();
         let predicted = truth.compose(&Pose2::new(1.6, -1.2, 6f64.to_radians()));
-        let found = match_loop(
-            &seen_from(&query, &points),
-            &seen_from(&candidate, &points),
+        let found = match_views(
+            &points,
+            &candidate,
+            &query,
             predicted,
-            4.0,
             &LoopClosureParams::default(),
-            &Params::default(),
         )
         .unwrap();
         assert!(found.relative.distance_m(&truth) < 0.05, "{found:?}");
@@ -437,15 +460,7 @@ mod tests {
             search_sigma_m: 0.2,
             ..LoopClosureParams::default()
         };
-        let found = match_loop(
-            &seen_from(&query, &points),
-            &seen_from(&candidate, &points),
-            predicted,
-            4.0,
-            &blurred,
-            &Params::default(),
-        )
-        .unwrap();
+        let found = match_views(&points, &candidate, &query, predicted, &blurred).unwrap();
         assert!(found.relative.distance_m(&truth) < 0.05, "{found:?}");
         assert!(found.score > 0.8 && found.score < 1.0, "{found:?}");
     }
@@ -454,19 +469,15 @@ mod tests {
     fn a_match_beyond_the_window_is_refused_not_truncated() {
         // The truth lies 4.3 m from the prediction, just beyond a 4 m window: the best motion
         // inside is on the window's edge, a truncated slope rather than a verified peak.
-        let points = scene();
-        let candidate = Pose2::new(0.0, 0.0, 0.3);
-        let query = Pose2::new(1.0, 0.5, 0.35);
-        let truth = candidate.between(&query);
+        let (points, candidate, query, truth) = revisit();
         let beyond = truth.compose(&Pose2::new(3.44, -2.58, 0.0));
         let outcome = |predicted: Pose2| {
-            match_loop(
-                &seen_from(&query, &points),
-                &seen_from(&candidate, &points),
+            match_views(
+                &points,
+                &candidate,
+                &query,
                 predicted,
-                4.0,
                 &LoopClosureParams::default(),
-                &Params::default(),
             )
         };
         assert_eq!(outcome(beyond), Err(LoopRejection::AtSearchEdge));
@@ -529,10 +540,7 @@ mod tests {
 
     #[test]
     fn non_finite_points_are_ignored() {
-        let points = scene();
-        let candidate = Pose2::new(0.0, 0.0, 0.3);
-        let query = Pose2::new(1.0, 0.5, 0.35);
-        let truth = candidate.between(&query);
+        let (points, candidate, query, truth) = revisit();
         let mut query_m = seen_from(&query, &points);
         let mut submap_m = seen_from(&candidate, &points);
         query_m.insert(3, [f64::NAN, 1.0]);

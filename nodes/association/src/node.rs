@@ -25,7 +25,7 @@ use nrslam_msgs::{
     AssociationStats, Detections, Header, Keyframe, KeyframePoses, Message, Odometry, Pose,
     PoseStamped,
 };
-use nrslam_runtime::{Node, NodeContext, NodeError, Outbox};
+use nrslam_runtime::{Node, NodeContext, NodeError, NodeResult, Outbox};
 
 use crate::icp::IcpStatus;
 use crate::params::Params;
@@ -234,12 +234,7 @@ impl Node for AssociationNode {
         vec![SLAM_POSE, KEYFRAME, KEYFRAME_POSES, ASSOCIATION_STATS]
     }
 
-    fn on_message(
-        &mut self,
-        topic: &str,
-        message: &Message,
-        outbox: &mut Outbox,
-    ) -> Result<(), NodeError> {
+    fn on_message(&mut self, topic: &str, message: &Message, outbox: &mut Outbox) -> NodeResult {
         match (topic, message) {
             (ODOM, Message::Odometry(odometry)) => self.on_odometry(odometry),
             (DETECTIONS, Message::Detections(detections)) => self.on_detections(detections, outbox),

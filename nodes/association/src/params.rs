@@ -494,6 +494,27 @@ impl Default for Params {
     }
 }
 
+/// `Ok` when the whole number `value` is in `allowed`; the error shows the range as Rust writes
+/// it (`3..=64`).
+fn check_within<T>(
+    field: &str,
+    value: T,
+    allowed: std::ops::RangeInclusive<T>,
+) -> Result<(), InvalidParam>
+where
+    T: PartialOrd + std::fmt::Display + std::fmt::Debug,
+{
+    if allowed.contains(&value) {
+        Ok(())
+    } else {
+        Err(InvalidParam::new(
+            field,
+            format!("is {value}"),
+            format!("{allowed:?}"),
+        ))
+    }
+}
+
 /// `Ok` when `value` is finite and inside `[min, max]` (or `(min, max]` when `min_exclusive`).
 fn check_range(
     field: &'static str,
@@ -561,20 +582,8 @@ impl Params {
             "0 < value <= 1000 (metres)",
         )?;
         // A line needs at least three points to be told from a pair.
-        if !(3..=64).contains(&self.line_neighbours) {
-            return Err(InvalidParam::new(
-                "line_neighbours",
-                format!("is {}", self.line_neighbours),
-                "3..=64",
-            ));
-        }
-        if !(1..=10_000).contains(&self.max_iterations) {
-            return Err(InvalidParam::new(
-                "max_iterations",
-                format!("is {}", self.max_iterations),
-                "1..=10000",
-            ));
-        }
+        check_within("line_neighbours", self.line_neighbours, 3..=64)?;
+        check_within("max_iterations", self.max_iterations, 1..=10_000)?;
         check_range(
             "convergence_translation_m",
             self.convergence_translation_m,
@@ -609,20 +618,8 @@ impl Params {
             10.0,
             "0.01 <= value <= 10 (metres)",
         )?;
-        if !(1..=16).contains(&self.cell_neighbours) {
-            return Err(InvalidParam::new(
-                "cell_neighbours",
-                format!("is {}", self.cell_neighbours),
-                "1..=16",
-            ));
-        }
-        if !(1..=1_000_000).contains(&self.cell_min_points) {
-            return Err(InvalidParam::new(
-                "cell_min_points",
-                format!("is {}", self.cell_min_points),
-                "1..=1000000",
-            ));
-        }
+        check_within("cell_neighbours", self.cell_neighbours, 1..=16)?;
+        check_within("cell_min_points", self.cell_min_points, 1..=1_000_000)?;
         for (field, value, allowed) in [
             (
                 "cell_floor_m",
@@ -647,13 +644,11 @@ impl Params {
             "0 < value <= 180 (degrees)",
         )?;
         // Two distinct correspondences determine a planar rigid transform; fewer never can.
-        if !(2..=1_000_000).contains(&self.min_correspondences) {
-            return Err(InvalidParam::new(
-                "min_correspondences",
-                format!("is {}", self.min_correspondences),
-                "2..=1000000",
-            ));
-        }
+        check_within(
+            "min_correspondences",
+            self.min_correspondences,
+            2..=1_000_000,
+        )?;
         check_range(
             "max_correction_m",
             self.max_correction_m,

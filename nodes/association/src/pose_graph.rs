@@ -944,51 +944,28 @@ impl PoseGraph {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fixtures::{laps, multi_lap_graph, odometry_graph, Drift};
     use proptest::prelude::*;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    /// A square loop of `n` poses per side, 1 m apart, turning 90° at each corner.
+    /// A square loop of `side` poses per side, 1 m apart, turning 90° at each corner.
     fn square(side: usize) -> Vec<Pose2> {
-        let mut poses = vec![Pose2::IDENTITY];
-        for k in 1..4 * side {
-            let step = if k % side == 0 {
-                Pose2::new(1.0, 0.0, std::f64::consts::FRAC_PI_2)
-            } else {
-                Pose2::new(1.0, 0.0, 0.0)
-            };
-            let last = *poses.last().unwrap();
-            poses.push(last.compose(&step));
-        }
-        poses
+        laps(side, 4 * side)
     }
 
     /// A graph with drifting odometry edges over `truth` and, optionally, an exact loop edge
     /// from the last pose back to the first.
     fn drifting_graph(truth: &[Pose2], seed: u64, with_loop: bool) -> PoseGraph {
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let mut graph = PoseGraph::new();
-        let mut estimate = truth[0];
-        graph.add_node(estimate);
-        for k in 1..truth.len() {
-            let exact = truth[k - 1].between(&truth[k]);
-            // A systematic heading bias plus noise: the drift loop closure exists for.
-            let noisy = Pose2::new(
-                exact.x_m + rng.random_range(-0.02..0.02),
-                exact.y_m + rng.random_range(-0.02..0.02),
-                exact.yaw_rad + 0.01 + rng.random_range(-0.005..0.005),
-            );
-            estimate = estimate.compose(&noisy);
-            graph.add_node(estimate);
-            graph.add_edge(Edge::with_std(
-                k - 1,
-                k,
-                noisy,
-                0.05,
-                0.02,
-                EdgeKind::Odometry,
-            ));
-        }
+        // A systematic heading bias plus noise: the drift loop closure exists for.
+        let drift = Drift {
+            step_m: 0.02,
+            yaw_rad: 0.005,
+            yaw_bias_rad: 0.01,
+            std_m: 0.05,
+            std_rad: 0.02,
+        };
+        let mut graph = odometry_graph(truth, &mut ChaCha8Rng::seed_from_u64(seed), &drift);
         if with_loop {
             let last = truth.len() - 1;
             let z = truth[last].between(&truth[0]);
@@ -1430,58 +1407,6 @@ mod tests {
         // Found by the property test: the dense solve converged where the sparse one stalled,
         // at the same poses.
         sparse_matches_dense_with_options(77184, 28, 1).unwrap();
-    }
-
-    /// Truth for `laps` laps of a square with `side` 1 m steps per side, the AGV going round
-    /// and round the hall.
-    fn laps(side: usize, n: usize) -> Vec<Pose2> {
-        let mut poses = vec![Pose2::IDENTITY];
-        for k in 1..n {
-            let turn = if k % side == 0 {
-                std::f64::consts::FRAC_PI_2
-            } else {
-                0.0
-            };
-            let last = *poses.last().unwrap();
-            poses.push(last.compose(&Pose2::new(1.0, 0.0, turn)));
-        }
-        poses
-    }
-
-    /// Odometry with a heading bias over `truth`, and `loops` loop edges spread over the run,
-    /// each from a node to the same place one to three laps (`lap` nodes) earlier.
-    fn multi_lap_graph(truth: &[Pose2], lap: usize, loops: usize, seed: u64) -> PoseGraph {
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let mut graph = PoseGraph::new();
-        let mut estimate = truth[0];
-        graph.add_node(estimate);
-        for k in 1..truth.len() {
-            let exact = truth[k - 1].between(&truth[k]);
-            let noisy = Pose2::new(
-                exact.x_m + rng.random_range(-0.01..0.01),
-                exact.y_m + rng.random_range(-0.01..0.01),
-                exact.yaw_rad + 0.0005 + rng.random_range(-0.002..0.002),
-            );
-            estimate = estimate.compose(&noisy);
-            graph.add_node(estimate);
-            graph.add_edge(Edge::with_std(
-                k - 1,
-                k,
-                noisy,
-                0.02,
-                0.005,
-                EdgeKind::Odometry,
-            ));
-        }
-        let n = truth.len();
-        for m in 0..loops {
-            let to = lap + m * (n - 1 - lap) / (loops - 1).max(1);
-            let laps_back = 1 + m % 3.min(to / lap);
-            let from = to - laps_back * lap;
-            let z = truth[from].between(&truth[to]);
-            assert!(graph.add_edge(Edge::with_std(from, to, z, 0.05, 0.01, EdgeKind::Loop)));
-        }
-        graph
     }
 
     fn rms_error_m(graph: &PoseGraph, truth: &[Pose2]) -> f64 {

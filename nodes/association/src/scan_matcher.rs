@@ -321,16 +321,7 @@ pub fn match_scan(
         })
         .map(|p| (*p, p.covariance_m2()))
         .collect();
-    let unchanged = |status| IcpResult {
-        pose: initial,
-        status,
-        iterations: 0,
-        correspondences: 0,
-        rms_m: 0.0,
-        degenerate: false,
-        correction_m: 0.0,
-        correction_rad: 0.0,
-    };
+    let unchanged = |status| IcpResult::unchanged(initial, status);
     if points.is_empty() {
         return unchanged(IcpStatus::EmptyScan);
     }
@@ -402,17 +393,12 @@ pub fn match_scan(
             break;
         }
     }
-    result.correction_m = initial.distance_m(&pose);
-    result.correction_rad = wrap_angle_rad(pose.yaw_rad - initial.yaw_rad).abs();
-    if result.correction_m > settings.max_correction_m
-        || result.correction_rad > settings.max_correction_rad
-    {
-        return IcpResult {
-            status: IcpStatus::CorrectionRejected,
-            ..result
-        };
-    }
-    IcpResult { pose, ..result }
+    result.gated(
+        initial,
+        pose,
+        settings.max_correction_m,
+        settings.max_correction_rad,
+    )
 }
 
 #[cfg(test)]

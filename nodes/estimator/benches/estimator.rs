@@ -31,7 +31,7 @@
 #[path = "../tests/common/mod.rs"]
 mod common;
 
-use common::{grid, params, Echo};
+use common::{grid, params, twenty_echoes};
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use nrslam_estimator::{Estimator, EstimatorConfig, Refinement};
 use num_complex::Complex64;
@@ -41,11 +41,7 @@ use std::hint::black_box;
 fn table_one(c: &mut Criterion) {
     let p = params(10240, 32, 1);
     let (n, k) = (p.subcarriers, p.antennas);
-    let dr = p.range_bin_m();
-    // Twenty echoes spread over the first 20 m, at the paper's 10 dB per element.
-    let echoes: Vec<Echo> = (0..20)
-        .map(|i| Echo::at_sine((12.0 + 7.3 * i as f64) * dr, -0.9 + 0.09 * i as f64))
-        .collect();
+    let echoes = twenty_echoes(&p);
     let g = grid(&p, &echoes, Some(p.snr_db), 1);
 
     let mut group = c.benchmark_group("table1_m1");

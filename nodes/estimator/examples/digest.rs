@@ -3,7 +3,7 @@
 //! bit-identical. `cargo run --release -p nrslam-estimator --example digest`
 #[path = "../tests/common/mod.rs"]
 mod common;
-use common::{grid, params, Echo};
+use common::{grid, params, twenty_echoes};
 use nrslam_estimator::{Detector, Estimator, EstimatorConfig, Refinement};
 use std::collections::hash_map::DefaultHasher;
 use std::hash::Hasher;
@@ -45,10 +45,7 @@ fn main() {
         (3, 2, 1),
     ] {
         let p = params(n, k, m);
-        let dr = p.range_bin_m();
-        let echoes: Vec<Echo> = (0..20)
-            .map(|i| Echo::at_sine((12.0 + 7.3 * i as f64) * dr, -0.9 + 0.09 * i as f64))
-            .collect();
+        let echoes = twenty_echoes(&p);
         for (gi, snr) in [Some(p.snr_db), Some(-20.0), None, Some(300.0)]
             .into_iter()
             .enumerate()

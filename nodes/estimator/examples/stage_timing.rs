@@ -2,17 +2,14 @@
 //! robust to a loaded machine). Not part of the acceptance measurement (that is the bench).
 #[path = "../tests/common/mod.rs"]
 mod common;
-use common::{grid, params, Echo};
+use common::{grid, params, twenty_echoes};
 use nrslam_estimator::{Estimator, EstimatorConfig};
 use num_complex::Complex64;
 use rustfft::FftPlanner;
 use std::time::Instant;
 fn main() {
     let p = params(10240, 32, 1);
-    let dr = p.range_bin_m();
-    let echoes: Vec<Echo> = (0..20)
-        .map(|i| Echo::at_sine((12.0 + 7.3 * i as f64) * dr, -0.9 + 0.09 * i as f64))
-        .collect();
+    let echoes = twenty_echoes(&p);
     let g = grid(&p, &echoes, Some(p.snr_db), 1);
     let mut est = Estimator::new(&p, EstimatorConfig::default()).unwrap();
     let mut planner = FftPlanner::<f64>::new();

@@ -103,31 +103,19 @@ impl Default for EstimatorConfig {
     }
 }
 
-fn check_count(field: &str, value: usize, lower: usize, upper: usize) -> Result<(), InvalidParam> {
-    if (lower..=upper).contains(&value) {
-        Ok(())
-    } else {
-        Err(InvalidParam::new(
-            field,
-            format!("{value} is out of range"),
-            format!("{lower} to {upper}"),
-        ))
-    }
-}
-
 impl EstimatorConfig {
     /// Checks every field; the error names the field and its allowed range.
     pub fn validate(&self) -> Result<(), InvalidParam> {
-        check_count("max_detections", self.max_detections, 1, 65_536)?;
+        InvalidParam::check_count("max_detections", self.max_detections, 1, 65_536)?;
         InvalidParam::check_range("threshold_db", self.threshold_db, 0.0, 300.0)?;
         InvalidParam::check_range("dynamic_range_db", self.dynamic_range_db, 0.0, 400.0)?;
         if let Some(m) = self.sidelobe_margin_db {
             InvalidParam::check_range("sidelobe_margin_db", m, 0.0, 60.0)?;
         }
-        check_count("cfar_guard_range", self.cfar_guard_range, 0, 64)?;
-        check_count("cfar_guard_angle", self.cfar_guard_angle, 0, 64)?;
-        check_count("cfar_train_range", self.cfar_train_range, 0, 256)?;
-        check_count("cfar_train_angle", self.cfar_train_angle, 0, 256)?;
+        InvalidParam::check_count("cfar_guard_range", self.cfar_guard_range, 0, 64)?;
+        InvalidParam::check_count("cfar_guard_angle", self.cfar_guard_angle, 0, 64)?;
+        InvalidParam::check_count("cfar_train_range", self.cfar_train_range, 0, 256)?;
+        InvalidParam::check_count("cfar_train_angle", self.cfar_train_angle, 0, 256)?;
         if self.detector == Detector::Cfar && self.cfar_train_range + self.cfar_train_angle == 0 {
             return Err(InvalidParam::new(
                 "cfar_train_range",
@@ -137,7 +125,7 @@ impl EstimatorConfig {
         }
         InvalidParam::check_range("cfar_pfa", self.cfar_pfa, 1e-300, 0.5)?;
         if let Refinement::ZeroPadding { factor } = self.refinement {
-            check_count("refinement.factor", factor, 1, 64)?;
+            InvalidParam::check_count("refinement.factor", factor, 1, 64)?;
         }
         if let Some(r) = self.max_range_m {
             if !(r.is_finite() && r > 0.0 && r <= 1e7) {
@@ -148,7 +136,7 @@ impl EstimatorConfig {
                 ));
             }
         }
-        check_count("zero_padding_angle", self.zero_padding_angle, 1, 1024)?;
+        InvalidParam::check_count("zero_padding_angle", self.zero_padding_angle, 1, 1024)?;
         Ok(())
     }
 

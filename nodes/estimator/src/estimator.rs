@@ -107,23 +107,11 @@ impl std::fmt::Debug for Estimator {
     }
 }
 
-fn check_size(field: &str, value: usize, lower: usize, upper: usize) -> Result<(), InvalidParam> {
-    if (lower..=upper).contains(&value) {
-        Ok(())
-    } else {
-        Err(InvalidParam::new(
-            field,
-            format!("{value} is out of range"),
-            format!("{lower} to {upper}"),
-        ))
-    }
-}
-
 /// Checks the OFDM parameters the estimator uses; fields are named `ofdm.<field>`.
 pub fn validate_params(p: &OfdmParams) -> Result<(), InvalidParam> {
-    check_size("ofdm.subcarriers", p.subcarriers, 1, 1 << 24)?;
-    check_size("ofdm.symbols", p.symbols, 1, u16::MAX as usize)?;
-    check_size("ofdm.antennas", p.antennas, 1, 1 << 16)?;
+    InvalidParam::check_count("ofdm.subcarriers", p.subcarriers, 1, 1 << 24)?;
+    InvalidParam::check_count("ofdm.symbols", p.symbols, 1, u16::MAX as usize)?;
+    InvalidParam::check_count("ofdm.antennas", p.antennas, 1, 1 << 16)?;
     InvalidParam::check_range(
         "ofdm.carrier_frequency_hz",
         p.carrier_frequency_hz,
@@ -385,6 +373,22 @@ impl RefineCtx<'_> {
     }
 }
 
+/// The power map [`Estimator::transform`] left, as the detector reads it. A macro rather than a
+/// method so that it borrows only these fields, leaving the detector free to be borrowed mutably.
+macro_rules! grid_view {
+    ($estimator:expr) => {
+        MapView {
+            power: &$estimator.power,
+            row_max: &$estimator.row_max,
+            rows: $estimator.rows,
+            cols: $estimator.a,
+            search_rows: $estimator.search_rows,
+            circular_range: $estimator.circular_range,
+            visible: &$estimator.visible_fft,
+        }
+    };
+}
+
 impl Estimator {
     /// Plans every FFT and allocates every buffer for frames of `params`' sizes.
     ///
@@ -530,16 +534,7 @@ impl Estimator {
     ) -> Result<RangeAngleSpectrum, EstimatorError> {
         let mut values = alloc(self.rows * self.a, ZERO)?;
         self.transform(grid, Some(&mut values))?;
-        let view = MapView {
-            power: &self.power,
-            row_max: &self.row_max,
-            rows: self.rows,
-            cols: self.a,
-            search_rows: self.search_rows,
-            circular_range: self.circular_range,
-            visible: &self.visible_fft,
-        };
-        self.floor = self.det.noise_floor(&view);
+        self.floor = self.det.noise_floor(&grid_view!(self));
         Ok(RangeAngleSpectrum {
             range_bins: self.rows,
             angle_bins: self.a,
@@ -680,16 +675,8 @@ impl Estimator {
     }
 
     fn detect_grid(&mut self) {
-        let view = MapView {
-            power: &self.power,
-            row_max: &self.row_max,
-            rows: self.rows,
-            cols: self.a,
-            search_rows: self.search_rows,
-            circular_range: self.circular_range,
-            visible: &self.visible_fft,
-        };
-        self.floor = self.det.noise_floor(&view);
+        self.floor = self.det.noise_floor(&grid_view!(self));
+        let view = grid_view!(self);
         let lobes = Lobes {
             range_period: self.n_pad,
             range_len: self.n,
@@ -820,7 +807,6 @@ impl Estimator {
 
         // Angle (and Doppler) transforms, a tile of range bins at a time, gathered from the
         // antenna-major rows into bin-major order.
-        let half = a / 2;
         let mut i0 = 0;
         while i0 < rows {
             let bb = (*tile_bins).min(rows - i0);
@@ -839,12 +825,7 @@ impl Estimator {
                     &mut row_max[i0..i0 + bb],
                 );
                 if let Some(map) = map.as_deref_mut() {
-                    for (b, line) in t.chunks_exact(a).enumerate() {
-                        let dst = &mut map[(i0 + b) * a..(i0 + b + 1) * a];
-                        for (c, v) in line.iter().enumerate() {
-                            dst[(c + half) % a] = *v;
-                        }
-                    }
+                    store_shifted(t, &mut map[i0 * a..(i0 + bb) * a], a);
                 }
             } else {
                 let t2 = &mut tile2[..bb * m * a];
@@ -865,20 +846,36 @@ impl Estimator {
             i0 += bb;
         }
         if row_max.iter().any(|p| !p.is_finite()) {
-            let bad = grid
-                .received
-                .iter()
-                .position(|v| !(v.re.is_finite() && v.im.is_finite()));
-            return Err(match bad {
-                Some(i) => EstimatorError::NonFinite {
-                    input: "received",
-                    index: i,
-                    value: grid.received[i].to_string(),
-                },
-                None => EstimatorError::Overflow("Y/X or the range-angle transforms"),
-            });
+            return Err(non_finite_power(grid));
         }
         Ok(())
+    }
+}
+
+/// Why a cell's power is not finite: a non-finite received sample, named, or else an overflow.
+fn non_finite_power(grid: &ResourceGrid) -> EstimatorError {
+    let bad = grid
+        .received
+        .iter()
+        .position(|v| !(v.re.is_finite() && v.im.is_finite()));
+    match bad {
+        Some(i) => EstimatorError::NonFinite {
+            input: "received",
+            index: i,
+            value: grid.received[i].to_string(),
+        },
+        None => EstimatorError::Overflow("Y/X or the range-angle transforms"),
+    }
+}
+
+/// Copies the angle spectra of `tile` (one line of `a` bins per range bin) into `map` with the
+/// angle axis fftshifted.
+fn store_shifted(tile: &[Complex64], map: &mut [Complex64], a: usize) {
+    let half = a / 2;
+    for (line, dst) in tile.chunks_exact(a).zip(map.chunks_exact_mut(a)) {
+        for (c, v) in line.iter().enumerate() {
+            dst[(c + half) % a] = *v;
+        }
     }
 }
 

@@ -13,7 +13,7 @@ use crate::{Estimator, EstimatorConfig, EstimatorError, RangeAngleDetection};
 use nrslam_msgs::topics::{DETECTIONS, ECHO, SPECTRUM};
 use nrslam_msgs::{Detection, Detections, Header, Message, RadarEcho, RadarSpectrum};
 use nrslam_ofdm::{OfdmParams, RangeAngleSpectrum, ResourceGrid};
-use nrslam_runtime::{InvalidParam, Node, NodeContext, NodeError, Outbox};
+use nrslam_runtime::{InvalidParam, Node, NodeContext, NodeError, NodeResult, Outbox};
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
 
@@ -196,12 +196,7 @@ impl Node for EstimatorNode {
         vec![DETECTIONS]
     }
 
-    fn on_message(
-        &mut self,
-        topic: &str,
-        message: &Message,
-        outbox: &mut Outbox,
-    ) -> Result<(), NodeError> {
+    fn on_message(&mut self, topic: &str, message: &Message, outbox: &mut Outbox) -> NodeResult {
         let (header, boresight_rad, found) = match (topic, message) {
             (SPECTRUM, Message::RadarSpectrum(s)) => {
                 (&s.header, s.boresight_rad, self.on_spectrum(s)?)

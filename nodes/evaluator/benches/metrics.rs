@@ -6,26 +6,17 @@
 //! cargo bench -p nrslam-evaluator --bench metrics
 //! ```
 
-use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use criterion::measurement::WallTime;
+use criterion::{criterion_group, criterion_main, BenchmarkGroup, BenchmarkId, Criterion};
 use nrslam_evaluator::{
     etgospa_dense, etgospa_sparse, gospa_dense, gospa_sparse, EtGospaParams, ExtendedTarget,
     GospaParams, Point2,
 };
 use std::hint::black_box;
 
-/// Deterministic pseudo-random points (xorshift), uniform in [0, extent)².
-fn scatter(n: usize, extent: f64, seed: u64) -> Vec<Point2> {
-    let mut state = seed.max(1);
-    let mut next = || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        (state >> 11) as f64 / (1u64 << 53) as f64
-    };
-    (0..n)
-        .map(|_| Point2::new(next() * extent, next() * extent))
-        .collect()
-}
+#[path = "../tests/common/scatter.rs"]
+mod scatter;
+use scatter::scatter;
 
 /// Targets of 4 samples within 1 m of each other, one per 4 points of `points`.
 fn targets(points: &[Point2]) -> Vec<ExtendedTarget> {
@@ -41,6 +32,19 @@ fn targets(points: &[Point2]) -> Vec<ExtendedTarget> {
             )
         })
         .collect()
+}
+
+/// Times the component solver against the dense one on the input named `id`.
+fn compare<T>(
+    group: &mut BenchmarkGroup<'_, WallTime>,
+    id: &str,
+    components: impl Fn() -> T,
+    dense: impl Fn() -> T,
+) {
+    group.bench_with_input(BenchmarkId::new("components", id), &(), |b, _| {
+        b.iter(&components)
+    });
+    group.bench_with_input(BenchmarkId::new("dense", id), &(), |b, _| b.iter(&dense));
 }
 
 fn gospa_bench(c: &mut Criterion) {
@@ -59,12 +63,12 @@ fn gospa_bench(c: &mut Criterion) {
         let x = scatter(n, extent, 1);
         let y = scatter(n, extent, 2);
         let id = format!("{n}x{n}_{extent}m");
-        group.bench_with_input(BenchmarkId::new("components", &id), &(), |b, _| {
-            b.iter(|| gospa_sparse(black_box(&x), black_box(&y), &params).unwrap())
-        });
-        group.bench_with_input(BenchmarkId::new("dense", &id), &(), |b, _| {
-            b.iter(|| gospa_dense(black_box(&x), black_box(&y), &params).unwrap())
-        });
+        compare(
+            &mut group,
+            &id,
+            || gospa_sparse(black_box(&x), black_box(&y), &params).unwrap(),
+            || gospa_dense(black_box(&x), black_box(&y), &params).unwrap(),
+        );
     }
     group.finish();
 }
@@ -77,12 +81,12 @@ fn etgospa_bench(c: &mut Criterion) {
         let truth = targets(&scatter(n, extent, 1));
         let y = scatter(n, extent, 2);
         let id = format!("{n}x{n}_{extent}m");
-        group.bench_with_input(BenchmarkId::new("components", &id), &(), |b, _| {
-            b.iter(|| etgospa_sparse(black_box(&truth), black_box(&y), &params).unwrap())
-        });
-        group.bench_with_input(BenchmarkId::new("dense", &id), &(), |b, _| {
-            b.iter(|| etgospa_dense(black_box(&truth), black_box(&y), &params).unwrap())
-        });
+        compare(
+            &mut group,
+            &id,
+            || etgospa_sparse(black_box(&truth), black_box(&y), &params).unwrap(),
+            || etgospa_dense(black_box(&truth), black_box(&y), &params).unwrap(),
+        );
     }
     group.finish();
 }

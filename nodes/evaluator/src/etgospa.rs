@@ -311,28 +311,11 @@ fn etgospa_dense_checked(
         }
     }
     // min(c, δ_{−i}(y_j)): the nearest other target, via the best and second best per estimate.
-    let nearest_two: Vec<(usize, f64, f64)> = (0..n_est)
-        .map(|j| {
-            let (mut best_at, mut best, mut second) = (usize::MAX, c, c);
-            for i in 0..n_targets {
-                let d = clipped[i * n_est + j];
-                if d < best {
-                    (best_at, best, second) = (i, d, best);
-                } else if d < second {
-                    second = d;
-                }
-            }
-            (best_at, best, second)
-        })
-        .collect();
-    let clipped_other = |i: usize, j: usize| {
-        let (best_at, best, second) = nearest_two[j];
-        if i == best_at {
-            second
-        } else {
-            best
-        }
-    };
+    let table = &clipped;
+    let nearest = NearestTwo::new(n_est, c, |j| {
+        (0..n_targets).map(move |i| (i, table[i * n_est + j]))
+    });
+    let clipped_other = |i: usize, j: usize| nearest.other(i, j);
     // Row r of the slots × estimates matrix belongs to target slot_target[r].
     let slot_target: Vec<usize> = targets
         .iter()
@@ -464,6 +447,111 @@ fn finite_result(
     }
 }
 
+/// min(c, δ) to the best and second best target of each estimate: (best target, best, second
+/// best), both c when there is none, from which min(c, δ_{−i}(y_j)) is read.
+struct NearestTwo {
+    per_estimate: Vec<(usize, f64, f64)>,
+}
+
+impl NearestTwo {
+    /// From `candidates(j)`: (target, min(c, δ)) for the targets of estimate j, in index order
+    /// (targets left out are at c).
+    fn new<I: Iterator<Item = (usize, f64)>>(
+        n_est: usize,
+        c: f64,
+        candidates: impl Fn(usize) -> I,
+    ) -> Self {
+        let per_estimate = (0..n_est)
+            .map(|j| {
+                let (mut best_at, mut best, mut second) = (usize::MAX, c, c);
+                for (i, d) in candidates(j) {
+                    if d < best {
+                        (best_at, best, second) = (i, d, best);
+                    } else if d < second {
+                        second = d;
+                    }
+                }
+                (best_at, best, second)
+            })
+            .collect();
+        Self { per_estimate }
+    }
+
+    /// min(c, δ_{−i}(y_j)): estimate j's distance to its nearest target other than i.
+    fn other(&self, i: usize, j: usize) -> f64 {
+        let (best_at, best, second) = self.per_estimate[j];
+        if i == best_at {
+            second
+        } else {
+            best
+        }
+    }
+
+    /// min(c, δ) to estimate j's nearest target.
+    fn best(&self, j: usize) -> f64 {
+        self.per_estimate[j].1
+    }
+}
+
+/// For each estimate, the targets closer than c (by δ) with min(c, δ), in target order: the only
+/// pairs whose clipped distance is not c.
+struct NearTargets {
+    /// near[start[j]..start[j + 1]]: estimate j's (target, min(c, δ)).
+    near: Vec<(u32, f64)>,
+    start: Vec<usize>,
+    c: f64,
+}
+
+impl NearTargets {
+    /// Found through a uniform grid of the targets' bounding boxes.
+    fn find(targets: &[ExtendedTarget], estimates: &[Point2], params: &EtGospaParams) -> Self {
+        let c = params.c;
+        // The geometry δ measures to, as boxes; a point closer than c (δ) is within `radius` metres.
+        let radius = if params.squared_distance { c.sqrt() } else { c };
+        let boxes: Vec<Box2> = targets
+            .iter()
+            .map(|t| {
+                let geometry = match params.distance {
+                    DistanceMode::Samples => &t.samples,
+                    DistanceMode::Outline => &t.outline,
+                };
+                // Non-empty: checked by the caller.
+                Box2::of_points(geometry).unwrap_or(Box2::of_point(Point2::default()))
+            })
+            .collect();
+        let mut grid = Grid::new(&boxes, radius, Box2::of_points(estimates));
+        let mut near: Vec<(u32, f64)> = Vec::new();
+        let mut start: Vec<usize> = Vec::with_capacity(estimates.len() + 1);
+        for y in estimates {
+            let from = near.len();
+            start.push(from);
+            grid.near(*y, |i| {
+                let d = base_distance(&targets[i], y, params).min(c);
+                if d < c {
+                    near.push((i as u32, d));
+                }
+            });
+            near[from..].sort_unstable_by_key(|&(i, _)| i);
+        }
+        start.push(near.len());
+        Self { near, start, c }
+    }
+
+    /// Estimate j's near targets.
+    fn of(&self, j: usize) -> &[(u32, f64)] {
+        &self.near[self.start[j]..self.start[j + 1]]
+    }
+
+    /// min(c, δ_i(y_j)).
+    fn clipped(&self, i: usize, j: usize) -> f64 {
+        let near = self.of(j);
+        match near.binary_search_by_key(&(i as u32), |e| e.0) {
+            Ok(at) => near[at].1,
+            Err(_) => self.c,
+        }
+    }
+}
+
 /// See [`etgospa_sparse`]. Every value (clipped distances, nearest other target, weights) is
 /// computed exactly as the dense path computes it, for the pairs closer than c; every other pair
 /// has min(c, δ_i) = c.
@@ -487,118 +575,89 @@ fn etgospa_sparse_checked(
         }
         .into());
     };
-    // The geometry δ measures to, as boxes; a point closer than c (δ) is within `radius` metres.
-    let radius = if params.squared_distance { c.sqrt() } else { c };
-    let boxes: Vec<Box2> = targets
-        .iter()
-        .map(|t| {
-            let geometry = match params.distance {
-                DistanceMode::Samples => &t.samples,
-                DistanceMode::Outline => &t.outline,
-            };
-            // Non-empty: checked by the caller.
-            Box2::of_points(geometry).unwrap_or(Box2::of_point(Point2::default()))
-        })
-        .collect();
-    let mut grid = Grid::new(&boxes, radius, Box2::of_points(estimates));
-    // near[near_start[j]..near_start[j + 1]]: the targets i with min(c, δ_i(y_j)) < c, by index,
-    // with that value.
-    let mut near: Vec<(u32, f64)> = Vec::new();
-    let mut near_start: Vec<usize> = Vec::with_capacity(n_est + 1);
-    for y in estimates {
-        let from = near.len();
-        near_start.push(from);
-        grid.near(*y, |i| {
-            let d = base_distance(&targets[i], y, params).min(c);
-            if d < c {
-                near.push((i as u32, d));
-            }
-        });
-        near[from..].sort_unstable_by_key(|&(i, _)| i);
-    }
-    near_start.push(near.len());
-    drop(grid);
-    let near_of = |j: usize| &near[near_start[j]..near_start[j + 1]];
-    let clipped = |i: usize, j: usize| match near_of(j).binary_search_by_key(&(i as u32), |e| e.0) {
-        Ok(at) => near_of(j)[at].1,
-        Err(_) => c,
-    };
+    let near = NearTargets::find(targets, estimates, params);
+    let clipped = |i: usize, j: usize| near.clipped(i, j);
     // As the dense path: best and second best over the targets in index order (the others are c).
-    let nearest_two: Vec<(usize, f64, f64)> = (0..n_est)
-        .map(|j| {
-            let (mut best_at, mut best, mut second) = (usize::MAX, c, c);
-            for &(i, d) in near_of(j) {
-                if d < best {
-                    (best_at, best, second) = (i as usize, d, best);
-                } else if d < second {
-                    second = d;
-                }
-            }
-            (best_at, best, second)
-        })
-        .collect();
-    let clipped_other = |i: usize, j: usize| {
-        let (best_at, best, second) = nearest_two[j];
-        if i == best_at {
-            second
-        } else {
-            best
-        }
-    };
+    let nearest = NearestTwo::new(n_est, c, |j| {
+        near.of(j).iter().map(|&(i, d)| (i as usize, d))
+    });
+    let clipped_other = |i: usize, j: usize| nearest.other(i, j);
 
     let infinite = p.is_infinite();
     let c_pow_p = pow_p(c, p);
     let unassigned_cost = c_pow_p / alpha;
-    let weight = |i: usize, j: usize| {
-        pow_p(clipped(i, j), p) + (c_pow_p - pow_p(clipped_other(i, j), p)) - 2.0 * unassigned_cost
-    };
-    let pair_cost = |i: usize, j: usize| {
-        let confusion = if clipped_other(i, j) < c { c } else { 0.0 };
-        clipped(i, j).max(confusion)
-    };
     if !infinite && n_slots > 0 {
         // A pair farther than c weighs c^p + (c^p − D_{−i}(y_j)) − 2c^p/α with D_{−i}(y_j) the
         // nearest target's clipped distance: never negative for α = 2. If it can be, pairs
         // beyond the cut-off matter and the problem does not split.
-        let far_can_help = nearest_two.iter().any(|&(_, best, _)| {
-            c_pow_p + (c_pow_p - pow_p(best, p)) - 2.0 * unassigned_cost < 0.0
-        });
+        let far_can_help = (0..n_est)
+            .any(|j| c_pow_p + (c_pow_p - pow_p(nearest.best(j), p)) - 2.0 * unassigned_cost < 0.0);
         if far_can_help {
             return etgospa_dense_checked(targets, estimates, params);
         }
     }
+    let pair_cost = |i: usize, j: usize| {
+        let confusion = if clipped_other(i, j) < c { c } else { 0.0 };
+        clipped(i, j).max(confusion)
+    };
+    let weight = |i: usize, j: usize| {
+        pow_p(clipped(i, j), p) + (c_pow_p - pow_p(clipped_other(i, j), p)) - 2.0 * unassigned_cost
+    };
+    // What a pair is ranked by: its bottleneck cost for p = ∞, else its weight relative to
+    // leaving both its slot and its estimate unassigned; worth taking below `worth_below`.
+    let key = |i: usize, j: usize| {
+        if infinite {
+            pair_cost(i, j)
+        } else {
+            weight(i, j)
+        }
+    };
+    let worth_below = if infinite { c } else { 0.0 };
 
     let mut graph = Components::new(n_targets, n_est);
     for j in 0..n_est {
-        for &(i, _) in near_of(j) {
+        for &(i, _) in near.of(j) {
             let i = i as usize;
-            if targets[i].slots == 0 {
-                continue;
-            }
-            let useful = if infinite {
-                pair_cost(i, j) < c
-            } else {
-                weight(i, j) < 0.0
-            };
-            if useful {
+            if targets[i].slots > 0 && key(i, j) < worth_below {
                 graph.link(i, j);
             }
         }
     }
+    let Solved {
+        mut pairs,
+        bottleneck,
+    } = solve_components(graph, targets, key, infinite, c, (n_slots, n_est))?;
+    pairs.sort_unstable();
+    if infinite {
+        return Ok(infinite_result(pairs, n_slots, n_est, c, bottleneck));
+    }
+    Ok(finite_result(
+        pairs,
+        n_slots,
+        n_est,
+        params,
+        clipped,
+        clipped_other,
+    ))
+}
 
+/// Solves each component of `graph` (targets, estimates) exactly by the pairs' `key` (bottleneck
+/// cost for p = ∞, else weight).
+/// `sizes` (slots, estimates) of the whole problem name it in a size error.
+fn solve_components(
+    graph: Components,
+    targets: &[ExtendedTarget],
+    key: impl Fn(usize, usize) -> f64,
+    infinite: bool,
+    c: f64,
+    sizes: (usize, usize),
+) -> Result<Solved, MetricError> {
     let mut pairs: Vec<(usize, usize)> = Vec::new();
     let mut bottleneck: Option<f64> = None;
     for (tgts, cols) in graph.finish() {
         if cols.len() == 1 || (tgts.len() == 1 && targets[tgts[0]].slots == 1) {
             // A star (one estimate, or one target with one slot; every pair usable): one pair
             // at most, the cheapest.
-            let key = |i: usize, j: usize| {
-                if infinite {
-                    pair_cost(i, j)
-                } else {
-                    weight(i, j)
-                }
-            };
             let (mut best, mut best_key) = ((tgts[0], cols[0]), f64::INFINITY);
             for &i in &tgts {
                 for &j in &cols {
@@ -619,45 +678,34 @@ fn etgospa_sparse_checked(
             .iter()
             .flat_map(|&i| std::iter::repeat_n(i, targets[i].slots.min(cols.len())))
             .collect();
-        if infinite {
-            let costs = CostMatrix::from_fn(slot_target.len(), cols.len(), |r, k| {
-                pair_cost(slot_target[r], cols[k])
-            })
-            .map_err(|e| MetricError::in_component(e, n_slots, n_est))?;
-            let matching = solve_bottleneck(&costs, c);
+        let matrix = CostMatrix::from_fn(slot_target.len(), cols.len(), |r, k| {
+            key(slot_target[r], cols[k])
+        })
+        .map_err(|e| MetricError::in_component(e, sizes.0, sizes.1))?;
+        let component_pairs = if infinite {
+            let matching = solve_bottleneck(&matrix, c);
             if let Some(d) = matching.bottleneck {
                 bottleneck = Some(bottleneck.map_or(d, |b| b.max(d)));
             }
-            pairs.extend(
-                matching
-                    .pairs
-                    .iter()
-                    .map(|&(r, k)| (slot_target[r], cols[k])),
-            );
+            matching.pairs
         } else {
-            let weights = CostMatrix::from_fn(slot_target.len(), cols.len(), |r, k| {
-                weight(slot_target[r], cols[k])
-            })
-            .map_err(|e| MetricError::in_component(e, n_slots, n_est))?;
-            pairs.extend(
-                solve_partial(&weights)
-                    .into_iter()
-                    .map(|(r, k)| (slot_target[r], cols[k])),
-            );
-        }
+            solve_partial(&matrix)
+        };
+        pairs.extend(
+            component_pairs
+                .into_iter()
+                .map(|(r, k)| (slot_target[r], cols[k])),
+        );
     }
-    pairs.sort_unstable();
-    if infinite {
-        return Ok(infinite_result(pairs, n_slots, n_est, c, bottleneck));
-    }
-    Ok(finite_result(
-        pairs,
-        n_slots,
-        n_est,
-        params,
-        clipped,
-        clipped_other,
-    ))
+    Ok(Solved { pairs, bottleneck })
+}
+
+/// The components' solutions together.
+struct Solved {
+    /// (target, estimate) pairs, unsorted.
+    pairs: Vec<(usize, usize)>,
+    /// For p = ∞, the largest pair cost (`None` without a pair).
+    bottleneck: Option<f64>,
 }
 
 /// δ(y, target): Euclidean (or squared) distance to the nearest sample or to the outline.

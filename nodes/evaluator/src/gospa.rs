@@ -236,9 +236,7 @@ pub fn gospa(
     estimates: &[Point2],
     params: &GospaParams,
 ) -> Result<GospaResult, MetricError> {
-    params.validate()?;
-    check_finite(truth, || "truth".to_owned())?;
-    check_finite(estimates, || "estimates".to_owned())?;
+    check_inputs(truth, estimates, params)?;
     if truth.len().saturating_mul(estimates.len()) <= DENSE_BELOW_CELLS {
         return gospa_dense_checked(truth, estimates, params);
     }
@@ -263,10 +261,19 @@ pub fn gospa_dense(
     estimates: &[Point2],
     params: &GospaParams,
 ) -> Result<GospaResult, MetricError> {
+    check_inputs(truth, estimates, params)?;
+    gospa_dense_checked(truth, estimates, params)
+}
+
+/// The checks every entry point runs: parameters and finite coordinates.
+fn check_inputs(
+    truth: &[Point2],
+    estimates: &[Point2],
+    params: &GospaParams,
+) -> Result<(), MetricError> {
     params.validate()?;
     check_finite(truth, || "truth".to_owned())?;
-    check_finite(estimates, || "estimates".to_owned())?;
-    gospa_dense_checked(truth, estimates, params)
+    check_finite(estimates, || "estimates".to_owned())
 }
 
 fn gospa_dense_checked(
@@ -314,9 +321,7 @@ pub fn gospa_sparse(
     estimates: &[Point2],
     params: &GospaParams,
 ) -> Result<GospaResult, MetricError> {
-    params.validate()?;
-    check_finite(truth, || "truth".to_owned())?;
-    check_finite(estimates, || "estimates".to_owned())?;
+    check_inputs(truth, estimates, params)?;
     gospa_sparse_checked(truth, estimates, params)
 }
 

@@ -27,7 +27,7 @@ use nrslam_msgs::topics::{
     GROUND_TRUTH_POSE, GROUND_TRUTH_TARGETS, MAP_TARGETS, METRICS, SEGMENTS, SLAM_POSE,
 };
 use nrslam_msgs::{Header, MapTargets, Message, Metrics, PoseStamped, Segments, TargetSet};
-use nrslam_runtime::{Node, NodeContext, NodeError, Outbox};
+use nrslam_runtime::{Node, NodeContext, NodeError, NodeResult, Outbox};
 
 use crate::error::MetricError;
 use crate::etgospa::{etgospa, EtGospaParams, EtGospaResult, ExtendedTarget};
@@ -264,12 +264,7 @@ impl Node for EvaluatorNode {
         vec![METRICS]
     }
 
-    fn on_message(
-        &mut self,
-        topic: &str,
-        message: &Message,
-        outbox: &mut Outbox,
-    ) -> Result<(), NodeError> {
+    fn on_message(&mut self, topic: &str, message: &Message, outbox: &mut Outbox) -> NodeResult {
         match (topic, message) {
             (GROUND_TRUTH_TARGETS, Message::TargetSet(set)) => self.on_targets(set),
             (SEGMENTS, Message::Segments(segments)) if self.estimate_topic() == SEGMENTS => {

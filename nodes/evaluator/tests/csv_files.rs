@@ -109,41 +109,50 @@ fn assert_error(err: EvaluatorError, file: &str, needles: &[&str]) {
     }
 }
 
+/// Writes `text` as the truth file `name`, scores it against one estimate, and checks the error
+/// as [`assert_error`] does.
+fn assert_truth_refused(dir: &TempDir, name: &str, text: &str, needles: &[&str]) {
+    let estimates = write(dir, "ok_est.csv", "x,y\n1,1\n");
+    let truth = write(dir, name, text);
+    let err = evaluate_files(&truth, &estimates, &MetricParams::default()).unwrap_err();
+    assert_error(err, name, needles);
+}
+
+/// Writes `text` as the estimates file `name`, scores it against [`TRUTH`], and checks the error
+/// as [`assert_error`] does.
+fn assert_estimates_refused(dir: &TempDir, name: &str, text: &str, needles: &[&str]) {
+    let truth = write(dir, "ok_truth.csv", TRUTH);
+    let estimates = write(dir, name, text);
+    let err = evaluate_files(&truth, &estimates, &MetricParams::default()).unwrap_err();
+    assert_error(err, name, needles);
+}
+
 #[test]
 fn bad_fields_name_file_line_and_column() {
     let dir = TempDir::new().unwrap();
-    let ok_est = write(&dir, "ok_est.csv", "x,y\n1,1\n");
-    let ok_truth = write(&dir, "ok_truth.csv", TRUTH);
-    let p = MetricParams::default();
-
-    let t = write(&dir, "nonnum.csv", "target,x,y\na,0,0\na,zero,1\n");
-    assert_error(
-        evaluate_files(&t, &ok_est, &p).unwrap_err(),
+    assert_truth_refused(
+        &dir,
         "nonnum.csv",
+        "target,x,y\na,0,0\na,zero,1\n",
         &["line 3", "`x`", "zero"],
     );
-    let t = write(&dir, "nan.csv", "target,x,y\na,0,0\na,1,0\nb,2,NaN\n");
-    assert_error(
-        evaluate_files(&t, &ok_est, &p).unwrap_err(),
+    assert_truth_refused(
+        &dir,
         "nan.csv",
+        "target,x,y\na,0,0\na,1,0\nb,2,NaN\n",
         &["line 4", "`y`", "not a finite number"],
     );
-    let e = write(&dir, "inf_est.csv", "x,y\n1,2\ninf,3\n");
-    assert_error(
-        evaluate_files(&ok_truth, &e, &p).unwrap_err(),
-        "inf_est.csv",
-        &["line 3", "`x`"],
-    );
-    let e = write(&dir, "short.csv", "x,y\n1,2\n3\n");
-    assert_error(
-        evaluate_files(&ok_truth, &e, &p).unwrap_err(),
+    assert_estimates_refused(&dir, "inf_est.csv", "x,y\n1,2\ninf,3\n", &["line 3", "`x`"]);
+    assert_estimates_refused(
+        &dir,
         "short.csv",
+        "x,y\n1,2\n3\n",
         &["line 3", "`y`", "missing"],
     );
-    let t = write(&dir, "empty_id.csv", "target,x,y\n,1,2\n");
-    assert_error(
-        evaluate_files(&t, &ok_est, &p).unwrap_err(),
+    assert_truth_refused(
+        &dir,
         "empty_id.csv",
+        "target,x,y\n,1,2\n",
         &["line 2", "`target`", "empty"],
     );
 }
@@ -154,21 +163,16 @@ fn bad_headers_and_files_are_named() {
     let ok_est = write(&dir, "ok_est.csv", "x,y\n1,1\n");
     let p = MetricParams::default();
 
-    let t = write(&dir, "nohead.csv", "0,0,0\n");
-    assert_error(
-        evaluate_files(&t, &ok_est, &p).unwrap_err(),
+    assert_truth_refused(
+        &dir,
         "nohead.csv",
+        "0,0,0\n",
         &["line 1", "no column `target`"],
     );
     let t = write(&dir, "empty.csv", "");
     let err = evaluate_files(&t, &ok_est, &p).unwrap_err();
     assert!(matches!(err, EvaluatorError::MissingHeader { .. }), "{err}");
-    let t = write(&dir, "twice.csv", "target,x,x,y\n");
-    assert_error(
-        evaluate_files(&t, &ok_est, &p).unwrap_err(),
-        "twice.csv",
-        &["`x` appears twice"],
-    );
+    assert_truth_refused(&dir, "twice.csv", "target,x,x,y\n", &["`x` appears twice"]);
     let missing = dir.path().join("does_not_exist.csv");
     let err = evaluate_files(&missing, &ok_est, &p).unwrap_err();
     assert!(matches!(err, EvaluatorError::Io { .. }));
@@ -193,19 +197,17 @@ fn bad_parameters_are_refused_before_reading() {
 #[test]
 fn line_numbers_count_blank_lines_and_crlf() {
     let dir = TempDir::new().unwrap();
-    let ok_est = write(&dir, "ok_est.csv", "x,y\n1,1\n");
-    let p = MetricParams::default();
     // The csv crate skips blank lines without counting them; our line numbers must not.
-    let t = write(&dir, "blank.csv", "target,x,y\na,1,2\n\n\r\nb,nan,1\n");
-    assert_error(
-        evaluate_files(&t, &ok_est, &p).unwrap_err(),
+    assert_truth_refused(
+        &dir,
         "blank.csv",
+        "target,x,y\na,1,2\n\n\r\nb,nan,1\n",
         &["line 5", "`x`"],
     );
-    let t = write(&dir, "crlf.csv", "\r\ntarget,x\r\na,1\r\n");
-    assert_error(
-        evaluate_files(&t, &ok_est, &p).unwrap_err(),
+    assert_truth_refused(
+        &dir,
         "crlf.csv",
+        "\r\ntarget,x\r\na,1\r\n",
         &["line 2", "no column `y`"],
     );
     let t = write(&dir, "crlf_ok.csv", "target,x,y\r\na,1,2\r\n");

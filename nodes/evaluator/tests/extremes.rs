@@ -99,14 +99,11 @@ fn coincident_points() {
     assert_eq!(r.total, 7.5);
 }
 
-/// 10 targets × 4 samples = 40 slots against 5000 estimates, with a known answer: 4 estimates
-/// exactly on each target's samples, 4960 farther than c from every target.
-#[test]
-fn map_sized_problem_has_the_known_answer() {
-    let mut rng = ChaCha8Rng::seed_from_u64(2024);
-    let targets: Vec<ExtendedTarget> = (0..10)
+/// Ten 2 m × 1 m rectangles of 4 corner samples, in two rows of five, `spacing_m` apart.
+fn rectangles(spacing_m: f64) -> Vec<ExtendedTarget> {
+    (0..10)
         .map(|k| {
-            let (x, y) = (f64::from(k % 5) * 40.0, f64::from(k / 5) * 40.0);
+            let (x, y) = (f64::from(k % 5) * spacing_m, f64::from(k / 5) * spacing_m);
             ExtendedTarget::from_samples(vec![
                 pt(x, y),
                 pt(x + 2.0, y),
@@ -114,7 +111,15 @@ fn map_sized_problem_has_the_known_answer() {
                 pt(x, y + 1.0),
             ])
         })
-        .collect();
+        .collect()
+}
+
+/// 10 targets × 4 samples = 40 slots against 5000 estimates, with a known answer: 4 estimates
+/// exactly on each target's samples, 4960 farther than c from every target.
+#[test]
+fn map_sized_problem_has_the_known_answer() {
+    let mut rng = ChaCha8Rng::seed_from_u64(2024);
+    let targets = rectangles(40.0);
     let mut estimates: Vec<Point2> = targets.iter().flat_map(|t| t.samples.clone()).collect();
     while estimates.len() < 5000 {
         let q = pt(
@@ -149,17 +154,7 @@ fn map_sized_problem_has_the_known_answer() {
 #[test]
 fn map_sized_problem_with_noisy_estimates_is_consistent() {
     let mut rng = ChaCha8Rng::seed_from_u64(7);
-    let targets: Vec<ExtendedTarget> = (0..10)
-        .map(|k| {
-            let (x, y) = (f64::from(k % 5) * 6.0, f64::from(k / 5) * 6.0);
-            ExtendedTarget::from_samples(vec![
-                pt(x, y),
-                pt(x + 2.0, y),
-                pt(x + 2.0, y + 1.0),
-                pt(x, y + 1.0),
-            ])
-        })
-        .collect();
+    let targets = rectangles(6.0);
     let estimates: Vec<Point2> = (0..5000)
         .map(|_| pt(rng.random_range(-3.0..30.0), rng.random_range(-3.0..10.0)))
         .collect();

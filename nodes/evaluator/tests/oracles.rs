@@ -3,7 +3,9 @@
 
 mod common;
 
-use common::{close, etgospa_oracle, gospa_fusion2017, gospa_oracle};
+use common::{
+    close, etgospa_oracle, gospa_fusion2017, gospa_oracle, strategies, strategies::p_value,
+};
 use nrslam_evaluator::{
     etgospa, gospa, DistanceMode, EtGospaParams, ExtendedTarget, GospaParams, Point2,
 };
@@ -22,10 +24,6 @@ fn points(max: usize) -> impl Strategy<Value = Vec<Point2>> {
     prop::collection::vec(point(), 0..=max)
 }
 
-fn p_value() -> impl Strategy<Value = f64> {
-    prop_oneof![Just(1.0), Just(2.0), 1.0..4.0f64, Just(f64::INFINITY)]
-}
-
 fn gospa_params() -> impl Strategy<Value = GospaParams> {
     (
         prop_oneof![Just(2.0), 0.5..5.0f64],
@@ -35,34 +33,8 @@ fn gospa_params() -> impl Strategy<Value = GospaParams> {
         .prop_map(|(c, p, alpha)| GospaParams { c, p, alpha })
 }
 
-fn etgospa_params() -> impl Strategy<Value = EtGospaParams> {
-    (
-        gospa_params(),
-        prop_oneof![Just(DistanceMode::Samples), Just(DistanceMode::Outline)],
-        any::<bool>(),
-    )
-        .prop_map(|(g, distance, squared_distance)| EtGospaParams {
-            c: g.c,
-            p: g.p,
-            alpha: g.alpha,
-            distance,
-            squared_distance,
-        })
-}
-
 fn target() -> impl Strategy<Value = ExtendedTarget> {
-    (
-        prop::collection::vec(point(), 1..=3),
-        prop::collection::vec(point(), 1..=4),
-        prop::option::of(0usize..=3),
-    )
-        .prop_map(|(samples, outline, slots)| {
-            let t = ExtendedTarget::from_samples(samples).with_outline(outline);
-            match slots {
-                Some(s) => t.with_slots(s),
-                None => t,
-            }
-        })
+    strategies::target(point, 3, 3)
 }
 
 /// Targets whose total slot count stays small enough to enumerate.
@@ -145,7 +117,7 @@ proptest! {
     }
 
     #[test]
-    fn etgospa_equals_enumeration(ts in targets(), y in points(4), params in etgospa_params()) {
+    fn etgospa_equals_enumeration(ts in targets(), y in points(4), params in strategies::etgospa_params(gospa_params())) {
         let r = etgospa(&ts, &y, &params).unwrap();
         let oracle = etgospa_oracle(&ts, &y, &params);
         prop_assert!(close(r.total, oracle, 1e-9), "solver {} oracle {oracle}", r.total);
@@ -153,7 +125,7 @@ proptest! {
     }
 
     #[test]
-    fn etgospa_decomposition_adds_up(ts in targets(), y in points(6), params in etgospa_params()) {
+    fn etgospa_decomposition_adds_up(ts in targets(), y in points(6), params in strategies::etgospa_params(gospa_params())) {
         let r = etgospa(&ts, &y, &params).unwrap();
         let slots: usize = ts.iter().map(|t| t.slots).sum();
         prop_assert_eq!(r.slot_count, slots);

@@ -5,10 +5,12 @@
 
 mod common;
 
-use common::{close, etgospa_oracle, gospa_oracle};
+use common::{
+    close, etgospa_oracle, gospa_oracle, scatter::scatter, strategies, strategies::p_value,
+};
 use nrslam_evaluator::{
-    etgospa, etgospa_dense, etgospa_sparse, gospa, gospa_dense, gospa_sparse, DistanceMode,
-    EtGospaParams, EtGospaResult, ExtendedTarget, GospaParams, GospaResult, Point2,
+    etgospa, etgospa_dense, etgospa_sparse, gospa, gospa_dense, gospa_sparse, EtGospaParams,
+    EtGospaResult, ExtendedTarget, GospaParams, GospaResult, Point2,
 };
 use proptest::prelude::*;
 
@@ -29,10 +31,6 @@ fn points(max: usize) -> impl Strategy<Value = Vec<Point2>> {
     prop::collection::vec(point(), 0..=max)
 }
 
-fn p_value() -> impl Strategy<Value = f64> {
-    prop_oneof![Just(1.0), Just(2.0), 1.0..4.0f64, Just(f64::INFINITY)]
-}
-
 /// c = 1, 2, 3 (integers: grid points exactly c apart) or continuous; α = 2 (the paper) or any.
 fn gospa_params() -> impl Strategy<Value = GospaParams> {
     (
@@ -43,34 +41,8 @@ fn gospa_params() -> impl Strategy<Value = GospaParams> {
         .prop_map(|(c, p, alpha)| GospaParams { c, p, alpha })
 }
 
-fn etgospa_params() -> impl Strategy<Value = EtGospaParams> {
-    (
-        gospa_params(),
-        prop_oneof![Just(DistanceMode::Samples), Just(DistanceMode::Outline)],
-        any::<bool>(),
-    )
-        .prop_map(|(g, distance, squared_distance)| EtGospaParams {
-            c: g.c,
-            p: g.p,
-            alpha: g.alpha,
-            distance,
-            squared_distance,
-        })
-}
-
 fn target() -> impl Strategy<Value = ExtendedTarget> {
-    (
-        prop::collection::vec(point(), 1..=4),
-        prop::collection::vec(point(), 1..=4),
-        prop::option::of(0usize..=4),
-    )
-        .prop_map(|(samples, outline, slots)| {
-            let t = ExtendedTarget::from_samples(samples).with_outline(outline);
-            match slots {
-                Some(s) => t.with_slots(s),
-                None => t,
-            }
-        })
+    strategies::target(point, 4, 4)
 }
 
 /// The same optimum: equal totals, and (p < ∞) equal p-th-power parts, to 1e-9 relative.
@@ -141,7 +113,7 @@ proptest! {
     fn etgospa_sparse_equals_dense(
         ts in prop::collection::vec(target(), 0..=8),
         y in points(30),
-        params in etgospa_params(),
+        params in strategies::etgospa_params(gospa_params()),
     ) {
         let sparse = etgospa_sparse(&ts, &y, &params).unwrap();
         let dense = etgospa_dense(&ts, &y, &params).unwrap();
@@ -164,26 +136,12 @@ proptest! {
         ts in prop::collection::vec(target(), 0..=3)
             .prop_filter("at most 7 slots", |ts| ts.iter().map(|t| t.slots).sum::<usize>() <= 7),
         y in points(4),
-        params in etgospa_params(),
+        params in strategies::etgospa_params(gospa_params()),
     ) {
         let sparse = etgospa_sparse(&ts, &y, &params).unwrap();
         let oracle = etgospa_oracle(&ts, &y, &params);
         prop_assert!(close(sparse.total, oracle, 1e-9), "sparse {} oracle {oracle}", sparse.total);
     }
-}
-
-/// Deterministic pseudo-random points (xorshift), uniform in [0, extent)².
-fn scatter(n: usize, extent: f64, seed: u64) -> Vec<Point2> {
-    let mut state = seed.max(1);
-    let mut next = || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        (state >> 11) as f64 / (1u64 << 53) as f64
-    };
-    (0..n)
-        .map(|_| Point2::new(next() * extent, next() * extent))
-        .collect()
 }
 
 #[test]

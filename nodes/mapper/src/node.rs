@@ -16,7 +16,7 @@
 
 use nrslam_msgs::topics::{KEYFRAME, KEYFRAME_POSES, MAP};
 use nrslam_msgs::{Keyframe, KeyframePoses, Message};
-use nrslam_runtime::{Node, NodeContext, NodeError, Outbox};
+use nrslam_runtime::{Node, NodeContext, NodeError, NodeResult, Outbox};
 
 use crate::{OccupancyMap, Params};
 
@@ -145,12 +145,7 @@ impl Node for MapperNode {
         vec![MAP]
     }
 
-    fn on_message(
-        &mut self,
-        topic: &str,
-        message: &Message,
-        outbox: &mut Outbox,
-    ) -> Result<(), NodeError> {
+    fn on_message(&mut self, topic: &str, message: &Message, outbox: &mut Outbox) -> NodeResult {
         match message {
             Message::Keyframe(keyframe) if topic == KEYFRAME => self.on_keyframe(keyframe, outbox),
             Message::KeyframePoses(poses) if topic == KEYFRAME_POSES => {

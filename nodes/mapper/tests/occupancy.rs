@@ -320,6 +320,20 @@ fn default_grid_integrates_a_wide_keyframe() {
     assert!(free > 0.1 * half_disc_cells, "{free}");
 }
 
+/// An 8 m × 6 m map of 0.5 m cells from the origin.
+fn small_map(free_space: bool) -> OccupancyMap {
+    OccupancyMap::new(&Params {
+        resolution_m: 0.5,
+        origin_x_m: 0.0,
+        origin_y_m: 0.0,
+        width_m: 8.0,
+        height_m: 6.0,
+        free_space,
+        ..Params::default()
+    })
+    .unwrap()
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(256))]
 
@@ -334,15 +348,7 @@ proptest! {
         detections in prop::collection::vec((0.0f64..20.0, -1.6f64..1.6), 0..40),
         free_space in any::<bool>(),
     ) {
-        let mut map = OccupancyMap::new(&Params {
-            resolution_m: 0.5,
-            origin_x_m: 0.0,
-            origin_y_m: 0.0,
-            width_m: 8.0,
-            height_m: 6.0,
-            free_space,
-            ..Params::default()
-        }).unwrap();
+        let mut map = small_map(free_space);
         let pose = Pose2 { x_m, y_m, yaw_rad };
         let detections: Vec<Detection> = detections.into_iter().map(|(r, a)| echo(r, a)).collect();
         let report = map.integrate_detections(pose, boresight_rad, &detections).unwrap();
@@ -387,15 +393,7 @@ proptest! {
             1..8),
         free_space in any::<bool>(),
     ) {
-        let mut map = OccupancyMap::new(&Params {
-            resolution_m: 0.5,
-            origin_x_m: 0.0,
-            origin_y_m: 0.0,
-            width_m: 8.0,
-            height_m: 6.0,
-            free_space,
-            ..Params::default()
-        }).unwrap();
+        let mut map = small_map(free_space);
         for (x_m, y_m, yaw_rad, echoes) in keyframes {
             let detections: Vec<Detection> = echoes.into_iter().map(|(r, a)| echo(r, a)).collect();
             map.integrate_detections(Pose2 { x_m, y_m, yaw_rad }, 0.0, &detections).unwrap();

@@ -23,7 +23,7 @@ use nrslam_msgs::{
     RadarEcho, RadarSpectrum, Target as TargetMsg, TargetSet, Time, Twist, TwistWithCovariance,
     Vector3,
 };
-use nrslam_runtime::{Node, NodeContext, NodeError, Outbox, Tick};
+use nrslam_runtime::{Node, NodeContext, NodeError, NodeResult, Outbox, Tick};
 
 use crate::error::RadarError;
 use crate::geometry::Vec2;
@@ -153,12 +153,7 @@ impl Node for RadarNode {
         ]
     }
 
-    fn on_message(
-        &mut self,
-        topic: &str,
-        _message: &Message,
-        _outbox: &mut Outbox,
-    ) -> Result<(), NodeError> {
+    fn on_message(&mut self, topic: &str, _message: &Message, _outbox: &mut Outbox) -> NodeResult {
         Err(NodeError::invalid_input(
             topic,
             "the radar node subscribes to nothing",

@@ -178,23 +178,11 @@ impl WheelOdometry {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::trajectory::{Trajectory, TrajectorySpec};
+    use crate::trajectory::Trajectory;
     use rand::SeedableRng;
 
     fn trajectory() -> Trajectory {
-        Trajectory::new(&TrajectorySpec {
-            x_min_m: 4.0,
-            y_min_m: 5.0,
-            x_max_m: 36.0,
-            y_max_m: 25.0,
-            corner_radius_m: 3.0,
-            start_offset_m: 0.0,
-            speed_mps: 1.0,
-            frame_period_s: 0.5,
-            laps: 1.0,
-            agv_radius_m: 0.5,
-        })
-        .unwrap()
+        Trajectory::new(&crate::trajectory::tests::spec()).unwrap()
     }
 
     fn run(noise: OdometryNoise, seed: u64) -> Vec<(Pose2, OdometryReading)> {

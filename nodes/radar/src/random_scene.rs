@@ -210,19 +210,6 @@ fn check_count_interval(
     )
 }
 
-/// `lower ≤ value ≤ upper` for a whole-number parameter.
-fn check_count(field: &str, value: u32, lower: u32, upper: u32) -> Result<(), InvalidParam> {
-    if (lower..=upper).contains(&value) {
-        Ok(())
-    } else {
-        Err(InvalidParam::new(
-            field,
-            format!("{value} is out of range"),
-            format!("{lower} to {upper}"),
-        ))
-    }
-}
-
 impl RandomSceneParams {
     /// Checks every parameter; the error names the field, the problem and the allowed range.
     pub fn validate(&self) -> Result<(), InvalidParam> {
@@ -291,8 +278,8 @@ impl RandomSceneParams {
             ));
         }
         InvalidParam::check_range("scatterer_spacing_m", self.scatterer_spacing_m, 0.01, 10.0)?;
-        check_count("placement_attempts", self.placement_attempts, 1, 100_000)?;
-        check_count("layout_attempts", self.layout_attempts, 1, 10_000)?;
+        InvalidParam::check_count("placement_attempts", self.placement_attempts, 1, 100_000)?;
+        InvalidParam::check_count("layout_attempts", self.layout_attempts, 1, 10_000)?;
         Ok(())
     }
 

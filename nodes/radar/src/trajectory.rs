@@ -326,9 +326,10 @@ impl Trajectory {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
+    /// A one-lap loop of a 40 m × 30 m hall, the trajectory the module tests share.
     pub(crate) fn spec() -> TrajectorySpec {
         TrajectorySpec {
             x_min_m: 4.0,

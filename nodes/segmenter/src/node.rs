@@ -7,7 +7,7 @@
 
 use nrslam_msgs::topics::{MAP, SEGMENTS};
 use nrslam_msgs::{Header, Message, OccupancyGrid, Point, Segments};
-use nrslam_runtime::{Node, NodeContext, NodeError, Outbox};
+use nrslam_runtime::{Node, NodeContext, NodeError, NodeResult, Outbox};
 
 use crate::{occupied_cell_centres, Dbscan, GridGeometry, Params};
 
@@ -93,12 +93,7 @@ impl Node for SegmenterNode {
         vec![SEGMENTS]
     }
 
-    fn on_message(
-        &mut self,
-        topic: &str,
-        message: &Message,
-        outbox: &mut Outbox,
-    ) -> Result<(), NodeError> {
+    fn on_message(&mut self, topic: &str, message: &Message, outbox: &mut Outbox) -> NodeResult {
         match message {
             Message::OccupancyGrid(grid) if topic == MAP => {
                 outbox.publish(SEGMENTS, self.segment(grid)?);

@@ -86,6 +86,20 @@ fn check_invariants(points: &[[f64; 2]], eps_m: f64, min_samples: usize, c: &Clu
     }
 }
 
+/// The grid DBSCAN labels `points` as the brute-force one does, and its labels keep the
+/// invariants.
+fn check_against_brute_force(
+    points: &[[f64; 2]],
+    eps_m: f64,
+    min_samples: usize,
+) -> Result<(), TestCaseError> {
+    let fast = dbscan(points, eps_m, min_samples).unwrap();
+    let slow = dbscan_brute_force(points, eps_m, min_samples).unwrap();
+    prop_assert_eq!(&fast, &slow);
+    check_invariants(points, eps_m, min_samples, &fast);
+    Ok(())
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(512))]
 
@@ -95,10 +109,7 @@ proptest! {
         eps_m in eps_values(),
         min_samples in 1usize..8,
     ) {
-        let fast = dbscan(&points, eps_m, min_samples).unwrap();
-        let slow = dbscan_brute_force(&points, eps_m, min_samples).unwrap();
-        prop_assert_eq!(&fast, &slow);
-        check_invariants(&points, eps_m, min_samples, &fast);
+        check_against_brute_force(&points, eps_m, min_samples)?;
     }
 
     #[test]
@@ -107,10 +118,7 @@ proptest! {
         eps_m in eps_values(),
         min_samples in 1usize..8,
     ) {
-        let fast = dbscan(&points, eps_m, min_samples).unwrap();
-        let slow = dbscan_brute_force(&points, eps_m, min_samples).unwrap();
-        prop_assert_eq!(&fast, &slow);
-        check_invariants(&points, eps_m, min_samples, &fast);
+        check_against_brute_force(&points, eps_m, min_samples)?;
     }
 
     /// Permuting the input may renumber clusters and move border points, but core points keep

@@ -6,7 +6,7 @@
 
 use nrslam_msgs::topics::{DETECTIONS, ODOM};
 use nrslam_msgs::{Header, Message, Odometry, PoseStamped, PoseWithCovariance};
-use nrslam_runtime::{Node, NodeContext, NodeError, Outbox};
+use nrslam_runtime::{Node, NodeContext, NodeError, NodeResult, Outbox};
 
 use crate::convert::{Converter, Counts};
 use crate::params::{Input, Params};
@@ -84,12 +84,7 @@ impl Node for SensorAdapterNode {
             .collect()
     }
 
-    fn on_message(
-        &mut self,
-        topic: &str,
-        message: &Message,
-        outbox: &mut Outbox,
-    ) -> Result<(), NodeError> {
+    fn on_message(&mut self, topic: &str, message: &Message, outbox: &mut Outbox) -> NodeResult {
         let (detections, counts) = match (message, self.input) {
             (Message::PoseStamped(pose), _) if Some(topic) == self.pose_topic => {
                 outbox.publish(ODOM, odometry_of(pose));

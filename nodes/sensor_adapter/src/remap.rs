@@ -6,7 +6,7 @@
 //! Both names must be catalogue topics of the same type (the graph's topics are typed by name).
 
 use nrslam_msgs::{topics, Message};
-use nrslam_runtime::{InvalidParam, Node, NodeError, Outbox, Tick};
+use nrslam_runtime::{InvalidParam, Node, NodeError, NodeResult, Outbox, Tick};
 
 /// A node whose outputs are published under other names.
 pub struct RemapOutputs {
@@ -99,12 +99,7 @@ impl Node for RemapOutputs {
             .collect()
     }
 
-    fn on_message(
-        &mut self,
-        topic: &str,
-        message: &Message,
-        outbox: &mut Outbox,
-    ) -> Result<(), NodeError> {
+    fn on_message(&mut self, topic: &str, message: &Message, outbox: &mut Outbox) -> NodeResult {
         let result = self.inner.on_message(topic, message, &mut self.scratch);
         self.forward(outbox);
         result

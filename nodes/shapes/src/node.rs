@@ -13,7 +13,7 @@ use nrslam_msgs::{
     ColorRGBA, Header, KeyframePoses, MapTarget, MapTargets, Marker, MarkerArray, Message, Point,
     Pose, Segments, Time, Vector3,
 };
-use nrslam_runtime::{Node, NodeContext, NodeError, Outbox};
+use nrslam_runtime::{Node, NodeContext, NodeError, NodeResult, Outbox};
 use std::collections::BTreeMap;
 
 use crate::evaluate::TruthShape;
@@ -251,12 +251,7 @@ impl Node for ShapesNode {
         vec![MAP_TARGETS, MAP_TARGET_MARKERS]
     }
 
-    fn on_message(
-        &mut self,
-        topic: &str,
-        message: &Message,
-        outbox: &mut Outbox,
-    ) -> Result<(), NodeError> {
+    fn on_message(&mut self, topic: &str, message: &Message, outbox: &mut Outbox) -> NodeResult {
         match (topic, message) {
             (KEYFRAME_POSES, Message::KeyframePoses(poses)) => {
                 self.on_keyframe_poses(poses);

@@ -21,7 +21,7 @@ use nrslam_msgs::topics::{
     GROUND_TRUTH_POSE, GROUND_TRUTH_TARGETS, ODOM, SEGMENTS, SLAM_PATH, SLAM_POSE, TF, TF_STATIC,
 };
 use nrslam_msgs::{Header, Message, Path, PoseStamped, Segments, TFMessage};
-use nrslam_runtime::{Node, NodeContext, NodeError, Outbox};
+use nrslam_runtime::{Node, NodeContext, NodeError, NodeResult, Outbox};
 
 use crate::draw::{self, Planar, BASE_FRAME, MAP_FRAME, ODOM_FRAME, RADAR_FRAME};
 use crate::Params;
@@ -198,12 +198,7 @@ impl Node for VizNode {
         outputs
     }
 
-    fn on_message(
-        &mut self,
-        topic: &str,
-        message: &Message,
-        outbox: &mut Outbox,
-    ) -> Result<(), NodeError> {
+    fn on_message(&mut self, topic: &str, message: &Message, outbox: &mut Outbox) -> NodeResult {
         match (topic, message) {
             (GROUND_TRUTH_TARGETS, Message::TargetSet(targets)) => outbox.publish(
                 GROUND_TRUTH_MARKERS,

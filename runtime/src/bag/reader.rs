@@ -1549,32 +1549,8 @@ impl FileMessages {
 mod tests {
     use super::super::{BagWriter, WriterOptions};
     use super::*;
-    use nrslam_msgs::{topics, Clock, Header, Message, PoseStamped, Time};
-
-    fn write_bag(dir: &Path, frames: u32, chunk_size_bytes: u64) -> BagInfo {
-        let mut writer = BagWriter::create(
-            dir,
-            WriterOptions {
-                chunk_size_bytes,
-                custom_data: [("nrslam.seed".to_owned(), "3".to_owned())].into(),
-            },
-        )
-        .unwrap();
-        for k in 1..=frames {
-            let stamp = Time::from_seconds(k as f64 * 0.5);
-            writer
-                .write_message(topics::CLOCK, &Message::Clock(Clock { clock: stamp }))
-                .unwrap();
-            let pose = PoseStamped {
-                header: Header::new(stamp, "map"),
-                ..Default::default()
-            };
-            writer
-                .write_message(topics::SLAM_POSE, &Message::PoseStamped(pose))
-                .unwrap();
-        }
-        writer.finish().unwrap()
-    }
+    use crate::bag_common::write_bag;
+    use nrslam_msgs::{topics, Time};
 
     #[test]
     fn a_written_bag_reads_back_message_for_message() {

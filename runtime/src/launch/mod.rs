@@ -53,6 +53,8 @@ mod substitute;
 mod tests;
 #[cfg(test)]
 mod tests_include;
+#[cfg(test)]
+mod tests_support;
 
 pub use include::MAX_INCLUDE_DEPTH;
 pub use overrides::{parse_param_assignment, ParamAssignment};

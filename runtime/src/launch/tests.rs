@@ -1,3 +1,4 @@
+use super::tests_support::assert_refused;
 use super::*;
 
 const FILE: &str = r#"
@@ -45,20 +46,12 @@ fn defaults_and_overrides_are_substituted_with_their_types() {
 
 #[test]
 fn bad_arguments_name_the_file_and_the_argument() {
-    let error = load(&["angle_std_deg:=abc"]).unwrap_err().to_string();
-    assert!(
-        error.contains("launch/test.toml")
-            && error.contains("angle_std_deg")
-            && error.contains("number"),
-        "{error}"
+    assert_refused(
+        load(&["angle_std_deg:=abc"]),
+        &["launch/test.toml", "angle_std_deg", "number"],
     );
-    let error = load(&["nope:=1"]).unwrap_err().to_string();
-    assert!(
-        error.contains("nope") && error.contains("angle_std_deg, label"),
-        "{error}"
-    );
-    let error = load(&["angle_std_deg=1"]).unwrap_err().to_string();
-    assert!(error.contains("name:=value"), "{error}");
+    assert_refused(load(&["nope:=1"]), &["nope", "angle_std_deg, label"]);
+    assert_refused(load(&["angle_std_deg=1"]), &["name:=value"]);
     assert!(load(&["angle_std_deg:=inf"]).is_err());
 }
 
@@ -97,26 +90,20 @@ label = "$(var label)"
     let launch = parse(&["scene:=/data/s2.toml"]).unwrap();
     assert_eq!(param(&launch, "scene"), "/data/s2.toml");
     // No current directory: a relative path is an error naming the argument, not a guess.
-    let error = Launch::parse_in(
-        Path::new("l.toml"),
-        text,
-        &["scene:=s.toml".to_owned()],
-        None,
-    )
-    .unwrap_err()
-    .to_string();
-    assert!(
-        error.contains("argument scene") && error.contains("absolute"),
-        "{error}"
+    assert_refused(
+        Launch::parse_in(
+            Path::new("l.toml"),
+            text,
+            &["scene:=s.toml".to_owned()],
+            None,
+        ),
+        &["argument scene", "absolute"],
     );
     // A path argument needs a string default.
     let bad = text.replace("default = \"../config/hall.toml\"", "default = 3");
-    let error = Launch::parse_in(Path::new("l.toml"), &bad, &[], Some(cwd))
-        .unwrap_err()
-        .to_string();
-    assert!(
-        error.contains("argument scene") && error.contains("string"),
-        "{error}"
+    assert_refused(
+        Launch::parse_in(Path::new("l.toml"), &bad, &[], Some(cwd)),
+        &["argument scene", "string"],
     );
 }
 
@@ -146,12 +133,9 @@ when = { fidelity = ["spectral", "waveform"] }
     assert_eq!(names(&["fidelity:=waveform"]), ["radar", "estimator"]);
     assert_eq!(names(&["fidelity:=ideal"]), ["radar"]);
     let bad = text.replace("when = { fidelity", "when = { fidel");
-    let error = Launch::parse(Path::new("l.toml"), &bad, &[])
-        .unwrap_err()
-        .to_string();
-    assert!(
-        error.contains("node estimator") && error.contains("fidel"),
-        "{error}"
+    assert_refused(
+        Launch::parse(Path::new("l.toml"), &bad, &[]),
+        &["node estimator", "fidel"],
     );
 }
 
@@ -198,76 +182,68 @@ fn substitution_cycles_are_reported_with_their_arguments() {
             && error.contains("substitution cycle: a -> b -> a"),
         "{error}"
     );
-    let error = substitution(&[("a", "$(var a)")], "y")
-        .unwrap_err()
-        .to_string();
-    assert!(error.contains("substitution cycle: a -> a"), "{error}");
+    assert_refused(
+        substitution(&[("a", "$(var a)")], "y"),
+        &["substitution cycle: a -> a"],
+    );
     // A cycle entered through the command line is caught too.
     let text = "[arguments.a]\ndefault = \"1\"\n[arguments.b]\ndefault = \"$(var a)\"\n\
                 [[node]]\nname = \"n\"\nkind = \"k\"\n[node.params]\nx = \"$(var b)\"\n";
-    let error = Launch::parse(Path::new("s.toml"), text, &["a:=-$(var b)-".to_owned()])
-        .unwrap_err()
-        .to_string();
-    assert!(error.contains("substitution cycle: a -> b -> a"), "{error}");
+    assert_refused(
+        Launch::parse(Path::new("s.toml"), text, &["a:=-$(var b)-".to_owned()]),
+        &["substitution cycle: a -> b -> a"],
+    );
+}
+
+/// `n` arguments `{prefix}00`, `{prefix}01`, ..., each defaulting to `link` with `{next}` the
+/// next one's name, the last to `end`.
+fn chain(prefix: &str, n: usize, link: &str, end: &str) -> Vec<(String, String)> {
+    let names: Vec<String> = (0..n).map(|i| format!("{prefix}{i:02}")).collect();
+    (0..n)
+        .map(|i| {
+            let default = match names.get(i + 1) {
+                Some(next) => link.replace("{next}", next),
+                None => end.to_owned(),
+            };
+            (names[i].clone(), default)
+        })
+        .collect()
+}
+
+/// `chain` as the (name, default) pairs [`substitution`] takes.
+fn as_pairs(chain: &[(String, String)]) -> Vec<(&str, &str)> {
+    chain
+        .iter()
+        .map(|(n, d)| (n.as_str(), d.as_str()))
+        .collect()
 }
 
 #[test]
 fn substitution_depth_and_length_are_bounded() {
     // A chain longer than the depth bound.
-    let names: Vec<String> = (0..=MAX_SUBSTITUTION_DEPTH + 1)
-        .map(|i| format!("a{i:02}"))
-        .collect();
-    let defaults: Vec<String> = (0..names.len())
-        .map(|i| match names.get(i + 1) {
-            Some(next) => format!("$(var {next})"),
-            None => "end".to_owned(),
-        })
-        .collect();
-    let arguments: Vec<(&str, &str)> = names
-        .iter()
-        .zip(&defaults)
-        .map(|(n, d)| (n.as_str(), d.as_str()))
-        .collect();
-    let error = substitution(&arguments, "$(var a00)")
-        .unwrap_err()
-        .to_string();
-    assert!(
-        error.contains(&format!("deeper than {MAX_SUBSTITUTION_DEPTH}")),
-        "{error}"
+    let deep = chain("a", MAX_SUBSTITUTION_DEPTH + 2, "$(var {next})", "end");
+    let arguments = as_pairs(&deep);
+    assert_refused(
+        substitution(&arguments, "$(var a00)"),
+        &[&format!("deeper than {MAX_SUBSTITUTION_DEPTH}")],
     );
     // A chain within the bound expands.
     let short = &arguments[arguments.len() - MAX_SUBSTITUTION_DEPTH..];
     let launch = substitution(short, &format!("$(var {})", short[0].0)).unwrap();
     assert_eq!(launch.nodes[0].params["x"].as_str(), Some("end"));
     // Doubling at each of 30 levels would make 2^30 copies: refused, quickly.
-    let names: Vec<String> = (0..30).map(|i| format!("d{i:02}")).collect();
-    let defaults: Vec<String> = (0..30)
-        .map(|i| match names.get(i + 1) {
-            Some(next) => format!("$(var {next})$(var {next})"),
-            None => "xxxxxxxx".to_owned(),
-        })
-        .collect();
-    let arguments: Vec<(&str, &str)> = names
-        .iter()
-        .zip(&defaults)
-        .map(|(n, d)| (n.as_str(), d.as_str()))
-        .collect();
+    let doubling = chain("d", 30, "$(var {next})$(var {next})", "xxxxxxxx");
+    let arguments = as_pairs(&doubling);
     let started = std::time::Instant::now();
-    let error = substitution(&arguments, "$(var d00)")
-        .unwrap_err()
-        .to_string();
-    assert!(
-        error.contains(&format!("longer than {MAX_SUBSTITUTED_BYTES} bytes")),
-        "{error}"
+    assert_refused(
+        substitution(&arguments, "$(var d00)"),
+        &[&format!("longer than {MAX_SUBSTITUTED_BYTES} bytes")],
     );
     assert!(started.elapsed().as_secs_f64() < 5.0);
     // An unterminated reference in an argument's value names the argument.
-    let error = substitution(&[("a", "$(var b")], "y")
-        .unwrap_err()
-        .to_string();
-    assert!(
-        error.contains("argument a") && error.contains("unterminated"),
-        "{error}"
+    assert_refused(
+        substitution(&[("a", "$(var b")], "y"),
+        &["argument a", "unterminated"],
     );
 }
 
@@ -317,23 +293,20 @@ fn unknown_fields_and_duplicates_are_refused_with_a_line() {
         error.starts_with("f.toml:") && error.contains("speed") && error.contains("line 3"),
         "{error}"
     );
-    let error = Launch::parse(
-        Path::new("f.toml"),
-        "[[node]]\nname=\"a\"\nkind=\"b\"\n[[node]]\nname=\"a\"\nkind=\"c\"\n",
-        &[],
-    )
-    .unwrap_err()
-    .to_string();
-    assert!(
-        error.contains("node a") && error.contains("twice"),
-        "{error}"
+    assert_refused(
+        Launch::parse(
+            Path::new("f.toml"),
+            "[[node]]\nname=\"a\"\nkind=\"b\"\n[[node]]\nname=\"a\"\nkind=\"c\"\n",
+            &[],
+        ),
+        &["node a", "twice"],
     );
-    let error = Launch::parse(
-        Path::new("f.toml"),
-        "[[node]]\nname=\"a\"\nkind=\"b\"\n[node.params]\nx=\"$(var y)\"\n",
-        &[],
-    )
-    .unwrap_err()
-    .to_string();
-    assert!(error.contains("undeclared argument \"y\""), "{error}");
+    assert_refused(
+        Launch::parse(
+            Path::new("f.toml"),
+            "[[node]]\nname=\"a\"\nkind=\"b\"\n[node.params]\nx=\"$(var y)\"\n",
+            &[],
+        ),
+        &["undeclared argument \"y\""],
+    );
 }

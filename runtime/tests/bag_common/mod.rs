@@ -1,12 +1,13 @@
-//! Shared by the bag tests (`tests/bag_*.rs`) and the `bag_fuzz` example: small bags, mutations
-//! of their MCAP file, and a global allocator that records the largest single allocation of the
-//! current thread while armed (so a reader that trusts a length read from the file is caught even
-//! when the operating system would have let the allocation through).
+//! Shared by the bag tests (`tests/bag_*.rs`; the unit tests as `crate::bag_common`) and the
+//! `bag_fuzz` example: small bags, mutations of their MCAP file, and a global allocator that
+//! records the largest single allocation of the current thread while armed (so a reader that
+//! trusts a length read from the file is caught even when the operating system would have let the
+//! allocation through).
 
 #![allow(dead_code)]
 
 use nrslam_msgs::{topics, Clock, Header, Message, PoseStamped, Time};
-use nrslam_runtime::bag::{self, BagMessage, BagWriter, ReadMode, WriterOptions};
+use nrslam_runtime::bag::{self, BagInfo, BagMessage, BagWriter, ReadMode, WriterOptions};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 use std::path::{Path, PathBuf};
@@ -54,7 +55,7 @@ pub fn largest_allocation<T>(f: impl FnOnce() -> T) -> (T, usize) {
 }
 
 /// Writes a bag of `frames` frames (a clock and a pose each) with chunks of `chunk_size_bytes`.
-pub fn write_bag(dir: &Path, frames: u32, chunk_size_bytes: u64) {
+pub fn write_bag(dir: &Path, frames: u32, chunk_size_bytes: u64) -> BagInfo {
     let mut writer = BagWriter::create(
         dir,
         WriterOptions {
@@ -76,7 +77,7 @@ pub fn write_bag(dir: &Path, frames: u32, chunk_size_bytes: u64) {
             .write_message(topics::SLAM_POSE, &Message::PoseStamped(pose))
             .unwrap();
     }
-    writer.finish().unwrap();
+    writer.finish().unwrap()
 }
 
 /// A bag of exactly `chunks` chunks (the last one may be short) in `dir`/`name`, read back.

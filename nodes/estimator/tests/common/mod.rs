@@ -116,6 +116,15 @@ pub fn grid(p: &OfdmParams, echoes: &[Echo], snr_db: Option<f64>, seed: u64) -> 
     }
 }
 
+/// Twenty echoes spread over range bins 12 to 151 of `p` (the first 20 m at Table I) and over
+/// the sines of angle from −0.9 to +0.81: the benches' and timing examples' scene.
+pub fn twenty_echoes(p: &OfdmParams) -> Vec<Echo> {
+    let dr = p.range_bin_m();
+    (0..20)
+        .map(|i| Echo::at_sine((12.0 + 7.3 * i as f64) * dr, -0.9 + 0.09 * i as f64))
+        .collect()
+}
+
 /// Wraps a sine difference into [−1/(d/λ)/2, …) for d = λ/2: [−1, 1).
 pub fn sine_error(est_rad: f64, true_rad: f64) -> f64 {
     let d = est_rad.sin() - true_rad.sin();

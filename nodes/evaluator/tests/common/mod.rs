@@ -2,6 +2,9 @@
 //! every partial assignment, written independently of the crate's code.
 #![allow(dead_code)]
 
+pub mod scatter;
+pub mod strategies;
+
 use nrslam_evaluator::{DistanceMode, EtGospaParams, ExtendedTarget, GospaParams, Point2};
 
 fn dist(a: &Point2, b: &Point2) -> f64 {

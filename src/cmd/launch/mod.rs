@@ -1,15 +1,41 @@
-//! `nrslam launch`: loads the launch, runs it in the chosen mode and writes the report.
+//! `nrslam launch`: a launch file's graph in one process, or one process per node supervised by
+//! the runtime; optionally mirrored over zenoh, recorded into a bag, or replayed from one.
 
-use super::build::build_all;
-use super::in_process::run_in_process;
-use super::processes::run_processes;
-use super::recorder::recorder;
-use super::replay::replayed_run;
-use super::LaunchArgs;
+mod args;
+mod build;
+mod in_process;
+mod processes;
+mod recorder;
+mod replay;
+
+pub use self::args::LaunchArgs;
+pub(crate) use self::args::ROS_DOMAIN_ID;
+pub(crate) use self::build::build_all;
+
+use self::in_process::run_in_process;
+use self::processes::run_processes;
+use self::recorder::recorder;
+use self::replay::replayed_run;
 use anyhow::{bail, Context, Result};
+use indicatif::{ProgressBar, ProgressStyle};
 use nrslam_runtime::launch::{Launch, Mode};
 use std::path::PathBuf;
 use std::time::Instant;
+
+/// The progress bar of a run of `frames` frames (a spinner when unknown).
+fn progress(frames: Option<u64>) -> ProgressBar {
+    let bar = match frames {
+        Some(n) => ProgressBar::new(n),
+        None => ProgressBar::new_spinner(),
+    };
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} frames  ETA {eta}  {msg}",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar
+}
 
 /// `nrslam launch`.
 pub fn launch(args: LaunchArgs) -> Result<()> {

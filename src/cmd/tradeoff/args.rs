@@ -18,7 +18,7 @@ pub struct TradeoffArgs {
     #[arg(long, default_value_t = 5, value_parser = TRIALS.parser::<usize>(), allow_hyphen_values = true)]
     pub trials: usize,
     /// Radar frames per SLAM trial, 0 to 1000000 (0: the whole 294-frame lap).
-    #[arg(long, default_value_t = 100, value_parser = crate::reproduce::FRAMES.parser::<u32>(), allow_hyphen_values = true)]
+    #[arg(long, default_value_t = 100, value_parser = crate::cmd::reproduce::FRAMES.parser::<u32>(), allow_hyphen_values = true)]
     pub frames: u32,
     /// Single-scatterer frames per setting for the range and angle RMSE, 1 to 1000000.
     #[arg(long, default_value_t = 100, value_parser = SENSING_TRIALS.parser::<u32>(), allow_hyphen_values = true)]
@@ -51,7 +51,7 @@ impl TradeoffArgs {
     /// Checks every numeric flag; the error names the flag.
     pub fn validate(&self) -> Result<()> {
         flags::check("--trials", TRIALS.check(self.trials as u64))?;
-        flags::check("--frames", crate::reproduce::FRAMES.check(self.frames))?;
+        flags::check("--frames", crate::cmd::reproduce::FRAMES.check(self.frames))?;
         flags::check(
             "--sensing-trials",
             SENSING_TRIALS.check(self.sensing_trials),

@@ -1,9 +1,9 @@
 //! Building and wiring the nodes of a launch.
 
 use crate::registry;
-use anyhow::{anyhow, bail, Result};
-use nrslam_msgs::topics;
+use anyhow::{anyhow, Result};
 use nrslam_runtime::launch::Launch;
+use nrslam_runtime::wiring::check_wiring;
 use nrslam_runtime::{Node, NodeContext};
 
 /// The nodes of a launch, built and wired.
@@ -36,27 +36,7 @@ pub(crate) fn build_all(launch: &Launch, seed: u64) -> Result<Built> {
             expected_frames.or_else(|| registry::expected_frames(&decl.kind, &decl.params, &ctx));
         nodes.push((decl.name.clone(), node));
     }
-    for (name, node) in &nodes {
-        for topic in node.inputs().into_iter().chain(node.outputs()) {
-            if topics::spec(topic).is_none() {
-                bail!(
-                    "{}: node {name}: topic {topic} is not in the catalogue",
-                    launch.path.display()
-                );
-            }
-        }
-        for topic in node.inputs() {
-            if !nodes
-                .iter()
-                .any(|(_, other)| other.outputs().contains(&topic))
-            {
-                bail!(
-                    "{}: node {name} subscribes to {topic}, which no node of the launch publishes",
-                    launch.path.display()
-                );
-            }
-        }
-    }
+    check_wiring(&nodes).map_err(|e| anyhow!("{}: {e}", launch.path.display()))?;
     Ok(Built {
         nodes,
         expected_frames,

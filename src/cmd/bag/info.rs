@@ -168,17 +168,7 @@ pub fn info(args: InfoArgs) -> Result<()> {
         return Ok(());
     }
     print_header(&bag, report.chunks.len(), &report.compressions);
-    outln!("Duration:    {:.9} s", (end_ns - start_ns) as f64 * 1e-9);
-    outln!(
-        "Start:       {} UTC ({:.9} s)",
-        utc(start_ns),
-        start_ns as f64 * 1e-9
-    );
-    outln!(
-        "End:         {} UTC ({:.9} s)",
-        utc(end_ns),
-        end_ns as f64 * 1e-9
-    );
+    print_span(start_ns, end_ns);
     outln!("Messages:    {}", report.messages);
     if !report.losses.is_empty() {
         let unknown = report.losses.iter().any(|l| l.messages.is_none());
@@ -207,6 +197,21 @@ pub fn info(args: InfoArgs) -> Result<()> {
     }
     print_topics(&bag, &report.topics, &pass.formats);
     Ok(())
+}
+
+/// The recording's duration, start and end (UTC and seconds since the epoch).
+fn print_span(start_ns: u64, end_ns: u64) {
+    outln!("Duration:    {:.9} s", (end_ns - start_ns) as f64 * 1e-9);
+    outln!(
+        "Start:       {} UTC ({:.9} s)",
+        utc(start_ns),
+        start_ns as f64 * 1e-9
+    );
+    outln!(
+        "End:         {} UTC ({:.9} s)",
+        utc(end_ns),
+        end_ns as f64 * 1e-9
+    );
 }
 
 fn print_header(bag: &Bag, chunks: usize, compressions: &[String]) {
@@ -288,17 +293,7 @@ fn info_from_summary(bag: &Bag, json: bool) -> Result<()> {
         return Ok(());
     }
     print_header(bag, summary.chunk_count, &summary.compressions);
-    outln!("Duration:    {:.9} s", (end_ns - start_ns) as f64 * 1e-9);
-    outln!(
-        "Start:       {} UTC ({:.9} s)",
-        utc(start_ns),
-        start_ns as f64 * 1e-9
-    );
-    outln!(
-        "End:         {} UTC ({:.9} s)",
-        utc(end_ns),
-        end_ns as f64 * 1e-9
-    );
+    print_span(start_ns, end_ns);
     outln!("Messages:    {messages} (from the MCAP summaries, not read)");
     print_topics(bag, &summary.topics, &none);
     Ok(())

@@ -1,14 +1,78 @@
 //! `nrslam run`: one node as its own process over zenoh.
 
-use super::{transport_config, RunArgs};
-use crate::flags;
+use crate::flags::{self, Real, TransportArgs};
 use crate::registry;
 use anyhow::{anyhow, bail, Context, Result};
+use clap::Args;
 use nrslam_msgs::topics;
 use nrslam_runtime::transport::{self, SessionMode};
 use nrslam_runtime::NodeContext;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
+
+/// `nrslam run`.
+#[derive(Args, Debug)]
+pub struct RunArgs {
+    /// Node kind: radar, estimator, association, mapper, segmenter, evaluator.
+    pub kind: String,
+    /// The node's parameters (TOML, the fields of the node's Params at top level). Default: the
+    /// paper's defaults.
+    #[arg(long, value_name = "FILE")]
+    pub params: Option<PathBuf>,
+    /// Instance name (readiness key nrslam/ready/<name>). Default: the kind.
+    #[arg(long)]
+    pub name: Option<String>,
+    /// Run seed (must match the other nodes' for reproducible runs; 0 to 2^64 − 1).
+    #[arg(long, default_value_t = 1, value_parser = flags::SEED.parser::<u64>(), allow_hyphen_values = true)]
+    pub seed: u64,
+    /// Folder that relative paths in the parameters resolve against. Default: the params file's folder.
+    #[arg(long, value_name = "DIR")]
+    pub base_dir: Option<PathBuf>,
+    /// zenoh role of this process: peer, or client (of a router or listening peer).
+    #[arg(long, default_value = "peer", value_name = "ROLE")]
+    pub zenoh_mode: String,
+    /// Declare readiness and, for a source, wait for the launcher's start signal (used by `launch --mode processes`).
+    #[arg(long)]
+    pub start_barrier: bool,
+    /// With --start-barrier: how long to wait for the start signal, in seconds, 1 to 604800
+    /// (a week).
+    #[arg(long, value_name = "SECONDS", default_value_t = 60, value_parser = flags::TIMEOUT_S.parser::<u64>(), allow_hyphen_values = true)]
+    pub start_timeout_s: u64,
+    /// Without --start-barrier: seconds a source waits before its first frame, so subscribers can
+    /// come up, 0 to 3600 s.
+    #[arg(long, value_name = "SECONDS", default_value_t = 1.0, value_parser = STARTUP_DELAY_S.parser(), allow_hyphen_values = true)]
+    pub startup_delay_s: f64,
+    /// Real-time factor for a source, 1e-6 to 1e6 (0: as fast as possible).
+    #[arg(
+        long,
+        value_name = "R",
+        default_value_t = 0.0,
+        value_parser = flags::RATE.parser(),
+        allow_hyphen_values = true
+    )]
+    pub rate: f64,
+    /// An input topic whose stream already ended (repeatable): the launcher passes these when it
+    /// respawns a node, so it does not wait for ends it missed.
+    #[arg(long, value_name = "TOPIC")]
+    pub ended: Vec<String>,
+    #[command(flatten)]
+    pub transport: TransportArgs,
+}
+
+/// Delay before a source's first frame.
+const STARTUP_DELAY_S: Real = Real::closed(0.0, 3600.0, "0 to 3600 s");
+
+impl RunArgs {
+    /// Checks every numeric flag against its range; the error names the flag.
+    pub fn validate(&self) -> Result<()> {
+        flags::check_pacing(self.rate, self.start_timeout_s)?;
+        flags::check(
+            "--startup-delay-s",
+            STARTUP_DELAY_S.check(self.startup_delay_s),
+        )?;
+        Ok(())
+    }
+}
 
 /// `nrslam run`.
 pub fn run(args: RunArgs) -> Result<()> {
@@ -48,8 +112,8 @@ pub fn run(args: RunArgs) -> Result<()> {
         "client" => SessionMode::Client,
         other => bail!("--zenoh-mode: unknown role {other:?} (allowed: peer, client)"),
     };
-    let session = transport::open(&transport_config(mode, &args.transport))
-        .context("opening the zenoh session")?;
+    let session =
+        transport::open(&args.transport.config(mode)).context("opening the zenoh session")?;
     if node.inputs().is_empty() && !args.start_barrier && args.startup_delay_s > 0.0 {
         std::thread::sleep(flags::seconds("--startup-delay-s", args.startup_delay_s)?);
     }

@@ -1,7 +1,7 @@
 //! `nrslam ros2-bridge` (cargo feature `ros2`, needs a sourced ROS 2 to build): graph topics to
 //! ROS 2 and back, through `nrslam-ros2-bridge` (r2r). See docs/ros2.md.
 
-use crate::TransportArgs;
+use crate::flags::TransportArgs;
 use anyhow::{Context, Result};
 use clap::Args;
 use nrslam_runtime::transport::{self, SessionMode, TransportConfig};
@@ -28,12 +28,12 @@ pub fn bridge(args: Ros2BridgeArgs) -> Result<()> {
     let to_ros = if args.to_ros.is_empty() {
         nrslam_ros2_bridge::DEFAULT_TO_ROS.to_vec()
     } else {
-        crate::bag::catalogue_topics(&args.to_ros)?
+        crate::cmd::bag::catalogue_topics(&args.to_ros)?
     };
     let from_ros = if args.from_ros.is_empty() {
         Vec::new()
     } else {
-        crate::bag::catalogue_topics(&args.from_ros)?
+        crate::cmd::bag::catalogue_topics(&args.from_ros)?
     };
     let session = transport::open(&TransportConfig {
         mode: SessionMode::Peer,

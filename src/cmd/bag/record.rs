@@ -1,8 +1,8 @@
 //! `nrslam bag record`: a live graph's catalogue topics into a new bag, with `ros2 bag record`'s
 //! chunk compression and file splitting.
 
-use super::{catalogue_topics, interrupted, session, ChunkArgs};
-use crate::TransportArgs;
+use super::{catalogue_topics, interrupted, ChunkArgs};
+use crate::flags::TransportArgs;
 use anyhow::{bail, Result};
 use clap::Args;
 use nrslam_runtime::bag::{BagWriter, Compression, StorageOptions, WriterOptions};
@@ -97,7 +97,7 @@ pub fn record(args: RecordArgs) -> Result<()> {
     let wanted = catalogue_topics(&args.topics)?;
     let chunk_size_bytes = args.chunk.bytes()?;
     let storage = args.storage.options()?;
-    let session = session(&args.transport)?;
+    let session = args.transport.peer_session()?;
     let mut inbox = Inbox::subscribe(
         &session,
         &args.transport.namespace,

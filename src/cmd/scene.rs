@@ -7,6 +7,7 @@
 
 use std::path::{Path, PathBuf};
 
+use crate::plot::{canvas, draw_axes, framed, plot_error};
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use plotters::prelude::*;
@@ -238,39 +239,20 @@ pub fn scene(args: SceneArgs) -> Result<()> {
     Ok(())
 }
 
-fn plot_error(error: impl std::fmt::Display) -> anyhow::Error {
-    anyhow!("plotting failed: {error}")
-}
-
 /// The layout: hall walls, targets filled with their ids, the loop dashed, the start marked.
 fn draw(path: &Path, spec: &SceneSpec, scene: &Scene, seed: u64) -> Result<()> {
-    crate::plot::register_font();
     let (width_m, height_m) = (spec.hall.width_m, spec.hall.height_m);
     // 18 pixels per metre, plus room for the axes.
     let pixels = |m: f64| (m * 18.0).round() as u32;
-    let root =
-        BitMapBackend::new(path, (pixels(width_m) + 90, pixels(height_m) + 90)).into_drawing_area();
-    root.fill(&WHITE).map_err(plot_error)?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(
-            format!(
-                "Random scene, seed {seed}: {} targets, AGV loop (dashed), start (red)",
-                spec.targets.len()
-            ),
-            ("sans-serif", 20),
-        )
-        .margin(10)
-        .x_label_area_size(35)
-        .y_label_area_size(45)
+    let root = canvas(path, (pixels(width_m) + 90, pixels(height_m) + 90))?;
+    let caption = format!(
+        "Random scene, seed {seed}: {} targets, AGV loop (dashed), start (red)",
+        spec.targets.len()
+    );
+    let mut chart = framed(&root, caption, 20, 10, (35, 45))
         .build_cartesian_2d(-0.5..width_m + 0.5, -0.5..height_m + 0.5)
         .map_err(plot_error)?;
-    chart
-        .configure_mesh()
-        .x_desc("x (m)")
-        .y_desc("y (m)")
-        .disable_mesh()
-        .draw()
-        .map_err(plot_error)?;
+    draw_axes(&mut chart, "x (m)", "y (m)", false)?;
     let walls = [
         (0.0, 0.0),
         (width_m, 0.0),

@@ -4,8 +4,8 @@
 //! published as recorded (raw CDR); with `--ros-domain-id`, under the type hash the bag recorded.
 
 use super::selection::{endpoint, select, PlayTopic};
-use super::{byte_progress, interrupted, open_bag, print_losses, session};
-use crate::TransportArgs;
+use super::{byte_progress, interrupted, open_bag, print_losses};
+use crate::flags::TransportArgs;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use nrslam_msgs::{topics, Clock, Message, Time};
@@ -78,7 +78,7 @@ pub struct PlayArgs {
     /// Publish as rmw_zenoh does in this ROS domain (key `<domain>/<topic>/<type>/<RIHS01 hash>`,
     /// rmw_zenoh's attachment and liveliness tokens), so ROS 2 nodes on rmw_zenoh receive the
     /// messages without a bridge. 0 to 232, ROS 2's range.
-    #[arg(long, value_name = "DOMAIN_ID", value_parser = crate::launcher::ROS_DOMAIN_ID.parser::<u32>(), allow_hyphen_values = true)]
+    #[arg(long, value_name = "DOMAIN_ID", value_parser = crate::cmd::launch::ROS_DOMAIN_ID.parser::<u32>(), allow_hyphen_values = true)]
     pub ros_domain_id: Option<u32>,
     #[command(flatten)]
     pub transport: TransportArgs,
@@ -159,7 +159,7 @@ pub fn play(args: PlayArgs) -> Result<()> {
         None => bag.survey()?.topics,
     };
     let played = select(&args, &bag, &recorded)?;
-    let session = session(&args.transport)?;
+    let session = args.transport.peer_session()?;
     let style = match args.ros_domain_id {
         Some(domain_id) => KeyStyle::RmwZenoh { domain_id },
         None => KeyStyle::Nrslam,

@@ -1,7 +1,8 @@
 //! accuracy.png: RMSE, Cramér–Rao bound and grid limit against SNR, range and angle panels.
 
 use super::Row;
-use anyhow::{anyhow, Result};
+use crate::plot::{canvas, draw_axes, draw_legend, framed, line_key, plot_error};
+use anyhow::Result;
 use plotters::prelude::*;
 
 /// Reads one quantity of a row.
@@ -13,10 +14,7 @@ pub(super) fn plot(
     fidelity: &str,
     refine: &str,
 ) -> Result<()> {
-    crate::plot::register_font();
-    let error = |e: &dyn std::fmt::Display| anyhow!("plotting failed: {e}");
-    let root = BitMapBackend::new(path, (1200, 520)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| error(&e))?;
+    let root = canvas(path, (1200, 520))?;
     let panels = root.split_evenly((1, 2));
     let snr_lo = rows.first().map_or(0.0, |r| r.snr_db);
     let snr_hi = rows.last().map_or(1.0, |r| r.snr_db).max(snr_lo + 1.0);
@@ -47,22 +45,16 @@ pub(super) fn plot(
             .max(1e-12)
             / 2.0;
         let hi = values.iter().copied().fold(0.0, f64::max).max(lo * 10.0) * 2.0;
-        let mut chart = ChartBuilder::on(panel)
-            .caption(
-                format!("{label} error, {fidelity}, refine {refine}"),
-                ("sans-serif", 20),
-            )
-            .margin(12)
-            .x_label_area_size(40)
-            .y_label_area_size(70)
+        let caption = format!("{label} error, {fidelity}, refine {refine}");
+        let mut chart = framed(panel, caption, 20, 12, (40, 70))
             .build_cartesian_2d(snr_lo..snr_hi, (lo..hi).log_scale())
-            .map_err(|e| error(&e))?;
-        chart
-            .configure_mesh()
-            .x_desc("per-element SNR (dB)")
-            .y_desc(format!("RMSE {label}"))
-            .draw()
-            .map_err(|e| error(&e))?;
+            .map_err(plot_error)?;
+        draw_axes(
+            &mut chart,
+            "per-element SNR (dB)",
+            format!("RMSE {label}"),
+            true,
+        )?;
         for (index, (name, color)) in [
             ("RMSE", RED),
             ("Cramér–Rao bound", BLUE),
@@ -79,19 +71,12 @@ pub(super) fn plot(
                 .collect();
             chart
                 .draw_series(LineSeries::new(points, color.stroke_width(2)))
-                .map_err(|e| error(&e))?
+                .map_err(plot_error)?
                 .label(name)
-                .legend(move |(x, y)| {
-                    PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2))
-                });
+                .legend(line_key(color.stroke_width(2)));
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()
-            .map_err(|e| error(&e))?;
+        draw_legend(&mut chart, SeriesLabelPosition::MiddleRight)?;
     }
-    root.present().map_err(|e| error(&e))?;
+    root.present().map_err(plot_error)?;
     Ok(())
 }

@@ -52,7 +52,7 @@ pub(super) fn recorder(
     let topics = if args.record_topics.is_empty() {
         published
     } else {
-        crate::bag::catalogue_topics(&args.record_topics)?
+        crate::cmd::bag::catalogue_topics(&args.record_topics)?
     };
     let writer = BagWriter::create_with(
         dir,

@@ -6,8 +6,8 @@ use super::args::TradeoffArgs;
 use super::clock::timed;
 use super::knobs::{Setting, TRIAL_COUNTS};
 use super::table::{row, trials_knob_rows, Row, Trial};
-use crate::accuracy::{parse_refinement, single_scatterer_trials};
-use crate::montecarlo::{run_trial, TrialRows};
+use crate::cmd::accuracy::{parse_refinement, single_scatterer_trials};
+use crate::cmd::montecarlo::{run_trial, TrialRows};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use nrslam_ofdm::OfdmParams;
@@ -25,7 +25,7 @@ pub(super) fn load_launches(args: &TradeoffArgs, plan: &[Setting]) -> Result<Vec
     for setting in plan {
         let launch = Launch::load(&file, &setting.assignments(args.frames, args.snr_db))
             .with_context(|| format!("setting {:?}", setting.label))?;
-        crate::launcher::build_all(&launch, args.seed)
+        crate::cmd::launch::build_all(&launch, args.seed)
             .with_context(|| format!("setting {:?}", setting.label))?;
         launches.push(launch);
     }

@@ -2,7 +2,7 @@
 
 use super::build::Built;
 use super::recorder::Recorder;
-use super::{progress, transport_config, LaunchArgs};
+use super::{progress, LaunchArgs};
 use crate::report::Reporter;
 use anyhow::{Context, Result};
 use indicatif::ProgressBar;
@@ -65,7 +65,7 @@ pub(super) fn run_in_process(
         None
     } else {
         Some(
-            transport::open(&transport_config(SessionMode::Peer, &args.transport))
+            transport::open(&args.transport.config(SessionMode::Peer))
                 .context("opening the zenoh session")?,
         )
     };

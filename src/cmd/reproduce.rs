@@ -8,10 +8,11 @@
 //!   against time for 5G and the four ideal conditions (`fig6.csv`/`.png`, `fig7.csv`/`.png`;
 //!   raw trials in `montecarlo/<condition>/`).
 
+use crate::cmd::launch::{self, LaunchArgs};
+use crate::cmd::montecarlo::{self, MonteCarloArgs};
+use crate::flags::TransportArgs;
 use crate::flags::{self, Whole};
-use crate::launcher::{self, LaunchArgs};
-use crate::montecarlo::{self, MonteCarloArgs};
-use crate::TransportArgs;
+use crate::plot::{canvas, draw_axes, draw_legend, framed, line_key, plot_error};
 use anyhow::{anyhow, Context, Result};
 use clap::Args;
 use nrslam_evaluator::{etgospa, gospa, EtGospaParams, ExtendedTarget, Point2};
@@ -25,7 +26,7 @@ pub struct ReproduceArgs {
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
     /// Monte Carlo trials per condition for Figs. 6 and 7 (the paper: 500), 1 to 100000.
-    #[arg(long, default_value_t = 500, value_parser = crate::montecarlo::TRIALS.parser::<u64>(), allow_hyphen_values = true)]
+    #[arg(long, default_value_t = 500, value_parser = crate::cmd::montecarlo::TRIALS.parser::<u64>(), allow_hyphen_values = true)]
     pub trials: u64,
     /// Base seed (0 to 2^64 − 1).
     #[arg(long, default_value_t = 1, value_parser = flags::SEED.parser::<u64>(), allow_hyphen_values = true)]
@@ -48,7 +49,10 @@ pub(crate) const FRAMES: Whole = Whole::new(0, 1_000_000, "0 to 1000000 frames")
 impl ReproduceArgs {
     /// Checks every numeric flag; the error names the flag.
     pub fn validate(&self) -> Result<()> {
-        flags::check("--trials", crate::montecarlo::TRIALS.check(self.trials))?;
+        flags::check(
+            "--trials",
+            crate::cmd::montecarlo::TRIALS.check(self.trials),
+        )?;
         flags::check("--frames", FRAMES.check(self.frames))?;
         Ok(())
     }
@@ -108,7 +112,7 @@ pub fn reproduce(args: ReproduceArgs) -> Result<()> {
         } else {
             args.out.join("fig3").join(name)
         };
-        launcher::launch(LaunchArgs {
+        launch::launch(LaunchArgs {
             file: args.launch_dir.join(file),
             assignments: assignments.clone(),
             seed: args.seed,
@@ -118,10 +122,10 @@ pub fn reproduce(args: ReproduceArgs) -> Result<()> {
             start_timeout_s: 30,
             record: None,
             record_topics: Vec::new(),
-            chunk: crate::bag::ChunkArgs {
+            chunk: crate::cmd::bag::ChunkArgs {
                 chunk_size_kib: 768,
             },
-            storage: crate::bag::StorageArgs {
+            storage: crate::cmd::bag::StorageArgs {
                 compression: nrslam_runtime::bag::Compression::None,
                 max_bag_size: 0,
                 max_bag_duration: 0.0,
@@ -224,11 +228,8 @@ fn curves(out: &Path, column: &str, name: &str, y_label: &str, caption: &str) ->
         writer.write_record(&row)?;
     }
     writer.flush()?;
-    crate::plot::register_font();
     let path = out.join(format!("{name}.png"));
-    let root = BitMapBackend::new(&path, (1000, 640)).into_drawing_area();
-    let err = |e: &dyn std::fmt::Display| anyhow!("plotting failed: {e}");
-    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let root = canvas(&path, (1000, 640))?;
     let all: Vec<(f64, f64)> = series
         .iter()
         .flat_map(|(_, _, p)| p.iter().copied())
@@ -236,19 +237,10 @@ fn curves(out: &Path, column: &str, name: &str, y_label: &str, caption: &str) ->
         .collect();
     let t_max = all.iter().map(|p| p.0).fold(1.0, f64::max);
     let v_max = all.iter().map(|p| p.1).fold(1e-9, f64::max) * 1.1;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(caption, ("sans-serif", 22))
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(60)
+    let mut chart = framed(&root, caption, 22, 12, (40, 60))
         .build_cartesian_2d(0.0..t_max, 0.0..v_max)
-        .map_err(|e| err(&e))?;
-    chart
-        .configure_mesh()
-        .x_desc("time (s)")
-        .y_desc(y_label)
-        .draw()
-        .map_err(|e| err(&e))?;
+        .map_err(plot_error)?;
+    draw_axes(&mut chart, "time (s)", y_label, true)?;
     for (index, (_, legend, points)) in series.iter().enumerate() {
         let color = Palette99::pick(index).to_rgba();
         chart
@@ -256,17 +248,12 @@ fn curves(out: &Path, column: &str, name: &str, y_label: &str, caption: &str) ->
                 points.iter().copied(),
                 color.stroke_width(2),
             ))
-            .map_err(|e| err(&e))?
+            .map_err(plot_error)?
             .label(*legend)
-            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2)));
+            .legend(line_key(color.stroke_width(2)));
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()
-        .map_err(|e| err(&e))?;
-    root.present().map_err(|e| err(&e))?;
+    draw_legend(&mut chart, SeriesLabelPosition::MiddleRight)?;
+    root.present().map_err(plot_error)?;
     Ok(())
 }
 
@@ -317,46 +304,32 @@ fn fig4(out: &Path) -> Result<()> {
         ])?;
     }
     writer.flush()?;
-    crate::plot::register_font();
     let path = out.join("fig4.png");
-    let root = BitMapBackend::new(&path, (800, 420)).into_drawing_area();
-    let err = |e: &dyn std::fmt::Display| anyhow!("plotting failed: {e}");
-    root.fill(&WHITE).map_err(|e| err(&e))?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(
-            "Fig. 4: extended targets x1, x2 and estimates y1, y2 (values in fig4.csv)",
-            ("sans-serif", 18),
-        )
-        .margin(12)
-        .x_label_area_size(30)
-        .y_label_area_size(40)
+    let root = canvas(&path, (800, 420))?;
+    let caption = "Fig. 4: extended targets x1, x2 and estimates y1, y2 (values in fig4.csv)";
+    let mut chart = framed(&root, caption, 18, 12, (30, 40))
         .build_cartesian_2d(-4.0..8.0, -3.0..3.0)
-        .map_err(|e| err(&e))?;
-    chart
-        .configure_mesh()
-        .x_desc("x (m)")
-        .y_desc("y (m)")
-        .draw()
-        .map_err(|e| err(&e))?;
+        .map_err(plot_error)?;
+    draw_axes(&mut chart, "x (m)", "y (m)", true)?;
     for (target, name) in [(&x1, "x1"), (&x2, "x2")] {
         let mut ring: Vec<(f64, f64)> = target.iter().map(|p| (p.x_m, p.y_m)).collect();
         ring.push(ring[0]);
         chart
             .draw_series(LineSeries::new(ring, BLUE.stroke_width(2)))
-            .map_err(|e| err(&e))?;
+            .map_err(plot_error)?;
         chart
             .draw_series(
                 target
                     .iter()
                     .map(|p| Circle::new((p.x_m, p.y_m), 4, BLUE.filled())),
             )
-            .map_err(|e| err(&e))?;
+            .map_err(plot_error)?;
         let c = target
             .iter()
             .fold((0.0, 0.0), |a, p| (a.0 + p.x_m / 4.0, a.1 + p.y_m / 4.0));
         chart
             .draw_series(std::iter::once(Text::new(name, c, ("sans-serif", 18))))
-            .map_err(|e| err(&e))?;
+            .map_err(plot_error)?;
     }
     for (point, name) in [(y1, "y1"), (y2, "y2")] {
         chart
@@ -365,15 +338,15 @@ fn fig4(out: &Path) -> Result<()> {
                 6,
                 RED.filled(),
             )))
-            .map_err(|e| err(&e))?;
+            .map_err(plot_error)?;
         chart
             .draw_series(std::iter::once(Text::new(
                 name,
                 (point.x_m + 0.2, point.y_m + 0.3),
                 ("sans-serif", 18),
             )))
-            .map_err(|e| err(&e))?;
+            .map_err(plot_error)?;
     }
-    root.present().map_err(|e| err(&e))?;
+    root.present().map_err(plot_error)?;
     Ok(())
 }

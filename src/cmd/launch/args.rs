@@ -1,7 +1,7 @@
-//! The command lines of `nrslam launch` and `nrslam run`, and their range checks.
+//! The command line of `nrslam launch` and its range checks.
 
-use crate::flags::{self, Real, Whole};
-use crate::TransportArgs;
+use crate::flags::TransportArgs;
+use crate::flags::{self, Whole};
 use anyhow::Result;
 use clap::Args;
 use nrslam_runtime::launch::Mode;
@@ -50,10 +50,10 @@ pub struct LaunchArgs {
     #[arg(long, value_name = "TOPIC", num_args = 1..)]
     pub record_topics: Vec<String>,
     #[command(flatten)]
-    pub chunk: crate::bag::ChunkArgs,
+    pub chunk: crate::cmd::bag::ChunkArgs,
     /// With --record: chunk compression and file splitting, as `nrslam bag record`.
     #[command(flatten)]
-    pub storage: crate::bag::StorageArgs,
+    pub storage: crate::cmd::bag::StorageArgs,
     /// With --listen/--connect: publish the mirrored topics as rmw_zenoh does in this ROS domain
     /// (key `<domain>/<topic>/<type>/<RIHS01 hash>` plus rmw_zenoh's attachment), so ROS 2 nodes on
     /// rmw_zenoh receive them without a bridge (in-process mode). 0 to 232, ROS 2's range.
@@ -63,89 +63,18 @@ pub struct LaunchArgs {
     pub transport: TransportArgs,
 }
 
-/// `nrslam run`.
-#[derive(Args, Debug)]
-pub struct RunArgs {
-    /// Node kind: radar, estimator, association, mapper, segmenter, evaluator.
-    pub kind: String,
-    /// The node's parameters (TOML, the fields of the node's Params at top level). Default: the
-    /// paper's defaults.
-    #[arg(long, value_name = "FILE")]
-    pub params: Option<PathBuf>,
-    /// Instance name (readiness key nrslam/ready/<name>). Default: the kind.
-    #[arg(long)]
-    pub name: Option<String>,
-    /// Run seed (must match the other nodes' for reproducible runs; 0 to 2^64 − 1).
-    #[arg(long, default_value_t = 1, value_parser = flags::SEED.parser::<u64>(), allow_hyphen_values = true)]
-    pub seed: u64,
-    /// Folder that relative paths in the parameters resolve against. Default: the params file's folder.
-    #[arg(long, value_name = "DIR")]
-    pub base_dir: Option<PathBuf>,
-    /// zenoh role of this process: peer, or client (of a router or listening peer).
-    #[arg(long, default_value = "peer", value_name = "ROLE")]
-    pub zenoh_mode: String,
-    /// Declare readiness and, for a source, wait for the launcher's start signal (used by `launch --mode processes`).
-    #[arg(long)]
-    pub start_barrier: bool,
-    /// With --start-barrier: how long to wait for the start signal, in seconds, 1 to 604800
-    /// (a week).
-    #[arg(long, value_name = "SECONDS", default_value_t = 60, value_parser = flags::TIMEOUT_S.parser::<u64>(), allow_hyphen_values = true)]
-    pub start_timeout_s: u64,
-    /// Without --start-barrier: seconds a source waits before its first frame, so subscribers can
-    /// come up, 0 to 3600 s.
-    #[arg(long, value_name = "SECONDS", default_value_t = 1.0, value_parser = STARTUP_DELAY_S.parser(), allow_hyphen_values = true)]
-    pub startup_delay_s: f64,
-    /// Real-time factor for a source, 1e-6 to 1e6 (0: as fast as possible).
-    #[arg(
-        long,
-        value_name = "R",
-        default_value_t = 0.0,
-        value_parser = flags::RATE.parser(),
-        allow_hyphen_values = true
-    )]
-    pub rate: f64,
-    /// An input topic whose stream already ended (repeatable): the launcher passes these when it
-    /// respawns a node, so it does not wait for ends it missed.
-    #[arg(long, value_name = "TOPIC")]
-    pub ended: Vec<String>,
-    #[command(flatten)]
-    pub transport: TransportArgs,
-}
-
 /// ROS 2 domain ids.
 pub(crate) const ROS_DOMAIN_ID: Whole = Whole::new(0, 232, "0 to 232 (ROS 2 domain ids)");
-/// Delay before a source's first frame.
-const STARTUP_DELAY_S: Real = Real::closed(0.0, 3600.0, "0 to 3600 s");
 
 impl LaunchArgs {
     /// Checks every numeric flag against its range (clap's parsers check them too; this covers
     /// `LaunchArgs` built in code, e.g. by `nrslam reproduce`). The error names the flag.
     pub fn validate(&self) -> Result<()> {
-        flags::check("--rate", flags::RATE.check(self.rate))?;
-        flags::check(
-            "--start-timeout-s",
-            flags::TIMEOUT_S.check(self.start_timeout_s),
-        )?;
+        flags::check_pacing(self.rate, self.start_timeout_s)?;
         if let Some(id) = self.ros_domain_id {
             flags::check("--ros-domain-id", ROS_DOMAIN_ID.check(id))?;
         }
         self.chunk.bytes()?;
-        Ok(())
-    }
-}
-
-impl RunArgs {
-    /// Checks every numeric flag against its range; the error names the flag.
-    pub fn validate(&self) -> Result<()> {
-        flags::check("--rate", flags::RATE.check(self.rate))?;
-        flags::check(
-            "--start-timeout-s",
-            flags::TIMEOUT_S.check(self.start_timeout_s),
-        )?;
-        flags::check(
-            "--startup-delay-s",
-            STARTUP_DELAY_S.check(self.startup_delay_s),
-        )?;
         Ok(())
     }
 }

@@ -3,15 +3,14 @@
 
 use super::knobs::KNOBS;
 use super::table::Row;
-use anyhow::{anyhow, Result};
+use crate::plot::{canvas, draw_axes, draw_legend, framed, line_key, plot_error};
+use anyhow::Result;
 use plotters::prelude::*;
 use std::path::Path;
 
 /// Draws the rows with a finite, positive time per frame and a finite ET-GOPSA (the `trials`
 /// knob's rows, which share the baseline's time per frame, are left out) into `path`.
 pub(super) fn write_pareto_png(path: &Path, rows: &[Row]) -> Result<()> {
-    crate::plot::register_font();
-    let err = |e: &dyn std::fmt::Display| anyhow!("plotting failed: {e}");
     let points: Vec<&Row> = rows
         .iter()
         .filter(|r| {
@@ -21,8 +20,7 @@ pub(super) fn write_pareto_png(path: &Path, rows: &[Row]) -> Result<()> {
                 && r.final_etgospa.is_finite()
         })
         .collect();
-    let root = BitMapBackend::new(path, (1100, 700)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let root = canvas(path, (1100, 700))?;
     let t_min = points
         .iter()
         .map(|r| r.time_per_frame_ms)
@@ -40,22 +38,16 @@ pub(super) fn write_pareto_png(path: &Path, rows: &[Row]) -> Result<()> {
         .filter(|v| v.is_finite())
         .fold(1.0, f64::max)
         * 1.1;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(
-            "Speed against accuracy: one knob at a time from the paper-5g baseline",
-            ("sans-serif", 22),
-        )
-        .margin(14)
-        .x_label_area_size(44)
-        .y_label_area_size(64)
+    let caption = "Speed against accuracy: one knob at a time from the paper-5g baseline";
+    let mut chart = framed(&root, caption, 22, 14, (44, 64))
         .build_cartesian_2d((t_min..t_max).log_scale(), 0.0..e_max)
-        .map_err(|e| err(&e))?;
-    chart
-        .configure_mesh()
-        .x_desc("time per radar frame, whole graph (ms, log scale)")
-        .y_desc("final ET-GOPSA (mean over trials)")
-        .draw()
-        .map_err(|e| err(&e))?;
+        .map_err(plot_error)?;
+    draw_axes(
+        &mut chart,
+        "time per radar frame, whole graph (ms, log scale)",
+        "final ET-GOPSA (mean over trials)",
+        true,
+    )?;
     let mut front: Vec<(f64, f64)> = points
         .iter()
         .filter(|r| r.pareto)
@@ -64,9 +56,9 @@ pub(super) fn write_pareto_png(path: &Path, rows: &[Row]) -> Result<()> {
     front.sort_by(|a, b| a.0.total_cmp(&b.0));
     chart
         .draw_series(LineSeries::new(front, BLACK.mix(0.5).stroke_width(2)))
-        .map_err(|e| err(&e))?
+        .map_err(plot_error)?
         .label("Pareto front")
-        .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK.mix(0.5).stroke_width(2)));
+        .legend(line_key(BLACK.mix(0.5).stroke_width(2)));
     for (index, knob) in std::iter::once("baseline").chain(KNOBS).enumerate() {
         let color = Palette99::pick(index).to_rgba();
         let mine: Vec<&&Row> = points.iter().filter(|r| r.setting.knob == knob).collect();
@@ -80,17 +72,11 @@ pub(super) fn write_pareto_png(path: &Path, rows: &[Row]) -> Result<()> {
                     + Circle::new((0, 0), if r.pareto { 7 } else { 5 }, color.filled())
                     + Text::new(r.setting.label.clone(), (8, -6), ("sans-serif", 13))
             }))
-            .map_err(|e| err(&e))?
+            .map_err(plot_error)?
             .label(knob)
             .legend(move |(x, y)| Circle::new((x + 10, y), 5, color.filled()));
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()
-        .map_err(|e| err(&e))?;
-    root.present().map_err(|e| err(&e))?;
+    draw_legend(&mut chart, SeriesLabelPosition::UpperRight)?;
+    root.present().map_err(plot_error)?;
     Ok(())
 }

@@ -7,9 +7,9 @@
 //! computed from the rows sorted by trial, so merging shards reproduces the unsharded files byte
 //! for byte.
 
+use crate::cmd::launch::build_all;
 use crate::flags;
 use crate::flags::Whole;
-use crate::launcher::build_all;
 use crate::report::Reporter;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;

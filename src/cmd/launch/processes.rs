@@ -3,21 +3,24 @@
 
 use super::build::Built;
 use super::recorder::Recorder;
-use super::{progress, transport_config, LaunchArgs};
+use super::{progress, LaunchArgs};
 use crate::flags;
 use crate::report::{Reporter, REPORTED};
 use anyhow::{anyhow, bail, Context, Result};
 use indicatif::ProgressBar;
-use nrslam_msgs::topics;
+use nrslam_msgs::{topics, Message};
+use nrslam_runtime::compose::{anyhow_free, Observer};
 use nrslam_runtime::launch::{Launch, NodeDecl};
-use nrslam_runtime::receive::{Delivery, Inbox};
+use nrslam_runtime::receive::Inbox;
+use nrslam_runtime::supervised::receive_supervised;
 use nrslam_runtime::supervisor::{Event, ProcessSpec, RestartPolicy, Supervisor};
 use nrslam_runtime::transport::{self, SessionMode};
+use nrslam_runtime::wiring::check_respawnable;
 use nrslam_runtime::Node;
 use std::collections::BTreeMap;
 use std::ffi::OsString;
 use std::path::Path;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 fn free_loopback_port() -> Result<u16> {
     let listener =
@@ -81,15 +84,7 @@ fn node_args(
 /// the start).
 fn restart_policy(decl: &NodeDecl, node: &dyn Node) -> Result<RestartPolicy> {
     if decl.respawn {
-        if node.inputs().is_empty() {
-            bail!("node {}: respawn = true, but it is a source: a respawned source would start its stream over", decl.name);
-        }
-        let latched = node.inputs().into_iter().find(|t| {
-            topics::spec(t).is_some_and(|s| s.qos.durability == topics::Durability::TransientLocal)
-        });
-        if let Some(topic) = latched {
-            bail!("node {}: respawn = true, but its input {topic} is published once at the start: a respawned node would wait for it forever", decl.name);
-        }
+        check_respawnable(&decl.name, node)?;
     }
     Ok(RestartPolicy {
         respawn: decl.respawn,
@@ -118,7 +113,7 @@ pub(super) fn run_processes(
     let endpoint = format!("tcp/127.0.0.1:{port}");
     let mut transport_args = args.transport.clone();
     transport_args.listen.push(endpoint.clone());
-    let session = transport::open(&transport_config(SessionMode::Router, &transport_args))
+    let session = transport::open(&transport_args.config(SessionMode::Router))
         .context("opening the launcher's zenoh router")?;
     let mut inbox = Inbox::subscribe(
         &session,
@@ -229,56 +224,45 @@ fn process_specs(
     Ok(specs)
 }
 
+/// What the launcher does with each message of the node processes: the progress bar, the
+/// report, the recording.
+struct Taker<'a> {
+    reporter: Reporter,
+    bar: &'a ProgressBar,
+    recorder: &'a mut Option<Recorder>,
+}
+
+impl Observer for Taker<'_> {
+    fn observe(&mut self, topic: &'static str, message: &Message) -> anyhow_free::Result {
+        if topic == topics::CLOCK {
+            self.bar.inc(1);
+        }
+        self.reporter.take(topic, message);
+        if let Some(recorder) = self.recorder {
+            recorder.take(topic, message)?;
+        }
+        Ok(())
+    }
+}
+
 /// Takes what the node processes publish until every `open` topic has ended, restarting nodes
 /// that die (as their policies allow).
 fn receive(
     inbox: &mut Inbox,
     supervisor: &mut Supervisor,
     inputs: &BTreeMap<String, Vec<&'static str>>,
-    mut open: Vec<&'static str>,
+    open: Vec<&'static str>,
     bar: &ProgressBar,
     recorder: &mut Option<Recorder>,
 ) -> Result<Reporter> {
-    let mut reporter = Reporter::default();
-    let mut last_poll = Instant::now();
-    let mut all_finished = false;
-    while !open.is_empty() {
-        match inbox.recv_timeout(Duration::from_millis(200))? {
-            Some(Delivery::End { topic }) => open.retain(|t| *t != topic),
-            Some(Delivery::Message { topic, message, .. }) => {
-                if topic == topics::CLOCK {
-                    bar.inc(1);
-                }
-                reporter.take(topic, &message);
-                if let Some(recorder) = recorder {
-                    recorder.take(topic, &message)?;
-                }
-            }
-            // Every process had ended and nothing more came for 200 ms: that was all there is.
-            None if all_finished => bail!(
-                "every node process ended but topics {} never ended",
-                open.join(", ")
-            ),
-            None => {}
-        }
-        if last_poll.elapsed() >= Duration::from_millis(200) {
-            last_poll = Instant::now();
-            // A respawned node is told which of its inputs ended while it was down.
-            let ended = |name: &str| -> Vec<OsString> {
-                inputs
-                    .get(name)
-                    .into_iter()
-                    .flatten()
-                    .filter(|t| !open.contains(t))
-                    .flat_map(|t| [OsString::from("--ended"), OsString::from(*t)])
-                    .collect()
-            };
-            for event in supervisor.poll_with(&ended)? {
-                let Event::Restarted { name, status, .. } = event;
-                bar.println(format!("node {name} died ({status}) and was restarted"));
-            }
-            all_finished = supervisor.all_finished();
-        }
-    }
-    Ok(reporter)
+    let mut taker = Taker {
+        reporter: Reporter::default(),
+        bar,
+        recorder,
+    };
+    receive_supervised(inbox, supervisor, inputs, open, &mut taker, &mut |event| {
+        let Event::Restarted { name, status, .. } = event;
+        bar.println(format!("node {name} died ({status}) and was restarted"));
+    })?;
+    Ok(taker.reporter)
 }

@@ -7,13 +7,11 @@ mod play;
 mod record;
 mod selection;
 
-use crate::TransportArgs;
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{anyhow, bail, Result};
 use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use nrslam_msgs::topics;
 use nrslam_runtime::bag::{Bag, ReadMode, ReadReport};
-use nrslam_runtime::transport::{self, SessionMode};
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -97,13 +95,6 @@ pub fn catalogue_topics(names: &[String]) -> Result<Vec<&'static str>> {
             })
         })
         .collect()
-}
-
-fn session(args: &TransportArgs) -> Result<zenoh::Session> {
-    if args.listen.is_empty() && args.connect.is_empty() && args.ros_router.is_none() {
-        bail!("give --connect ENDPOINT (e.g. the --listen endpoint of a running `nrslam launch`), --listen ENDPOINT or --ros-router ENDPOINT");
-    }
-    transport::open(&args.config(SessionMode::Peer)).context("opening the zenoh session")
 }
 
 /// Sets a flag on Ctrl-C (SIGINT) so a recorder, player or `echo` can finish cleanly.
