@@ -13,7 +13,8 @@ use std::time::Duration;
 /// `nrslam run`.
 #[derive(Args, Debug)]
 pub struct RunArgs {
-    /// Node kind: radar, estimator, association, mapper, segmenter, evaluator.
+    /// Node kind: radar, estimator, association, mapper, segmenter, shapes, evaluator,
+    /// sensor_adapter, viz.
     pub kind: String,
     /// The node's parameters (TOML, the fields of the node's Params at top level). Default: the
     /// paper's defaults.
