@@ -216,7 +216,12 @@ fn check_calibrated(
 
 #[test]
 fn full_rectangle_is_calibrated() {
-    check_calibrated("full rectangle", [(1, 0.05), (2, 0.15)], full_rectangle, 0.8);
+    check_calibrated(
+        "full rectangle",
+        [(1, 0.05), (2, 0.15)],
+        full_rectangle,
+        0.8,
+    );
 }
 
 #[test]
