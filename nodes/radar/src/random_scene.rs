@@ -945,7 +945,8 @@ mod tests {
     #[test]
     fn bad_params_are_refused_by_name() {
         // Each case changes the defaults and names the field that must be refused.
-        let cases: [(fn(&mut RandomSceneParams), &str); 16] = [
+        type Change = fn(&mut RandomSceneParams);
+        let cases: [(Change, &str); 16] = [
             (|p| p.hall_width_m = [60.0, 40.0], "hall_width_m"),
             (|p| p.hall_height_m = [f64::NAN, 40.0], "hall_height_m[0]"),
             (|p| p.wall_margin_m = [0.2, 5.0], "wall_margin_m[0]"),
