@@ -69,14 +69,14 @@ fn unknown_field_in_launch_and_in_node_params() {
 fn unknown_kind_and_unwired_input() {
     let dir = temp();
     let file = dir.path().join("bad.toml");
-    std::fs::write(&file, "[[node]]\nname = \"x\"\nkind = \"lidar\"\n").unwrap();
-    assert_one_line_failure(
-        &run(&["launch", file.to_str().unwrap()]),
+    assert_launch_refused(
+        &file,
+        "[[node]]\nname = \"x\"\nkind = \"lidar\"\n",
         &["bad.toml", "node x", "lidar", "known:"],
     );
-    std::fs::write(&file, "[[node]]\nname = \"m\"\nkind = \"mapper\"\n").unwrap();
-    assert_one_line_failure(
-        &run(&["launch", file.to_str().unwrap()]),
+    assert_launch_refused(
+        &file,
+        "[[node]]\nname = \"m\"\nkind = \"mapper\"\n",
         &["bad.toml", "node m", "/slam/keyframe", "no node"],
     );
 }
@@ -85,9 +85,9 @@ fn unknown_kind_and_unwired_input() {
 fn missing_scene_file_names_the_path() {
     let dir = temp();
     let file = dir.path().join("bad.toml");
-    std::fs::write(&file, "[[node]]\nname = \"radar\"\nkind = \"radar\"\n[node.params]\nscene = \"nowhere/hall.toml\"\n").unwrap();
-    assert_one_line_failure(
-        &run(&["launch", file.to_str().unwrap()]),
+    assert_launch_refused(
+        &file,
+        "[[node]]\nname = \"radar\"\nkind = \"radar\"\n[node.params]\nscene = \"nowhere/hall.toml\"\n",
         &["bad.toml", "node radar", "nowhere/hall.toml"],
     );
 }

@@ -26,6 +26,32 @@ fn position_errors(dir: &Path) -> Vec<(f64, f64)> {
         .collect()
 }
 
+/// Runs `file` with `args` into `dir`/open without loop closure and `dir`/closed with it, checks
+/// that only the latter closes a loop, and returns their summaries (open, closed).
+fn open_and_closed(
+    file: &str,
+    dir: &Path,
+    args: &[&str],
+) -> (serde_json::Value, serde_json::Value) {
+    let (open, closed) = (dir.join("open"), dir.join("closed"));
+    let without: Vec<&str> = args
+        .iter()
+        .copied()
+        .chain(["loop_closure:=false"])
+        .collect();
+    launch(file, &open, &without);
+    launch(file, &closed, args);
+    let (o, c) = (summary(&open), summary(&closed));
+    assert_eq!(o["loop_closures"], 0);
+    assert!(c["loop_closures"].as_u64().unwrap() >= 1, "{c}");
+    (o, c)
+}
+
+/// A number in a summary.
+fn value(summary: &serde_json::Value, key: &str) -> f64 {
+    summary[key].as_f64().unwrap()
+}
+
 /// Frame index of a stamp: frames are 0.5 s apart from t0 = 1 s (config/hall.toml).
 fn frame_of(time_s: f64) -> usize {
     ((time_s - 1.0) / 0.5).round() as usize
@@ -83,53 +109,32 @@ fn loop_closure_closes_the_lap_and_modes_agree() {
     // 0.76 m; with it 0.08 m and 0.12 m. (The Δθ 5° seed 1 this test used closes no loop since
     // tracking was rebuilt: its 2.6 m drift is past what the verification accepts; docs/slam.md.)
     let dir = temp();
-    let (open, closed, processes) = (
-        dir.path().join("open"),
-        dir.path().join("closed"),
-        dir.path().join("processes"),
-    );
     let args = ["--seed", "5", "range_std_m:=0.1", "angle_std_deg:=1"];
-    let with = |extra: &[&'static str]| -> Vec<&str> {
-        args.iter().copied().chain(extra.iter().copied()).collect()
-    };
-    launch(
-        "launch/paper-ideal.toml",
-        &open,
-        &with(&["loop_closure:=false"]),
-    );
-    launch("launch/paper-ideal.toml", &closed, &with(&[]));
-    let (o, c) = (summary(&open), summary(&closed));
-    assert_eq!(o["loop_closures"], 0);
-    assert!(c["loop_closures"].as_u64().unwrap() >= 1, "{c}");
-    let final_error = |s: &serde_json::Value| s["final_position_error_m"].as_f64().unwrap();
+    let (o, c) = open_and_closed("launch/paper-ideal.toml", dir.path(), &args);
+    let (final_error, keyframe_rmse) = ("final_position_error_m", "keyframe_rmse_m");
     assert!(
-        final_error(&c) < 0.5 * final_error(&o),
+        value(&c, final_error) < 0.5 * value(&o, final_error),
         "the closed loop ends nearer the truth: {} m vs {} m",
-        final_error(&c),
-        final_error(&o)
+        value(&c, final_error),
+        value(&o, final_error)
     );
     // The closure corrects the keyframe trajectory behind it, not only the current pose.
-    let keyframe_rmse = |s: &serde_json::Value| s["keyframe_rmse_m"].as_f64().unwrap();
     assert!(
-        keyframe_rmse(&c) < 0.6 * keyframe_rmse(&o),
+        value(&c, keyframe_rmse) < 0.6 * value(&o, keyframe_rmse),
         "final keyframe trajectory: {} m vs {} m",
-        keyframe_rmse(&c),
-        keyframe_rmse(&o)
+        value(&c, keyframe_rmse),
+        value(&o, keyframe_rmse)
     );
     // The rebuilt map scores no worse.
-    let etgospa = |s: &serde_json::Value| s["etgospa"].as_f64().unwrap();
-    assert!(
-        etgospa(&c) <= etgospa(&o),
-        "{} vs {}",
-        etgospa(&c),
-        etgospa(&o)
-    );
+    assert!(value(&c, "etgospa") <= value(&o, "etgospa"), "{c} vs {o}");
     // Loop closure and map rebuild are as deterministic across processes as the rest.
-    launch(
-        "launch/paper-ideal.toml",
-        &processes,
-        &with(&["--mode", "processes"]),
-    );
+    let (closed, processes) = (dir.path().join("closed"), dir.path().join("processes"));
+    let with_processes: Vec<&str> = args
+        .iter()
+        .copied()
+        .chain(["--mode", "processes"])
+        .collect();
+    launch("launch/paper-ideal.toml", &processes, &with_processes);
     assert_eq!(
         read(&closed.join("summary.json")),
         read(&processes.join("summary.json"))
@@ -148,17 +153,7 @@ fn loop_closure_corrects_the_5g_trajectory() {
     // closure when measured). Seed 3, which this test used, closes no loop since loops need
     // confirmation (docs/slam.md): its revisit offers no second consistent match.
     let dir = temp();
-    let (open, closed) = (dir.path().join("open"), dir.path().join("closed"));
-    launch(
-        "launch/paper-5g.toml",
-        &open,
-        &["--seed", "1", "loop_closure:=false"],
-    );
-    launch("launch/paper-5g.toml", &closed, &["--seed", "1"]);
-    let (o, c) = (summary(&open), summary(&closed));
-    assert_eq!(o["loop_closures"], 0);
-    assert!(c["loop_closures"].as_u64().unwrap() >= 1, "{c}");
-    let value = |s: &serde_json::Value, key: &str| s[key].as_f64().unwrap();
+    let (o, c) = open_and_closed("launch/paper-5g.toml", dir.path(), &["--seed", "1"]);
     assert!(
         value(&c, "keyframe_rmse_m") < 0.5 * value(&o, "keyframe_rmse_m"),
         "final keyframe trajectory: {c} vs {o}"

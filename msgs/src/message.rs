@@ -363,6 +363,19 @@ mod tests {
         message.check_usable()
     }
 
+    /// Checks that each spoiled message is refused as `expected(field)`, for `reason`.
+    fn all_refused(
+        cases: Vec<(Spoil, &'static str)>,
+        expected: fn(&'static str) -> Unusable,
+        reason: &str,
+    ) {
+        for (spoil, field) in cases {
+            let verdict = spoiled(spoil);
+            assert_eq!(verdict, Err(expected(field)));
+            assert_eq!(verdict.unwrap_err().reason(), reason);
+        }
+    }
+
     #[test]
     fn non_finite_numbers_that_are_computed_with_are_refused() {
         let nan = f64::NAN;
@@ -445,11 +458,7 @@ mod tests {
                 "markers.points",
             ),
         ];
-        for (spoil, field) in cases {
-            let verdict = spoiled(spoil);
-            assert_eq!(verdict, Err(Unusable::NonFinite(field)));
-            assert_eq!(verdict.unwrap_err().reason(), "non_finite");
-        }
+        all_refused(cases, Unusable::NonFinite, "non_finite");
     }
 
     #[test]
@@ -487,11 +496,7 @@ mod tests {
                 "row_step",
             ),
         ];
-        for (spoil, field) in cases {
-            let verdict = spoiled(spoil);
-            assert_eq!(verdict, Err(Unusable::SizeMismatch(field)));
-            assert_eq!(verdict.unwrap_err().reason(), "size_mismatch");
-        }
+        all_refused(cases, Unusable::SizeMismatch, "size_mismatch");
     }
 
     #[test]
@@ -570,11 +575,7 @@ mod tests {
                 "markers.lifetime.nanosec",
             ),
         ];
-        for (spoil, field) in cases {
-            let verdict = spoiled(spoil);
-            assert_eq!(verdict, Err(Unusable::OutOfRange(field)));
-            assert_eq!(verdict.unwrap_err().reason(), "out_of_range");
-        }
+        all_refused(cases, Unusable::OutOfRange, "out_of_range");
     }
 
     #[test]

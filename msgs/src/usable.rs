@@ -116,22 +116,23 @@ fn all_finite(values: &[f64], field: &'static str) -> Check {
     }
 }
 
-/// Finite and ≥ `min` (or > `min` when `strict`).
-fn at_least(value: f64, min: f64, strict: bool, field: &'static str) -> Check {
-    finite(value, field)?;
-    if value > min || (!strict && value == min) {
+/// `Ok` when `in_range`, else `field` is out of its range.
+fn within(in_range: bool, field: &'static str) -> Check {
+    if in_range {
         Ok(())
     } else {
         Err(Unusable::OutOfRange(field))
     }
 }
 
+/// Finite and ≥ `min` (or > `min` when `strict`).
+fn at_least(value: f64, min: f64, strict: bool, field: &'static str) -> Check {
+    finite(value, field)?;
+    within(value > min || (!strict && value == min), field)
+}
+
 fn time(time: &Time, field: &'static str) -> Check {
-    if time.nanosec < 1_000_000_000 {
-        Ok(())
-    } else {
-        Err(Unusable::OutOfRange(field))
-    }
+    within(time.nanosec < 1_000_000_000, field)
 }
 
 fn header(header: &Header) -> Check {
@@ -140,6 +141,10 @@ fn header(header: &Header) -> Check {
 
 fn point(p: &Point, field: &'static str) -> Check {
     all_finite(&[p.x, p.y, p.z], field)
+}
+
+fn points(ps: &[Point], field: &'static str) -> Check {
+    ps.iter().try_for_each(|p| point(p, field))
 }
 
 fn pose(pose: &Pose, position: &'static str, orientation: &'static str) -> Check {
@@ -239,11 +244,7 @@ impl CheckUsable for OccupancyGrid {
             .zip(usize::try_from(info.height).ok())
             .and_then(|(w, h)| w.checked_mul(h));
         length(self.data.len(), cells, "data")?;
-        if self.data.iter().all(|&c| (-1..=100).contains(&c)) {
-            Ok(())
-        } else {
-            Err(Unusable::OutOfRange("data"))
-        }
+        within(self.data.iter().all(|&c| (-1..=100).contains(&c)), "data")
     }
 }
 
@@ -285,22 +286,13 @@ impl CheckUsable for Segments {
     fn check_usable(&self) -> Check {
         header(&self.header)?;
         finite(self.eps_m, "eps_m")?;
-        for p in &self.points {
-            point(p, "points")?;
-        }
+        points(&self.points, "points")?;
         if self.labels.len() != self.points.len() {
             return Err(Unusable::SizeMismatch("labels"));
         }
         let clusters = i64::from(self.cluster_count);
-        if self
-            .labels
-            .iter()
-            .all(|&l| l == -1 || (0..clusters).contains(&i64::from(l)))
-        {
-            Ok(())
-        } else {
-            Err(Unusable::OutOfRange("labels"))
-        }
+        let labelled = |&l: &i32| l == -1 || (0..clusters).contains(&i64::from(l));
+        within(self.labels.iter().all(labelled), "labels")
     }
 }
 
@@ -308,12 +300,8 @@ impl CheckUsable for TargetSet {
     fn check_usable(&self) -> Check {
         header(&self.header)?;
         for target in &self.targets {
-            for p in &target.outline {
-                point(p, "targets.outline")?;
-            }
-            for p in &target.samples {
-                point(p, "targets.samples")?;
-            }
+            points(&target.outline, "targets.outline")?;
+            points(&target.samples, "targets.samples")?;
         }
         Ok(())
     }
@@ -337,24 +325,15 @@ impl CheckUsable for MapTargets {
                 (target.radius_m, "targets.radius_m"),
                 (target.rms_residual_m, "targets.rms_residual_m"),
             ] {
-                finite(value, field)?;
-                if value < 0.0 {
-                    return Err(Unusable::OutOfRange(field));
-                }
+                at_least(value, 0.0, false, field)?;
             }
             if target.covariance.len() != parameters * parameters {
                 return Err(Unusable::SizeMismatch("targets.covariance"));
             }
             all_finite(&target.covariance, "targets.covariance")?;
-            for (points, field) in [
-                (&target.outline, "targets.outline"),
-                (&target.samples, "targets.samples"),
-                (&target.supporting_cells, "targets.supporting_cells"),
-            ] {
-                for p in points {
-                    point(p, field)?;
-                }
-            }
+            points(&target.outline, "targets.outline")?;
+            points(&target.samples, "targets.samples")?;
+            points(&target.supporting_cells, "targets.supporting_cells")?;
         }
         Ok(())
     }
@@ -511,9 +490,7 @@ impl CheckUsable for MarkerArray {
             all_finite(&[q.x, q.y, q.z, q.w], "markers.pose.orientation")?;
             let s = &m.scale;
             all_finite(&[s.x, s.y, s.z], "markers.scale")?;
-            for p in &m.points {
-                point(p, "markers.points")?;
-            }
+            points(&m.points, "markers.points")?;
         }
         Ok(())
     }

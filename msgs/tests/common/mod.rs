@@ -43,9 +43,14 @@ impl Rng {
         }
     }
 
-    fn f64s(&mut self, max_len: usize) -> Vec<f64> {
+    /// Up to `max_len` items drawn by `item` (the length drawn first).
+    fn vec<T>(&mut self, max_len: usize, mut item: impl FnMut(&mut Self) -> T) -> Vec<T> {
         let n = self.below(max_len + 1);
-        (0..n).map(|_| self.f64()).collect()
+        (0..n).map(|_| item(self)).collect()
+    }
+
+    fn f64s(&mut self, max_len: usize) -> Vec<f64> {
+        self.vec(max_len, Self::f64)
     }
 
     fn u32(&mut self) -> u32 {
@@ -87,8 +92,15 @@ impl Rng {
     }
 
     fn points(&mut self, max_len: usize) -> Vec<Point> {
-        let n = self.below(max_len + 1);
-        (0..n).map(|_| self.point()).collect()
+        self.vec(max_len, Self::point)
+    }
+
+    fn vector3(&mut self) -> Vector3 {
+        Vector3 {
+            x: self.f64(),
+            y: self.f64(),
+            z: self.f64(),
+        }
     }
 
     fn pose(&mut self) -> Pose {
@@ -104,26 +116,21 @@ impl Rng {
     }
 
     fn poses(&mut self, max_len: usize) -> Vec<Pose> {
-        let n = self.below(max_len + 1);
-        (0..n).map(|_| self.pose()).collect()
+        self.vec(max_len, Self::pose)
     }
 
     fn u32s(&mut self, max_len: usize) -> Vec<u32> {
-        let n = self.below(max_len + 1);
-        (0..n).map(|_| self.u32()).collect()
+        self.vec(max_len, Self::u32)
     }
 
     fn detections(&mut self, max_len: usize) -> Vec<Detection> {
-        let n = self.below(max_len + 1);
-        (0..n)
-            .map(|_| Detection {
-                range_m: self.f64(),
-                angle_rad: self.f64(),
-                range_std_m: self.f64(),
-                angle_std_rad: self.f64(),
-                power_db: self.f64(),
-            })
-            .collect()
+        self.vec(max_len, |r| Detection {
+            range_m: r.f64(),
+            angle_rad: r.f64(),
+            range_std_m: r.f64(),
+            angle_std_rad: r.f64(),
+            power_db: r.f64(),
+        })
     }
 
     fn color(&mut self) -> ColorRGBA {
@@ -136,8 +143,7 @@ impl Rng {
     }
 
     fn bytes(&mut self, max_len: usize) -> Vec<u8> {
-        let n = self.below(max_len + 1);
-        (0..n).map(|_| self.next_u64() as u8).collect()
+        self.vec(max_len, |r| r.next_u64() as u8)
     }
 
     fn marker(&mut self) -> Marker {
@@ -148,11 +154,7 @@ impl Rng {
             marker_type: self.below(13) as i32,
             action: self.below(4) as i32,
             pose: self.pose(),
-            scale: Vector3 {
-                x: self.f64(),
-                y: self.f64(),
-                z: self.f64(),
-            },
+            scale: self.vector3(),
             color: self.color(),
             lifetime: Duration {
                 sec: self.next_u64() as i32,
@@ -203,16 +205,8 @@ pub fn random_message(type_name: &str, rng: &mut Rng) -> Message {
             },
             twist: TwistWithCovariance {
                 twist: Twist {
-                    linear: Vector3 {
-                        x: r.f64(),
-                        y: r.f64(),
-                        z: r.f64(),
-                    },
-                    angular: Vector3 {
-                        x: r.f64(),
-                        y: r.f64(),
-                        z: r.f64(),
-                    },
+                    linear: r.vector3(),
+                    angular: r.vector3(),
                 },
                 covariance: r.covariance(),
             },

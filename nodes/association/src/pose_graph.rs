@@ -974,6 +974,26 @@ mod tests {
         graph
     }
 
+    /// A graph at `truth` with exact odometry edges of these standard deviations.
+    fn exact_odometry_graph(truth: &[Pose2], std_m: f64, std_rad: f64) -> PoseGraph {
+        let mut graph = PoseGraph::new();
+        for p in truth {
+            graph.add_node(*p);
+        }
+        for k in 1..truth.len() {
+            let z = truth[k - 1].between(&truth[k]);
+            graph.add_edge(Edge::with_std(
+                k - 1,
+                k,
+                z,
+                std_m,
+                std_rad,
+                EdgeKind::Odometry,
+            ));
+        }
+        graph
+    }
+
     fn max_error_m(graph: &PoseGraph, truth: &[Pose2]) -> f64 {
         graph
             .nodes()
@@ -1003,14 +1023,7 @@ mod tests {
     #[test]
     fn a_consistent_graph_does_not_move() {
         let truth = square(5);
-        let mut graph = PoseGraph::new();
-        for p in &truth {
-            graph.add_node(*p);
-        }
-        for k in 1..truth.len() {
-            let z = truth[k - 1].between(&truth[k]);
-            graph.add_edge(Edge::with_std(k - 1, k, z, 0.1, 0.01, EdgeKind::Odometry));
-        }
+        let mut graph = exact_odometry_graph(&truth, 0.1, 0.01);
         graph.add_edge(Edge::with_std(
             truth.len() - 1,
             0,
@@ -1028,14 +1041,7 @@ mod tests {
         // A loop edge 5 m off with the same information as a right one: the Cauchy kernel keeps
         // the map from bending to it as far as plain least squares would.
         let truth = square(8);
-        let mut graph = PoseGraph::new();
-        for p in &truth {
-            graph.add_node(*p);
-        }
-        for k in 1..truth.len() {
-            let z = truth[k - 1].between(&truth[k]);
-            graph.add_edge(Edge::with_std(k - 1, k, z, 0.05, 0.01, EdgeKind::Odometry));
-        }
+        let graph = exact_odometry_graph(&truth, 0.05, 0.01);
         let last = truth.len() - 1;
         let wrong = truth[last]
             .between(&truth[0])
@@ -1062,35 +1068,15 @@ mod tests {
         let mut graph = PoseGraph::new();
         graph.add_node(Pose2::IDENTITY);
         graph.add_node(Pose2::new(1.0, 0.0, 0.0));
-        assert!(!graph.add_edge(Edge::with_std(
-            0,
-            5,
-            Pose2::IDENTITY,
-            0.1,
-            0.1,
-            EdgeKind::Loop
-        )));
-        assert!(!graph.add_edge(Edge::with_std(
-            1,
-            1,
-            Pose2::IDENTITY,
-            0.1,
-            0.1,
-            EdgeKind::Loop
-        )));
+        let edge = |from, to, z, kind| Edge::with_std(from, to, z, 0.1, 0.1, kind);
+        assert!(!graph.add_edge(edge(0, 5, Pose2::IDENTITY, EdgeKind::Loop)));
+        assert!(!graph.add_edge(edge(1, 1, Pose2::IDENTITY, EdgeKind::Loop)));
         let nan = Pose2 {
             x_m: f64::NAN,
             ..Pose2::IDENTITY
         };
-        assert!(!graph.add_edge(Edge::with_std(0, 1, nan, 0.1, 0.1, EdgeKind::Loop)));
-        assert!(graph.add_edge(Edge::with_std(
-            0,
-            1,
-            Pose2::new(2.0, 0.0, 0.0),
-            0.1,
-            0.1,
-            EdgeKind::Odometry
-        )));
+        assert!(!graph.add_edge(edge(0, 1, nan, EdgeKind::Loop)));
+        assert!(graph.add_edge(edge(0, 1, Pose2::new(2.0, 0.0, 0.0), EdgeKind::Odometry)));
         graph.optimise(&OptimiserSettings::default());
         assert!(graph.nodes().iter().all(Pose2::is_finite));
         assert!((graph.nodes()[1].x_m - 2.0).abs() < 1e-6);

@@ -117,6 +117,15 @@ pub struct KeyframeRecord {
     pub travelled_m: f64,
 }
 
+impl KeyframeRecord {
+    /// Its scan in the map frame, at its current pose.
+    fn points_in_map(&self) -> impl Iterator<Item = [f64; 2]> + '_ {
+        self.scan_agv_m
+            .iter()
+            .map(|p| self.pose.transform_point(*p))
+    }
+}
+
 /// A loop edge: the measured pose of keyframe `to` in the frame of the older keyframe `from`
 /// (indices into [`Association::keyframe_records`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -451,19 +460,7 @@ impl Association {
                 .unwrap_or(self.records.len());
             if first_kept > 0 && self.local_from != first_kept {
                 self.local_from = first_kept;
-                let mut local = Vec::new();
-                for record in &self.records[first_kept..] {
-                    local.extend(
-                        record
-                            .scan_agv_m
-                            .iter()
-                            .map(|p| record.pose.transform_point(*p)),
-                    );
-                }
-                self.map = PointMap::for_params(&self.params);
-                self.map.extend(&local);
-                self.cells = self.params.distribution_map();
-                self.cells.extend(&local);
+                self.rebuild_maps_from(first_kept);
             }
         }
         self.map.extend(&points_m);
@@ -693,26 +690,23 @@ impl Association {
         self.cooldown = lc.cooldown_keyframes;
     }
 
-    fn rebuild_map(&mut self) {
+    /// Rebuilds the point map and the cell map from the keyframes `records[first..]` at their
+    /// current poses.
+    fn rebuild_maps_from(&mut self, first: usize) {
         let mut points_m = Vec::new();
-        for record in &self.records {
-            points_m.extend(
-                record
-                    .scan_agv_m
-                    .iter()
-                    .map(|p| record.pose.transform_point(*p)),
-            );
+        for record in &self.records[first..] {
+            points_m.extend(record.points_in_map());
         }
         self.map = PointMap::for_params(&self.params);
         self.map.extend(&points_m);
         self.cells = self.params.distribution_map();
         self.cells.extend(&points_m);
+    }
+
+    fn rebuild_map(&mut self) {
+        self.rebuild_maps_from(0);
         if let Some(last) = self.records.last() {
-            let points: Vec<[f64; 2]> = last
-                .scan_agv_m
-                .iter()
-                .map(|p| last.pose.transform_point(*p))
-                .collect();
+            let points: Vec<[f64; 2]> = last.points_in_map().collect();
             self.last_keyframe_map = PointMap::new();
             self.last_keyframe_map.extend(&points);
         }

@@ -48,7 +48,7 @@ use crate::assignment::{check_size, solve_bottleneck, solve_partial, AssignmentE
 use crate::error::{InvalidMetricParam, MetricError};
 use crate::gospa::{pow_p, root_p, validate_c_p_alpha, GospaParams, DENSE_BELOW_CELLS};
 use crate::point::{check_finite, distance_to_outline_m, Point2};
-use crate::sparse::{Box2, Components, Grid};
+use crate::sparse::{solve_components, Box2, Components, Grid, Solved};
 
 /// What D_i measures the distance to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -626,7 +626,14 @@ fn etgospa_sparse_checked(
     let Solved {
         mut pairs,
         bottleneck,
-    } = solve_components(graph, targets, key, infinite, c, (n_slots, n_est))?;
+    } = solve_components(
+        graph,
+        |i| targets[i].slots,
+        key,
+        infinite,
+        c,
+        (n_slots, n_est),
+    )?;
     pairs.sort_unstable();
     if infinite {
         return Ok(infinite_result(pairs, n_slots, n_est, c, bottleneck));
@@ -639,73 +646,6 @@ fn etgospa_sparse_checked(
         clipped,
         clipped_other,
     ))
-}
-
-/// Solves each component of `graph` (targets, estimates) exactly by the pairs' `key` (bottleneck
-/// cost for p = ∞, else weight).
-/// `sizes` (slots, estimates) of the whole problem name it in a size error.
-fn solve_components(
-    graph: Components,
-    targets: &[ExtendedTarget],
-    key: impl Fn(usize, usize) -> f64,
-    infinite: bool,
-    c: f64,
-    sizes: (usize, usize),
-) -> Result<Solved, MetricError> {
-    let mut pairs: Vec<(usize, usize)> = Vec::new();
-    let mut bottleneck: Option<f64> = None;
-    for (tgts, cols) in graph.finish() {
-        if cols.len() == 1 || (tgts.len() == 1 && targets[tgts[0]].slots == 1) {
-            // A star (one estimate, or one target with one slot; every pair usable): one pair
-            // at most, the cheapest.
-            let (mut best, mut best_key) = ((tgts[0], cols[0]), f64::INFINITY);
-            for &i in &tgts {
-                for &j in &cols {
-                    let k = key(i, j);
-                    if k < best_key {
-                        (best, best_key) = ((i, j), k);
-                    }
-                }
-            }
-            pairs.push(best);
-            if infinite {
-                bottleneck = Some(bottleneck.map_or(best_key, |b| b.max(best_key)));
-            }
-            continue;
-        }
-        // One row per slot; a target never fills more slots than the component has estimates.
-        let slot_target: Vec<usize> = tgts
-            .iter()
-            .flat_map(|&i| std::iter::repeat_n(i, targets[i].slots.min(cols.len())))
-            .collect();
-        let matrix = CostMatrix::from_fn(slot_target.len(), cols.len(), |r, k| {
-            key(slot_target[r], cols[k])
-        })
-        .map_err(|e| MetricError::in_component(e, sizes.0, sizes.1))?;
-        let component_pairs = if infinite {
-            let matching = solve_bottleneck(&matrix, c);
-            if let Some(d) = matching.bottleneck {
-                bottleneck = Some(bottleneck.map_or(d, |b| b.max(d)));
-            }
-            matching.pairs
-        } else {
-            solve_partial(&matrix)
-        };
-        pairs.extend(
-            component_pairs
-                .into_iter()
-                .map(|(r, k)| (slot_target[r], cols[k])),
-        );
-    }
-    Ok(Solved { pairs, bottleneck })
-}
-
-/// The components' solutions together.
-struct Solved {
-    /// (target, estimate) pairs, unsorted.
-    pairs: Vec<(usize, usize)>,
-    /// For p = ∞, the largest pair cost (`None` without a pair).
-    bottleneck: Option<f64>,
 }
 
 /// δ(y, target): Euclidean (or squared) distance to the nearest sample or to the outline.

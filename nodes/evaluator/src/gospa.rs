@@ -48,7 +48,7 @@ use serde::{Deserialize, Serialize};
 use crate::assignment::{check_size, solve_bottleneck, solve_partial, CostMatrix};
 use crate::error::{InvalidMetricParam, MetricError};
 use crate::point::{check_finite, Point2};
-use crate::sparse::{Box2, Components, Grid};
+use crate::sparse::{solve_components, Box2, Components, Grid, Solved};
 
 /// Smallest and largest c^p accepted: keeps every cost of the assignment well inside f64 range
 /// (c = 5 m allows p up to 143).
@@ -342,74 +342,35 @@ fn gospa_sparse_checked(
     // Weight of a pair at the cut-off or beyond, and of any pair relative to it.
     let far = params.c_pow_p() - 2.0 * unassigned_cost;
     let weight = |i: usize, j: usize| (pow_p(clipped(i, j), p) - 2.0 * unassigned_cost) - far;
-    let useful = |i: usize, j: usize| {
+    // What a pair is ranked by: its bottleneck cost for p = ∞, else its weight; worth taking
+    // below `worth_below`.
+    let key = |i: usize, j: usize| {
         if infinite {
-            clipped(i, j) < c
+            clipped(i, j)
         } else {
-            weight(i, j) < 0.0
+            weight(i, j)
         }
     };
+    let worth_below = if infinite { c } else { 0.0 };
 
     let boxes: Vec<Box2> = estimates.iter().map(|&y| Box2::of_point(y)).collect();
     let mut grid = Grid::new(&boxes, c, Box2::of_points(truth));
     let mut graph = Components::new(n, m);
     for (i, x) in truth.iter().enumerate() {
         grid.near(*x, |j| {
-            if useful(i, j) {
+            if key(i, j) < worth_below {
                 graph.link(i, j);
             }
         });
     }
     drop(grid);
 
-    let mut pairs: Vec<(usize, usize)> = Vec::new();
-    let mut bottleneck: Option<f64> = None;
-    for (rows, cols) in graph.finish() {
-        if rows.len() == 1 || cols.len() == 1 {
-            // A star (one point on one side, every pair usable): one pair at most, the
-            // cheapest.
-            let key = |i: usize, j: usize| {
-                if infinite {
-                    clipped(i, j)
-                } else {
-                    weight(i, j)
-                }
-            };
-            let (mut best, mut best_key) = ((rows[0], cols[0]), f64::INFINITY);
-            for &i in &rows {
-                for &j in &cols {
-                    let k = key(i, j);
-                    if k < best_key {
-                        (best, best_key) = ((i, j), k);
-                    }
-                }
-            }
-            pairs.push(best);
-            if infinite {
-                bottleneck = Some(bottleneck.map_or(best_key, |b| b.max(best_key)));
-            }
-            continue;
-        }
-        if infinite {
-            let costs =
-                CostMatrix::from_fn(rows.len(), cols.len(), |r, k| clipped(rows[r], cols[k]))
-                    .map_err(|e| MetricError::in_component(e, n, m))?;
-            let matching = solve_bottleneck(&costs, c);
-            if let Some(d) = matching.bottleneck {
-                bottleneck = Some(bottleneck.map_or(d, |b| b.max(d)));
-            }
-            pairs.extend(matching.pairs.iter().map(|&(r, k)| (rows[r], cols[k])));
-        } else {
-            let weights =
-                CostMatrix::from_fn(rows.len(), cols.len(), |r, k| weight(rows[r], cols[k]))
-                    .map_err(|e| MetricError::in_component(e, n, m))?;
-            pairs.extend(
-                solve_partial(&weights)
-                    .into_iter()
-                    .map(|(r, k)| (rows[r], cols[k])),
-            );
-        }
-    }
+    // One slot per truth point: a star (one point on one side) takes its cheapest pair, every
+    // other component is solved densely.
+    let Solved {
+        mut pairs,
+        bottleneck,
+    } = solve_components(graph, |_| 1, key, infinite, c, (n, m))?;
     if infinite {
         pairs.sort_unstable();
         return Ok(infinite_result(n, m, c, pairs, bottleneck));

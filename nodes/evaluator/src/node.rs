@@ -34,7 +34,9 @@ use crate::etgospa::{etgospa, EtGospaParams, EtGospaResult, ExtendedTarget};
 use crate::gospa::{gospa, GospaResult};
 use crate::params::Params;
 use crate::point::Point2;
-use crate::representatives::{flatten, representatives_with, RepresentativeMode};
+use crate::representatives::{
+    flatten, representatives_with, ClusterRepresentatives, RepresentativeMode,
+};
 
 /// The evaluator's state between messages.
 #[derive(Debug)]
@@ -55,6 +57,25 @@ pub struct EvaluatorNode {
     cached: Option<Result<(GospaResult, EtGospaResult), String>>,
     /// `/slam/pose` messages for which no metrics were published (inputs too large to score).
     skipped_steps: u64,
+}
+
+/// The representatives of the clusters of a `/map/segments` message (`k` points per cluster for
+/// farthest-point sampling): the estimate set the evaluator scores and the viewer draws.
+///
+/// # Errors
+/// [`NodeError`] (invalid input on `/map/segments`) when the labels do not fit the points.
+pub fn segment_representatives(
+    segments: &Segments,
+    k: usize,
+    mode: RepresentativeMode,
+) -> Result<Vec<ClusterRepresentatives>, NodeError> {
+    let points: Vec<Point2> = segments
+        .points
+        .iter()
+        .map(|p| Point2::new(p.x, p.y))
+        .collect();
+    representatives_with(&points, &segments.labels, k, mode)
+        .map_err(|e| NodeError::invalid_input(SEGMENTS, e.to_string()))
 }
 
 /// Builds the evaluator node from validated parameters.
@@ -132,18 +153,11 @@ impl EvaluatorNode {
     }
 
     fn on_segments(&mut self, segments: &Segments) -> Result<(), NodeError> {
-        let points: Vec<Point2> = segments
-            .points
-            .iter()
-            .map(|p| Point2::new(p.x, p.y))
-            .collect();
-        let clusters = representatives_with(
-            &points,
-            &segments.labels,
+        let clusters = segment_representatives(
+            segments,
             self.params.points_per_estimate as usize,
             self.params.representatives,
-        )
-        .map_err(|e| NodeError::invalid_input(SEGMENTS, e.to_string()))?;
+        )?;
         self.estimated_targets = u32::try_from(clusters.len())
             .map_err(|_| NodeError::invalid_input(SEGMENTS, "more than u32::MAX clusters"))?;
         self.estimates = flatten(&clusters);

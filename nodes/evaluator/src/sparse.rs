@@ -13,6 +13,8 @@
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
 
+use crate::assignment::{solve_bottleneck, solve_partial, CostMatrix};
+use crate::error::MetricError;
 use crate::point::Point2;
 
 /// Cells are this much wider than the cut-off, so two points closer than the cut-off lie in the
@@ -358,6 +360,73 @@ impl Components {
         }
         parts
     }
+}
+
+/// Solves each component of `graph` (truth, estimates) exactly by the pairs' `key` (bottleneck
+/// cost for p = ∞, else weight), truth point or target i offering `slots(i)` slots (GOSPA: one).
+/// `sizes` (slots, estimates) of the whole problem name it in a size error.
+pub(crate) fn solve_components(
+    graph: Components,
+    slots: impl Fn(usize) -> usize,
+    key: impl Fn(usize, usize) -> f64,
+    infinite: bool,
+    c: f64,
+    sizes: (usize, usize),
+) -> Result<Solved, MetricError> {
+    let mut pairs: Vec<(usize, usize)> = Vec::new();
+    let mut bottleneck: Option<f64> = None;
+    for (tgts, cols) in graph.finish() {
+        if cols.len() == 1 || (tgts.len() == 1 && slots(tgts[0]) == 1) {
+            // A star (one estimate, or one target with one slot; every pair usable): one pair
+            // at most, the cheapest.
+            let (mut best, mut best_key) = ((tgts[0], cols[0]), f64::INFINITY);
+            for &i in &tgts {
+                for &j in &cols {
+                    let k = key(i, j);
+                    if k < best_key {
+                        (best, best_key) = ((i, j), k);
+                    }
+                }
+            }
+            pairs.push(best);
+            if infinite {
+                bottleneck = Some(bottleneck.map_or(best_key, |b| b.max(best_key)));
+            }
+            continue;
+        }
+        // One row per slot; a target never fills more slots than the component has estimates.
+        let slot_target: Vec<usize> = tgts
+            .iter()
+            .flat_map(|&i| std::iter::repeat_n(i, slots(i).min(cols.len())))
+            .collect();
+        let matrix = CostMatrix::from_fn(slot_target.len(), cols.len(), |r, k| {
+            key(slot_target[r], cols[k])
+        })
+        .map_err(|e| MetricError::in_component(e, sizes.0, sizes.1))?;
+        let component_pairs = if infinite {
+            let matching = solve_bottleneck(&matrix, c);
+            if let Some(d) = matching.bottleneck {
+                bottleneck = Some(bottleneck.map_or(d, |b| b.max(d)));
+            }
+            matching.pairs
+        } else {
+            solve_partial(&matrix)
+        };
+        pairs.extend(
+            component_pairs
+                .into_iter()
+                .map(|(r, k)| (slot_target[r], cols[k])),
+        );
+    }
+    Ok(Solved { pairs, bottleneck })
+}
+
+/// The components' solutions together.
+pub(crate) struct Solved {
+    /// (target, estimate) pairs, unsorted.
+    pub(crate) pairs: Vec<(usize, usize)>,
+    /// For p = ∞, the largest pair cost (`None` without a pair).
+    pub(crate) bottleneck: Option<f64>,
 }
 
 #[cfg(test)]

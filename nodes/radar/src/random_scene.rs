@@ -944,122 +944,35 @@ mod tests {
 
     #[test]
     fn bad_params_are_refused_by_name() {
-        let cases: Vec<(RandomSceneParams, &str)> = vec![
+        // Each case changes the defaults and names the field that must be refused.
+        type Change = fn(&mut RandomSceneParams);
+        let cases: [(Change, &str); 16] = [
+            (|p| p.hall_width_m = [60.0, 40.0], "hall_width_m"),
+            (|p| p.hall_height_m = [f64::NAN, 40.0], "hall_height_m[0]"),
+            (|p| p.wall_margin_m = [0.2, 5.0], "wall_margin_m[0]"),
+            (|p| p.wall_margin_m = [3.0, 30.0], "hall_width_m[0]"),
+            (|p| p.laps = [0, 2], "laps[0]"),
+            (|p| p.laps = [1, 4], "laps[1]"),
+            (|p| p.targets = [5, 3], "targets"),
+            (|p| p.circle_fraction = 1.5, "circle_fraction"),
             (
-                RandomSceneParams {
-                    hall_width_m: [60.0, 40.0],
-                    ..params()
-                },
-                "hall_width_m",
-            ),
-            (
-                RandomSceneParams {
-                    hall_height_m: [f64::NAN, 40.0],
-                    ..params()
-                },
-                "hall_height_m[0]",
-            ),
-            (
-                RandomSceneParams {
-                    wall_margin_m: [0.2, 5.0],
-                    ..params()
-                },
-                "wall_margin_m[0]",
-            ),
-            (
-                RandomSceneParams {
-                    wall_margin_m: [3.0, 30.0],
-                    ..params()
-                },
-                "hall_width_m[0]",
-            ),
-            (
-                RandomSceneParams {
-                    laps: [0, 2],
-                    ..params()
-                },
-                "laps[0]",
-            ),
-            (
-                RandomSceneParams {
-                    laps: [1, 4],
-                    ..params()
-                },
-                "laps[1]",
-            ),
-            (
-                RandomSceneParams {
-                    targets: [5, 3],
-                    ..params()
-                },
-                "targets",
-            ),
-            (
-                RandomSceneParams {
-                    circle_fraction: 1.5,
-                    ..params()
-                },
-                "circle_fraction",
-            ),
-            (
-                RandomSceneParams {
-                    rect_short_side_m: [3.0, 4.0],
-                    rect_long_side_m: [2.0, 8.0],
-                    ..params()
+                |p| {
+                    p.rect_short_side_m = [3.0, 4.0];
+                    p.rect_long_side_m = [2.0, 8.0];
                 },
                 "rect_short_side_m[0]",
             ),
-            (
-                RandomSceneParams {
-                    circle_radius_m: [0.0, 1.0],
-                    ..params()
-                },
-                "circle_radius_m[0]",
-            ),
-            (
-                RandomSceneParams {
-                    target_gap_m: -1.0,
-                    ..params()
-                },
-                "target_gap_m",
-            ),
-            (
-                RandomSceneParams {
-                    loop_margin_m: 0.0,
-                    ..params()
-                },
-                "loop_margin_m",
-            ),
-            (
-                RandomSceneParams {
-                    max_path_distance_m: 25.0,
-                    ..params()
-                },
-                "max_path_distance_m",
-            ),
-            (
-                RandomSceneParams {
-                    max_path_distance_m: 2.0,
-                    ..params()
-                },
-                "max_path_distance_m",
-            ),
-            (
-                RandomSceneParams {
-                    placement_attempts: 0,
-                    ..params()
-                },
-                "placement_attempts",
-            ),
-            (
-                RandomSceneParams {
-                    layout_attempts: 0,
-                    ..params()
-                },
-                "layout_attempts",
-            ),
+            (|p| p.circle_radius_m = [0.0, 1.0], "circle_radius_m[0]"),
+            (|p| p.target_gap_m = -1.0, "target_gap_m"),
+            (|p| p.loop_margin_m = 0.0, "loop_margin_m"),
+            (|p| p.max_path_distance_m = 25.0, "max_path_distance_m"),
+            (|p| p.max_path_distance_m = 2.0, "max_path_distance_m"),
+            (|p| p.placement_attempts = 0, "placement_attempts"),
+            (|p| p.layout_attempts = 0, "layout_attempts"),
         ];
-        for (p, field) in cases {
+        for (change, field) in cases {
+            let mut p = params();
+            change(&mut p);
             let error = p.validate().unwrap_err();
             assert_eq!(error.field, field, "{error}");
             assert!(!error.allowed.is_empty());

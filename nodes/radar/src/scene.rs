@@ -759,75 +759,47 @@ mod tests {
 
     #[test]
     fn validation_names_fields() {
-        assert_eq!(
-            invalid_field(&with(
-                r#"shape = "circle"
-center_m = [15.0, 15.0]
-radius_m = -1.0"#
-            )),
-            "targets[2].radius_m"
-        );
-        assert_eq!(
-            invalid_field(&with(
-                r#"shape = "rectangle"
-name = "flat"
-center_m = [15.0, 15.0]
-size_m = [0.0, 1.0]"#
-            )),
-            "targets[2] (flat).size_m[0]"
-        );
-        assert_eq!(
-            invalid_field(&with(
-                r#"shape = "circle"
-center_m = [15.0, 15.0]"#
-            )),
-            "targets[2].radius_m"
-        );
-        assert_eq!(
-            invalid_field(&with(
-                r#"shape = "circle"
-center_m = [15.0, 15.0]
-radius_m = 1.0
-yaw_deg = 3.0"#
-            )),
-            "targets[2].yaw_deg"
-        );
-        // Overlapping the box at (10, 10).
-        assert_eq!(
-            invalid_field(&with(
-                r#"shape = "circle"
-center_m = [12.5, 10.0]
-radius_m = 1.0"#
-            )),
-            "targets[2].center_m"
-        );
-        // Touching counts as overlapping.
-        assert_eq!(
-            invalid_field(&with(
-                r#"shape = "circle"
-center_m = [13.0, 10.0]
-radius_m = 1.0"#
-            )),
-            "targets[2].center_m"
-        );
-        // On the loop's bottom straight (y = 2).
-        assert_eq!(
-            invalid_field(&with(
-                r#"shape = "circle"
-center_m = [10.0, 2.5]
-radius_m = 1.0"#
-            )),
-            "trajectory"
-        );
-        // Outside the hall.
-        assert_eq!(
-            invalid_field(&with(
-                r#"shape = "circle"
-center_m = [19.5, 10.0]
-radius_m = 1.0"#
-            )),
-            "targets[2].center_m"
-        );
+        // An extra target and the field its validation error names.
+        for (target, field) in [
+            (
+                "shape = \"circle\"\ncenter_m = [15.0, 15.0]\nradius_m = -1.0",
+                "targets[2].radius_m",
+            ),
+            (
+                "shape = \"rectangle\"\nname = \"flat\"\ncenter_m = [15.0, 15.0]\nsize_m = [0.0, 1.0]",
+                "targets[2] (flat).size_m[0]",
+            ),
+            (
+                "shape = \"circle\"\ncenter_m = [15.0, 15.0]",
+                "targets[2].radius_m",
+            ),
+            (
+                "shape = \"circle\"\ncenter_m = [15.0, 15.0]\nradius_m = 1.0\nyaw_deg = 3.0",
+                "targets[2].yaw_deg",
+            ),
+            // Overlapping the box at (10, 10).
+            (
+                "shape = \"circle\"\ncenter_m = [12.5, 10.0]\nradius_m = 1.0",
+                "targets[2].center_m",
+            ),
+            // Touching counts as overlapping.
+            (
+                "shape = \"circle\"\ncenter_m = [13.0, 10.0]\nradius_m = 1.0",
+                "targets[2].center_m",
+            ),
+            // On the loop's bottom straight (y = 2).
+            (
+                "shape = \"circle\"\ncenter_m = [10.0, 2.5]\nradius_m = 1.0",
+                "trajectory",
+            ),
+            // Outside the hall.
+            (
+                "shape = \"circle\"\ncenter_m = [19.5, 10.0]\nradius_m = 1.0",
+                "targets[2].center_m",
+            ),
+        ] {
+            assert_eq!(invalid_field(&with(target)), field, "{target}");
+        }
         assert_eq!(
             invalid_field(&MINIMAL.replace("width_m = 20.0", "width_m = 0.0")),
             "hall.width_m"

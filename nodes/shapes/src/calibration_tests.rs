@@ -197,71 +197,59 @@ fn full_circle(rng: &mut ChaCha8Rng, sigma: f64) -> Case {
 
 const TRIALS: usize = 300;
 
-fn check(stats: &Stats, min_iou: f64) {
-    assert_eq!(stats.failures, 0, "{stats:?}");
-    assert!(stats.kind_rate >= 0.9, "{stats:?}");
-    assert!(stats.iou >= min_iou, "{stats:?}");
-    assert!((1.0..=4.0).contains(&stats.nees), "{stats:?}");
+/// Runs `case` at both (seed, σ) settings and checks each is calibrated: no failure, the kind
+/// right 90 % of the time, IoU at least `min_iou`, NEES between 1 and 4.
+fn check_calibrated(
+    name: &str,
+    settings: [(u64, f64); 2],
+    case: impl Fn(&mut ChaCha8Rng, f64) -> Case + Copy,
+    min_iou: f64,
+) {
+    for (seed, sigma) in settings {
+        let stats = run(name, seed, TRIALS, sigma, case);
+        assert_eq!(stats.failures, 0, "{stats:?}");
+        assert!(stats.kind_rate >= 0.9, "{stats:?}");
+        assert!(stats.iou >= min_iou, "{stats:?}");
+        assert!((1.0..=4.0).contains(&stats.nees), "{stats:?}");
+    }
 }
 
 #[test]
 fn full_rectangle_is_calibrated() {
-    let all: Vec<Stats> = [(1, 0.05), (2, 0.15)]
-        .into_iter()
-        .map(|(seed, sigma)| run("full rectangle", seed, TRIALS, sigma, full_rectangle))
-        .collect();
-    all.iter().for_each(|s| check(s, 0.8));
+    check_calibrated(
+        "full rectangle",
+        [(1, 0.05), (2, 0.15)],
+        full_rectangle,
+        0.8,
+    );
 }
 
 #[test]
 fn axis_parallel_rectangle_is_calibrated() {
-    let all: Vec<Stats> = [(11, 0.02), (12, 0.05)]
-        .into_iter()
-        .map(|(seed, sigma)| {
-            run(
-                "axis-parallel rectangle",
-                seed,
-                TRIALS,
-                sigma,
-                axis_parallel_rectangle,
-            )
-        })
-        .collect();
-    all.iter().for_each(|s| check(s, 0.8));
+    check_calibrated(
+        "axis-parallel rectangle",
+        [(11, 0.02), (12, 0.05)],
+        axis_parallel_rectangle,
+        0.8,
+    );
 }
 
 #[test]
 fn l_view_is_calibrated() {
-    let all: Vec<Stats> = [(3, 0.05), (4, 0.15)]
-        .into_iter()
-        .map(|(seed, sigma)| run("L view", seed, TRIALS, sigma, l_view))
-        .collect();
-    all.iter().for_each(|s| check(s, 0.75));
+    check_calibrated("L view", [(3, 0.05), (4, 0.15)], l_view, 0.75);
 }
 
 #[test]
 fn one_side_with_depth_prior_is_calibrated() {
-    let all: Vec<Stats> = [(5, 0.05), (6, 0.15)]
-        .into_iter()
-        .map(|(seed, sigma)| run("one side", seed, TRIALS, sigma, one_side))
-        .collect();
-    all.iter().for_each(|s| check(s, 0.5));
+    check_calibrated("one side", [(5, 0.05), (6, 0.15)], one_side, 0.5);
 }
 
 #[test]
 fn circle_arc_is_calibrated() {
-    let all: Vec<Stats> = [(7, 0.05), (8, 0.15)]
-        .into_iter()
-        .map(|(seed, sigma)| run("circle arc", seed, TRIALS, sigma, circle_arc))
-        .collect();
-    all.iter().for_each(|s| check(s, 0.7));
+    check_calibrated("circle arc", [(7, 0.05), (8, 0.15)], circle_arc, 0.7);
 }
 
 #[test]
 fn full_circle_is_calibrated() {
-    let all: Vec<Stats> = [(9, 0.05), (10, 0.15)]
-        .into_iter()
-        .map(|(seed, sigma)| run("full circle", seed, TRIALS, sigma, full_circle))
-        .collect();
-    all.iter().for_each(|s| check(s, 0.85));
+    check_calibrated("full circle", [(9, 0.05), (10, 0.15)], full_circle, 0.85);
 }

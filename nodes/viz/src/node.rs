@@ -15,7 +15,7 @@
 
 use std::collections::VecDeque;
 
-use nrslam_evaluator::{representatives_with, Point2};
+use nrslam_evaluator::segment_representatives;
 use nrslam_msgs::topics::{
     CLUSTER_MARKERS, DETECTIONS, DETECTIONS_CLOUD, GROUND_TRUTH_MARKERS, GROUND_TRUTH_PATH,
     GROUND_TRUTH_POSE, GROUND_TRUTH_TARGETS, ODOM, SEGMENTS, SLAM_PATH, SLAM_POSE, TF, TF_STATIC,
@@ -135,18 +135,11 @@ impl VizNode {
     }
 
     fn on_segments(&self, segments: &Segments, outbox: &mut Outbox) -> Result<(), NodeError> {
-        let points: Vec<Point2> = segments
-            .points
-            .iter()
-            .map(|p| Point2::new(p.x, p.y))
-            .collect();
-        let clusters = representatives_with(
-            &points,
-            &segments.labels,
+        let clusters = segment_representatives(
+            segments,
             self.params.points_per_estimate as usize,
             self.params.representatives,
-        )
-        .map_err(|e| NodeError::invalid_input(SEGMENTS, e.to_string()))?;
+        )?;
         outbox.publish(
             CLUSTER_MARKERS,
             draw::cluster_markers(
