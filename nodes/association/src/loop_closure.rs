@@ -213,8 +213,7 @@ pub fn match_loop(
     );
     let score = best.mean_value;
     let best = best.pose;
-    // Ambiguity needs only the search: checked before the refinement, which costs more than the
-    // search itself and cannot change it.
+    // Ambiguity needs only the search: checked before the costlier refinement.
     if runner_up > loop_params.max_ambiguity * score {
         return Err(LoopRejection::Ambiguous { score, runner_up });
     }
