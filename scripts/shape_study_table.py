@@ -19,29 +19,11 @@ Per condition and back end (SLAM, or the true-pose oracle on the same seeds):
 import collections
 import glob
 import json
-import math
 import os
 import sys
 
-LABELS = {
-    "a1": "ΔR 0, Δθ 1°",
-    "r01a1": "ΔR 0.1 m, Δθ 1°",
-    "a5": "ΔR 0, Δθ 5°",
-    "r01a5": "ΔR 0.1 m, Δθ 5°",
-    "5g": "5G (paper chain, no refinement)",
-    "5gi": "5G with interpolation",
-}
-
-
-def mean_se(values):
-    n = len(values)
-    if n == 0:
-        return float("nan"), float("nan")
-    m = sum(values) / n
-    if n < 2:
-        return m, float("nan")
-    sd = math.sqrt(sum((v - m) ** 2 for v in values) / (n - 1))
-    return m, sd / math.sqrt(n)
+# The conditions and the mean ± standard error are the SLAM study's (same runs, same labels).
+from slam_study_table import LABELS, mean_se
 
 
 def pooled(runs, key):
