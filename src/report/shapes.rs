@@ -10,7 +10,9 @@
 
 use super::Reporter;
 use anyhow::{Context, Result};
-use nrslam_evaluator::{etgospa, representatives_with, ExtendedTarget, Point2, RepresentativeMode};
+use nrslam_evaluator::{
+    etgospa, extended_targets, segment_representatives, shape_samples, RepresentativeMode,
+};
 use nrslam_shapes::node::{shape_from_message, truth_from_target};
 use serde::Serialize;
 
@@ -222,38 +224,14 @@ impl Reporter {
     /// (`Some(mode)`) or the samples of the last shapes (`None`), with the run's evaluator
     /// parameters; `None` if either input is missing or cannot be scored.
     fn final_etgospa(&self, mode: Option<RepresentativeMode>) -> Option<f64> {
-        let planar = |points: &[nrslam_msgs::Point]| -> Vec<Point2> {
-            points.iter().map(|p| Point2::new(p.x, p.y)).collect()
-        };
-        let targets: Vec<ExtendedTarget> = self
-            .targets
-            .as_ref()?
-            .targets
-            .iter()
-            .map(|t| {
-                ExtendedTarget::from_samples(planar(&t.samples)).with_outline(planar(&t.outline))
-            })
-            .collect();
-        let estimates: Vec<Point2> = match mode {
+        let targets = extended_targets(self.targets.as_ref()?);
+        let estimates = match mode {
             Some(mode) => {
-                let segments = self.segments.as_ref()?;
-                let points = planar(&segments.points);
-                let clusters = representatives_with(
-                    &points,
-                    &segments.labels,
-                    self.evaluator.points_per_estimate as usize,
-                    mode,
-                )
-                .ok()?;
+                let k = self.evaluator.points_per_estimate as usize;
+                let clusters = segment_representatives(self.segments.as_ref()?, k, mode).ok()?;
                 nrslam_evaluator::flatten(&clusters)
             }
-            None => self
-                .map_targets
-                .as_ref()?
-                .targets
-                .iter()
-                .flat_map(|t| planar(&t.samples))
-                .collect(),
+            None => shape_samples(self.map_targets.as_ref()?),
         };
         etgospa(&targets, &estimates, &self.evaluator.metric_params())
             .ok()

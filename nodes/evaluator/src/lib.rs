@@ -55,7 +55,7 @@ pub use etgospa::{
     ExtendedTarget,
 };
 pub use gospa::{gospa, gospa_dense, gospa_sparse, GospaParams, GospaResult};
-pub use node::{build, segment_representatives, EvaluatorNode};
+pub use node::{build, extended_targets, segment_representatives, shape_samples, EvaluatorNode};
 pub use params::Params;
 pub use point::{distance_to_outline_m, Point2};
 pub use representatives::{

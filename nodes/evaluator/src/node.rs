@@ -69,13 +69,31 @@ pub fn segment_representatives(
     k: usize,
     mode: RepresentativeMode,
 ) -> Result<Vec<ClusterRepresentatives>, NodeError> {
-    let points: Vec<Point2> = segments
-        .points
-        .iter()
-        .map(|p| Point2::new(p.x, p.y))
-        .collect();
-    representatives_with(&points, &segments.labels, k, mode)
+    representatives_with(&planar(&segments.points), &segments.labels, k, mode)
         .map_err(|e| NodeError::invalid_input(SEGMENTS, e.to_string()))
+}
+
+/// The true targets of a `/ground_truth/targets` message as the metric takes them: each its
+/// sample points (the slots) and its outline.
+pub fn extended_targets(set: &TargetSet) -> Vec<ExtendedTarget> {
+    set.targets
+        .iter()
+        .map(|t| ExtendedTarget::from_samples(planar(&t.samples)).with_outline(planar(&t.outline)))
+        .collect()
+}
+
+/// The sample points of every fitted shape of a `/map/targets` message, in message order: the
+/// estimate set with `representatives = "shape"`.
+pub fn shape_samples(shapes: &MapTargets) -> Vec<Point2> {
+    shapes
+        .targets
+        .iter()
+        .flat_map(|t| planar(&t.samples))
+        .collect()
+}
+
+fn planar(points: &[nrslam_msgs::Point]) -> Vec<Point2> {
+    points.iter().map(|p| Point2::new(p.x, p.y)).collect()
 }
 
 /// Builds the evaluator node from validated parameters.
@@ -129,16 +147,7 @@ impl EvaluatorNode {
     }
 
     fn on_targets(&mut self, set: &TargetSet) -> Result<(), NodeError> {
-        let planar = |points: &[nrslam_msgs::Point]| -> Vec<Point2> {
-            points.iter().map(|p| Point2::new(p.x, p.y)).collect()
-        };
-        let targets: Vec<ExtendedTarget> = set
-            .targets
-            .iter()
-            .map(|t| {
-                ExtendedTarget::from_samples(planar(&t.samples)).with_outline(planar(&t.outline))
-            })
-            .collect();
+        let targets = extended_targets(set);
         // Score nothing once now so bad targets (NaN, missing outline) are reported on the topic
         // that carried them, not later on /slam/pose.
         etgospa(&targets, &[], &self.metric)
@@ -169,11 +178,7 @@ impl EvaluatorNode {
     fn on_map_targets(&mut self, shapes: &MapTargets) -> Result<(), NodeError> {
         self.estimated_targets = u32::try_from(shapes.targets.len())
             .map_err(|_| NodeError::invalid_input(MAP_TARGETS, "more than u32::MAX targets"))?;
-        self.estimates = shapes
-            .targets
-            .iter()
-            .flat_map(|t| t.samples.iter().map(|p| Point2::new(p.x, p.y)))
-            .collect();
+        self.estimates = shape_samples(shapes);
         self.cached = None;
         Ok(())
     }
