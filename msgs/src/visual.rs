@@ -181,6 +181,75 @@ impl Marker {
     pub const DELETE: i32 = 2;
     /// `action`: delete every marker (of the namespace, if `ns` is set, in newer viewers).
     pub const DELETEALL: i32 = 3;
+
+    /// A marker of `marker_type` to add (or replace) under (`ns`, `id`), drawn in
+    /// `header.frame_id` with the identity pose.
+    pub fn added(header: Header, ns: &str, id: i32, marker_type: i32) -> Self {
+        Marker {
+            header,
+            ns: ns.to_owned(),
+            id,
+            marker_type,
+            action: Marker::ADD,
+            pose: Pose::default(),
+            ..Marker::default()
+        }
+    }
+
+    /// Clears what earlier arrays drew, so that things that merged or vanished disappear.
+    pub fn delete_all(header: Header) -> Self {
+        Marker {
+            action: Marker::DELETEALL,
+            ..Marker::added(header, "", 0, Marker::ARROW)
+        }
+    }
+
+    /// A closed line through `outline` (its first point repeated at the end), `width_m` wide.
+    pub fn closed_line(
+        header: Header,
+        (ns, id): (&str, i32),
+        outline: &[Point],
+        width_m: f64,
+        color: ColorRGBA,
+    ) -> Self {
+        let mut points = outline.to_vec();
+        points.extend(outline.first().copied());
+        Marker {
+            scale: Vector3 {
+                x: width_m,
+                y: 0.0,
+                z: 0.0,
+            },
+            color,
+            points,
+            ..Marker::added(header, ns, id, Marker::LINE_STRIP)
+        }
+    }
+
+    /// A sphere of diameter `size_m` at each of `points`.
+    pub fn spheres(
+        header: Header,
+        (ns, id): (&str, i32),
+        points: &[Point],
+        size_m: f64,
+        color: ColorRGBA,
+    ) -> Self {
+        Marker {
+            scale: Vector3 {
+                x: size_m,
+                y: size_m,
+                z: size_m,
+            },
+            color,
+            points: points.to_vec(),
+            ..Marker::added(header, ns, id, Marker::SPHERE_LIST)
+        }
+    }
+
+    /// A marker id for an id of the graph's messages (`u32`), saturating at `i32::MAX`.
+    pub fn id_of(value: u32) -> i32 {
+        i32::try_from(value).unwrap_or(i32::MAX)
+    }
 }
 
 /// `visualization_msgs/msg/MarkerArray`.

@@ -11,7 +11,7 @@
 use nrslam_msgs::topics::{KEYFRAME_POSES, MAP_TARGETS, MAP_TARGET_MARKERS, SEGMENTS};
 use nrslam_msgs::{
     ColorRGBA, Header, KeyframePoses, MapTarget, MapTargets, Marker, MarkerArray, Message, Point,
-    Pose, Segments, Time, Vector3,
+    Segments, Time,
 };
 use nrslam_runtime::{Node, NodeContext, NodeError, NodeResult, Outbox};
 use std::collections::BTreeMap;
@@ -182,60 +182,31 @@ pub fn truth_from_target(target: &nrslam_msgs::Target) -> Option<TruthShape> {
     }
 }
 
-fn marker(stamp: Time, ns: &str, id: u32, marker_type: i32, color: ColorRGBA) -> Marker {
-    Marker {
-        header: Header::new(stamp, MAP_FRAME),
-        ns: ns.to_owned(),
-        id: i32::try_from(id).unwrap_or(i32::MAX),
-        marker_type,
-        action: Marker::ADD,
-        pose: Pose::default(),
-        color,
-        ..Marker::default()
-    }
-}
-
 /// The fitted shapes for viewers: orange rectangles, blue circles.
 pub fn markers(targets: &MapTargets, stamp: Time) -> MarkerArray {
-    let mut out = vec![Marker {
-        action: Marker::DELETEALL,
-        ..marker(stamp, "", 0, Marker::ARROW, ColorRGBA::default())
-    }];
+    let header = Header::new(stamp, MAP_FRAME);
+    let mut out = vec![Marker::delete_all(header.clone())];
     for target in &targets.targets {
         let (r, g, b) = if target.shape == "circle" {
             (0.2, 0.4, 1.0)
         } else {
             (1.0, 0.5, 0.0)
         };
-        let mut outline = marker(
-            stamp,
-            "shapes",
-            target.id,
-            Marker::LINE_STRIP,
+        let id = Marker::id_of(target.id);
+        out.push(Marker::closed_line(
+            header.clone(),
+            ("shapes", id),
+            &target.outline,
+            LINE_WIDTH_M,
             ColorRGBA { r, g, b, a: 1.0 },
-        );
-        outline.scale = Vector3 {
-            x: LINE_WIDTH_M,
-            y: 0.0,
-            z: 0.0,
-        };
-        outline.points = target.outline.clone();
-        outline.points.extend(target.outline.first().copied());
-        out.push(outline);
-        let mut samples = marker(
-            stamp,
-            "shape_samples",
-            target.id,
-            Marker::SPHERE_LIST,
+        ));
+        out.push(Marker::spheres(
+            header.clone(),
+            ("shape_samples", id),
+            &target.samples,
+            SAMPLE_SIZE_M,
             ColorRGBA { r, g, b, a: 0.7 },
-        );
-        samples.scale = Vector3 {
-            x: SAMPLE_SIZE_M,
-            y: SAMPLE_SIZE_M,
-            z: SAMPLE_SIZE_M,
-        };
-        samples.points = target.samples.clone();
-        out.push(samples);
+        ));
     }
     MarkerArray { markers: out }
 }

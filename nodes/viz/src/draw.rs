@@ -6,8 +6,8 @@
 
 use nrslam_evaluator::ClusterRepresentatives;
 use nrslam_msgs::{
-    ColorRGBA, Detections, Header, Marker, MarkerArray, Point, PointCloud2, PointField, Pose,
-    Segments, TargetSet, Time, Transform, TransformStamped, Vector3,
+    ColorRGBA, Detections, Header, Marker, MarkerArray, Point, PointCloud2, PointField, Segments,
+    TargetSet, Time, Transform, TransformStamped, Vector3,
 };
 
 /// The fixed frame.
@@ -107,58 +107,36 @@ fn scale(x: f64, y: f64, z: f64) -> Vector3 {
 }
 
 fn marker(stamp: Time, ns: &str, id: i32, marker_type: i32) -> Marker {
-    Marker {
-        header: Header::new(stamp, MAP_FRAME),
-        ns: ns.to_owned(),
-        id,
-        marker_type,
-        action: Marker::ADD,
-        pose: Pose::default(),
-        ..Marker::default()
-    }
-}
-
-/// Clears what an earlier array drew, so that clusters that merged or vanished disappear.
-fn delete_all(stamp: Time) -> Marker {
-    Marker {
-        action: Marker::DELETEALL,
-        ..marker(stamp, "", 0, Marker::ARROW)
-    }
-}
-
-fn id(value: u32) -> i32 {
-    i32::try_from(value).unwrap_or(i32::MAX)
+    Marker::added(Header::new(stamp, MAP_FRAME), ns, id, marker_type)
 }
 
 /// The true targets: each outline as a closed line (ns `targets`, id = target id) and its
 /// ET-GOPSA sample points as spheres (ns `target_samples`).
 pub fn target_markers(targets: &TargetSet, line_width_m: f64, point_size_m: f64) -> MarkerArray {
-    let stamp = targets.header.stamp;
-    let mut markers = vec![delete_all(stamp)];
+    let header = Header::new(targets.header.stamp, MAP_FRAME);
+    let green = |a| ColorRGBA {
+        r: 0.1,
+        g: 0.8,
+        b: 0.1,
+        a,
+    };
+    let mut markers = vec![Marker::delete_all(header.clone())];
     for target in &targets.targets {
-        let mut outline = marker(stamp, "targets", id(target.id), Marker::LINE_STRIP);
-        outline.scale = scale(line_width_m, 0.0, 0.0);
-        outline.color = ColorRGBA {
-            r: 0.1,
-            g: 0.8,
-            b: 0.1,
-            a: 1.0,
-        };
-        outline.points = target.outline.clone();
-        if let Some(&first) = target.outline.first() {
-            outline.points.push(first);
-        }
-        markers.push(outline);
-        let mut samples = marker(stamp, "target_samples", id(target.id), Marker::SPHERE_LIST);
-        samples.scale = scale(point_size_m, point_size_m, point_size_m);
-        samples.color = ColorRGBA {
-            r: 0.1,
-            g: 0.8,
-            b: 0.1,
-            a: 0.6,
-        };
-        samples.points = target.samples.clone();
-        markers.push(samples);
+        let id = Marker::id_of(target.id);
+        markers.push(Marker::closed_line(
+            header.clone(),
+            ("targets", id),
+            &target.outline,
+            line_width_m,
+            green(1.0),
+        ));
+        markers.push(Marker::spheres(
+            header.clone(),
+            ("target_samples", id),
+            &target.samples,
+            point_size_m,
+            green(0.6),
+        ));
     }
     MarkerArray { markers }
 }
@@ -173,7 +151,7 @@ pub fn cluster_markers(
     point_size_m: f64,
 ) -> MarkerArray {
     let stamp = segments.header.stamp;
-    let mut markers = vec![delete_all(stamp)];
+    let mut markers = vec![Marker::delete_all(Header::new(stamp, MAP_FRAME))];
     let mut noise = marker(stamp, "noise", 0, Marker::CUBE_LIST);
     noise.scale = scale(cell_size_m, cell_size_m, cell_size_m);
     noise.color = ColorRGBA {
