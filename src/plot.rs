@@ -353,24 +353,15 @@ pub fn shapes_png(path: &Path, report: &Reporter) -> Result<()> {
 /// closed 48-gon; a single point when the covariance is missing or not positive semi-definite.
 fn centre_ellipse_2sigma(shape: &nrslam_msgs::MapTarget) -> Vec<(f64, f64)> {
     let centre = (shape.center_x_m, shape.center_y_m);
-    let n = match shape.covariance.len() {
-        25 => 5,
-        9 => 3,
-        _ => return vec![centre],
+    let Some(fitted) = nrslam_shapes::node::shape_from_message(shape) else {
+        return vec![centre];
     };
-    let (a, b, d) = (
-        shape.covariance[0],
-        shape.covariance[1],
-        shape.covariance[n + 1],
-    );
-    // Eigen-decomposition of [[a, b], [b, d]].
-    let mean = 0.5 * (a + d);
-    let spread = (0.25 * (a - d).powi(2) + b * b).sqrt();
-    let (major, minor) = (mean + spread, mean - spread);
+    let (major, minor, axis) =
+        nrslam_association::loop_closure::symmetric_eigen_2x2(&fitted.center_covariance());
     if !(minor >= 0.0 && major.is_finite()) {
         return vec![centre];
     }
-    let angle = 0.5 * (2.0 * b).atan2(a - d);
+    let angle = axis[1].atan2(axis[0]);
     let (sin, cos) = angle.sin_cos();
     (0..=48)
         .map(|k| {
