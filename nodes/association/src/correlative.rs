@@ -448,6 +448,16 @@ pub struct Exclusion {
     pub radius_m: f64,
 }
 
+impl Exclusion {
+    /// The motions closer than `distance_m` to `best`'s position.
+    pub fn around(best: &Match, distance_m: f64) -> Self {
+        Exclusion {
+            center_m: [best.pose.x_m, best.pose.y_m],
+            radius_m: distance_m,
+        }
+    }
+}
+
 /// Options of [`search_with`] beyond the window.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SearchOptions {
@@ -542,26 +552,26 @@ pub fn search_with(
     Ok(lattice.branch_and_bound(grids)?.0)
 }
 
-/// The best motion at least `distance_m` (in position) from `best`, found by [`search_with`]
-/// with that disc excluded and no minimum score: the runner-up whose score, against the best's,
-/// says how distinct the best peak is. `Ok(None)` when the window holds no such motion.
+/// The best motion outside `away` (a disc around the best motion, see [`Exclusion::around`]) with
+/// a score of at least `min_score`, found by [`search_with`] with that disc excluded: the
+/// runner-up whose score, against the best's, says how distinct the best peak is. `Ok(None)` when
+/// the window holds no such motion. A caller that only asks "is the runner-up above a fraction
+/// of the best?" passes that fraction of the best's score as `min_score`, and branch and bound
+/// prunes all the rest.
 pub fn runner_up(
     grids: &MultiResolutionGrid,
     scan_points_m: &[[f64; 2]],
     initial: Pose2,
     window: &SearchWindow,
     options: &SearchOptions,
-    best: &Match,
-    distance_m: f64,
+    away: Exclusion,
+    min_score: f64,
 ) -> Result<Option<Match>, CorrelativeError> {
     let options = SearchOptions {
-        exclude: Some(Exclusion {
-            center_m: [best.pose.x_m, best.pose.y_m],
-            radius_m: distance_m,
-        }),
+        exclude: Some(away),
         ..*options
     };
-    search_with(grids, scan_points_m, initial, window, &options, 0.0)
+    search_with(grids, scan_points_m, initial, window, &options, min_score)
 }
 
 /// The same search as [`search_with`], scoring every motion of the lattice in turn: the
@@ -1211,9 +1221,33 @@ mod tests {
             let best = search_with(&grids, query, initial, &window, &options, 0.0)
                 .unwrap()
                 .unwrap();
-            let second = runner_up(&grids, query, initial, &window, &options, &best, 2.0)
+            let second = runner_up(
+                &grids,
+                query,
+                initial,
+                &window,
+                &options,
+                Exclusion::around(&best, 2.0),
+                0.0,
+            )
+            .unwrap()
+            .unwrap();
+            // Asked only for a runner-up above its own score, the search finds the same one,
+            // and just above it, none.
+            let above = |min_score| {
+                runner_up(
+                    &grids,
+                    query,
+                    initial,
+                    &window,
+                    &options,
+                    Exclusion::around(&best, 2.0),
+                    min_score,
+                )
                 .unwrap()
-                .unwrap();
+            };
+            assert_eq!(above(second.score), Some(second));
+            assert_eq!(above(second.score * (1.0 + 1e-9) + 1e-12), None);
             assert!(second.pose.distance_m(&best.pose) >= 2.0);
             let exclude = Exclusion {
                 center_m: [best.pose.x_m, best.pose.y_m],

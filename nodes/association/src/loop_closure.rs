@@ -34,8 +34,8 @@
 //! ties between equal scores by the smallest (rotation, x, y) step.
 
 use crate::correlative::{
-    runner_up, search_with, suggested_depth, Kernel, MultiResolutionGrid, ProbabilityGrid,
-    SearchOptions, SearchWindow,
+    runner_up, search_with, suggested_depth, Exclusion, Kernel, MultiResolutionGrid,
+    ProbabilityGrid, SearchOptions, SearchWindow,
 };
 use crate::icp::{align, IcpStatus, PointMap};
 use crate::params::{LoopClosureParams, Params};
@@ -59,7 +59,8 @@ pub struct LoopMatch {
     /// points on hit cells).
     pub score: f64,
     /// Best score at least `ambiguity_distance_m` away from the best motion, in the same units
-    /// (`score` times the ratio of the two motions' prior-weighted scores).
+    /// (`score` times the ratio of the two motions' prior-weighted scores); 0 when none reaches
+    /// `max_ambiguity` of the best (the search looks no further).
     pub runner_up: f64,
     /// Point-to-line information per inlier pair over (x m, y m, yaw rad), translation in the
     /// candidate's frame, heading about the query keyframe: what the match pins down, direction
@@ -101,15 +102,19 @@ pub enum LoopRejection {
 }
 
 /// The best score at least `distance_m` from `best`'s motion, in `best`'s units: a mean grid value
-/// scaled by the prior as `best.mean_value` is (0 when nothing else scores).
+/// scaled by the prior as `best.mean_value` is. Only a runner-up scoring at least `ambiguity` of
+/// the best is looked for (that is all the verifier asks, and branch and bound prunes the rest):
+/// 0 when none does.
 fn runner_up_mean_value(
     grids: &MultiResolutionGrid,
     sample: &[[f64; 2]],
     (predicted, window, options): (Pose2, &SearchWindow, &SearchOptions),
     best: &crate::correlative::Match,
-    distance_m: f64,
+    (distance_m, ambiguity): (f64, f64),
 ) -> f64 {
-    let runner = runner_up(grids, sample, predicted, window, options, best, distance_m)
+    let min_score = ambiguity * best.score;
+    let away = Exclusion::around(best, distance_m);
+    let runner = runner_up(grids, sample, predicted, window, options, away, min_score)
         .ok()
         .flatten()
         .map_or(0.0, |m| m.score);
@@ -209,7 +214,7 @@ pub fn match_loop(
         &sample,
         (predicted, &window, &options),
         &best,
-        loop_params.ambiguity_distance_m,
+        (loop_params.ambiguity_distance_m, loop_params.max_ambiguity),
     );
     let score = best.mean_value;
     let best = best.pose;
@@ -242,7 +247,24 @@ pub fn match_loop(
     if !matches!(icp.status, IcpStatus::Converged | IcpStatus::MaxIterations) {
         return Err(LoopRejection::IcpFailed);
     }
-    let relative = icp.pose;
+    // The refinement's gate is wide enough to pull a lap's drift in, and then lets points that
+    // belong to other surfaces pull at the pose; a second pass within the verifier's own inlier
+    // distance ends where the inliers agree.
+    let fine = Params {
+        max_correspondence_m: loop_params
+            .inlier_distance_m
+            .min(refine.max_correspondence_m),
+        ..refine.clone()
+    };
+    let fine_icp = align(&map, &query_m, icp.pose, &fine);
+    let relative = if matches!(
+        fine_icp.status,
+        IcpStatus::Converged | IcpStatus::MaxIterations
+    ) {
+        fine_icp.pose
+    } else {
+        icp.pose
+    };
     if steps_t > 0 && steps_r > 0 && outside(&relative) {
         return Err(LoopRejection::AtSearchEdge);
     }
