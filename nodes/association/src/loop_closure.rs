@@ -125,16 +125,17 @@ fn runner_up_mean_value(
     }
 }
 
-/// (inliers, overlapping): query points within `inlier_distance_m` of the map after `relative`,
-/// and those within `overlap_distance_m` (every point when it is 0).
+/// (inliers, overlapping): query points within `inlier_distance_m` + `slack_m` of the map after
+/// `relative`, and those within `overlap_distance_m` + `slack_m` (every point when it is 0).
 fn inliers_and_overlap(
     map: &PointMap,
     query_m: &[[f64; 2]],
     relative: &Pose2,
     loop_params: &LoopClosureParams,
+    slack_m: f64,
 ) -> (usize, usize) {
-    let inlier_m2 = loop_params.inlier_distance_m * loop_params.inlier_distance_m;
-    let overlap_m2 = loop_params.overlap_distance_m * loop_params.overlap_distance_m;
+    let inlier_m2 = (loop_params.inlier_distance_m + slack_m).powi(2);
+    let overlap_m2 = (loop_params.overlap_distance_m + slack_m).powi(2);
     let (mut inliers, mut overlapping) = (0usize, 0usize);
     for p in query_m {
         let d2 = map
@@ -243,6 +244,16 @@ pub fn match_loop(
     };
     let mut map = PointMap::for_params(&refine);
     map.extend(&submap_m);
+    // Refinement moves the search's best motion by about a lattice step: a candidate whose inlier
+    // ratio falls short even with two steps of slack cannot pass after it, and is refused before
+    // the ICP (which on such a candidate creeps through all its iterations).
+    let (inliers, overlapping) =
+        inliers_and_overlap(&map, &sample, &best, loop_params, 2.0 * step_m);
+    if (inliers as f64) < loop_params.min_inlier_ratio * overlapping as f64 {
+        return Err(LoopRejection::LowInlierRatio(
+            inliers as f64 / overlapping.max(1) as f64,
+        ));
+    }
     let icp = align(&map, &query_m, best, &refine);
     if !matches!(icp.status, IcpStatus::Converged | IcpStatus::MaxIterations) {
         return Err(LoopRejection::IcpFailed);
@@ -269,7 +280,7 @@ pub fn match_loop(
         return Err(LoopRejection::AtSearchEdge);
     }
     let inlier_m2 = loop_params.inlier_distance_m * loop_params.inlier_distance_m;
-    let (inliers, overlapping) = inliers_and_overlap(&map, &query_m, &relative, loop_params);
+    let (inliers, overlapping) = inliers_and_overlap(&map, &query_m, &relative, loop_params, 0.0);
     if (overlapping as f64) < loop_params.min_overlap_ratio * query_m.len() as f64
         || overlapping < min_points
     {
