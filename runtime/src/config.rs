@@ -82,3 +82,30 @@ pub fn parse_params<P: DeserializeOwned>(table: toml::Table) -> Result<P, Params
     P::deserialize(toml::Value::Table(table))
         .map_err(|e| ParamsError::Parse(e.to_string().trim().to_owned()))
 }
+
+/// The table of a "validate names the bad field" test: `P::default()` with one field set to each
+/// of the listed bad values, paired with that field's name, in the order written. The name comes
+/// from the field itself, so a case cannot be filed under the wrong field.
+///
+/// ```
+/// #[derive(Default)]
+/// struct Params { eps_m: f64, min_samples: usize }
+/// let cases = nrslam_runtime::one_bad_field!(Params {
+///     eps_m: [0.0, f64::NAN],
+///     min_samples: [0],
+/// });
+/// let names: Vec<&str> = cases.iter().map(|(_, field)| *field).collect();
+/// assert_eq!(names, ["eps_m", "eps_m", "min_samples"]);
+/// assert!(cases[1].0.eps_m.is_nan() && cases[1].0.min_samples == 0);
+/// ```
+#[macro_export]
+macro_rules! one_bad_field {
+    ($params:ident { $($field:ident: [$($value:expr),+ $(,)?]),+ $(,)? }) => {
+        vec![$($(
+            (
+                $params { $field: $value, ..<$params as Default>::default() },
+                stringify!($field),
+            ),
+        )+)+]
+    };
+}

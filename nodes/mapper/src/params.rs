@@ -260,100 +260,17 @@ mod tests {
 
     #[test]
     fn each_bad_field_is_named() {
-        let d = Params::default;
-        let cases = [
-            (
-                Params {
-                    resolution_m: 0.0,
-                    ..d()
-                },
-                "resolution_m",
-            ),
-            (
-                Params {
-                    resolution_m: 1e-4,
-                    ..d()
-                },
-                "resolution_m",
-            ),
-            (
-                Params {
-                    width_m: -1.0,
-                    ..d()
-                },
-                "width_m",
-            ),
-            (
-                Params {
-                    height_m: f64::INFINITY,
-                    ..d()
-                },
-                "height_m",
-            ),
-            (
-                Params {
-                    origin_x_m: f64::NAN,
-                    ..d()
-                },
-                "origin_x_m",
-            ),
-            (
-                Params {
-                    origin_y_m: f64::NEG_INFINITY,
-                    ..d()
-                },
-                "origin_y_m",
-            ),
-            (
-                Params {
-                    hit_probability: 0.5,
-                    ..d()
-                },
-                "hit_probability",
-            ),
-            (
-                Params {
-                    hit_probability: 1.0,
-                    ..d()
-                },
-                "hit_probability",
-            ),
-            (
-                Params {
-                    miss_probability: 0.5,
-                    ..d()
-                },
-                "miss_probability",
-            ),
-            (
-                Params {
-                    miss_probability: 0.0,
-                    ..d()
-                },
-                "miss_probability",
-            ),
-            (
-                Params {
-                    clamp_min_probability: 0.0,
-                    ..d()
-                },
-                "clamp_min_probability",
-            ),
-            (
-                Params {
-                    clamp_max_probability: 1.0,
-                    ..d()
-                },
-                "clamp_max_probability",
-            ),
-            (
-                Params {
-                    clamp_max_probability: f64::NAN,
-                    ..d()
-                },
-                "clamp_max_probability",
-            ),
-        ];
+        let cases = nrslam_runtime::one_bad_field!(Params {
+            resolution_m: [0.0, 1e-4],
+            width_m: [-1.0],
+            height_m: [f64::INFINITY],
+            origin_x_m: [f64::NAN],
+            origin_y_m: [f64::NEG_INFINITY],
+            hit_probability: [0.5, 1.0],
+            miss_probability: [0.5, 0.0],
+            clamp_min_probability: [0.0],
+            clamp_max_probability: [1.0, f64::NAN],
+        });
         for (params, field) in cases {
             let err = params.validate().unwrap_err();
             assert!(err.to_string().contains(field), "{err} should name {field}");

@@ -72,43 +72,11 @@ mod tests {
 
     #[test]
     fn each_bad_field_is_named() {
-        let cases = [
-            (
-                Params {
-                    eps_m: 0.0,
-                    ..Params::default()
-                },
-                "eps_m",
-            ),
-            (
-                Params {
-                    eps_m: f64::NAN,
-                    ..Params::default()
-                },
-                "eps_m",
-            ),
-            (
-                Params {
-                    min_samples: 0,
-                    ..Params::default()
-                },
-                "min_samples",
-            ),
-            (
-                Params {
-                    occupied_threshold: 0,
-                    ..Params::default()
-                },
-                "occupied_threshold",
-            ),
-            (
-                Params {
-                    occupied_threshold: 101,
-                    ..Params::default()
-                },
-                "occupied_threshold",
-            ),
-        ];
+        let cases = nrslam_runtime::one_bad_field!(Params {
+            eps_m: [0.0, f64::NAN],
+            min_samples: [0],
+            occupied_threshold: [0, 101],
+        });
         for (params, field) in cases {
             let err = params.validate().unwrap_err();
             assert!(err.to_string().contains(field), "{err} should name {field}");
