@@ -122,9 +122,6 @@ mod tests {
             alpha: [0.0, 2.5],
             points_per_estimate: [0],
         });
-        for (params, field) in cases {
-            let err = params.validate().unwrap_err();
-            assert_eq!(err.field, field, "{err}");
-        }
+        nrslam_runtime::config::assert_each_refused_by_name(cases, Params::validate);
     }
 }

@@ -271,24 +271,17 @@ mod tests {
             clamp_min_probability: [0.0],
             clamp_max_probability: [1.0, f64::NAN],
         });
-        for (params, field) in cases {
-            let err = params.validate().unwrap_err();
-            assert!(err.to_string().contains(field), "{err} should name {field}");
-        }
+        nrslam_runtime::config::assert_each_refused_by_name(cases, Params::validate);
     }
 
     #[test]
     fn toml_fills_defaults_and_refuses_unknown_fields() {
-        let p: Params = toml::from_str("resolution_m = 0.2\nfree_space = false").unwrap();
-        assert_eq!(
-            p,
-            Params {
-                resolution_m: 0.2,
-                free_space: false,
-                ..Params::default()
-            }
-        );
-        let err = toml::from_str::<Params>("resolution = 0.2").unwrap_err();
-        assert!(err.to_string().contains("resolution"));
+        let expected = Params {
+            resolution_m: 0.2,
+            free_space: false,
+            ..Params::default()
+        };
+        let table = "resolution_m = 0.2\nfree_space = false";
+        nrslam_runtime::config::assert_toml_fills_defaults(table, &expected, "resolution = 0.2");
     }
 }

@@ -77,23 +77,19 @@ mod tests {
             min_samples: [0],
             occupied_threshold: [0, 101],
         });
-        for (params, field) in cases {
-            let err = params.validate().unwrap_err();
-            assert!(err.to_string().contains(field), "{err} should name {field}");
-        }
+        nrslam_runtime::config::assert_each_refused_by_name(cases, Params::validate);
     }
 
     #[test]
     fn toml_fills_defaults_and_refuses_unknown_fields() {
-        let p: Params = toml::from_str("eps_m = 0.8").unwrap();
-        assert_eq!(
-            p,
-            Params {
-                eps_m: 0.8,
-                ..Params::default()
-            }
+        let expected = Params {
+            eps_m: 0.8,
+            ..Params::default()
+        };
+        nrslam_runtime::config::assert_toml_fills_defaults(
+            "eps_m = 0.8",
+            &expected,
+            "epsilon = 0.8",
         );
-        let err = toml::from_str::<Params>("epsilon = 0.8").unwrap_err();
-        assert!(err.to_string().contains("epsilon"));
     }
 }

@@ -216,10 +216,7 @@ mod tests {
             power_field: ["intensity".into()],
             power_db: [f64::NAN],
         }));
-        for (params, field) in cases {
-            let err = params.validate().unwrap_err().to_string();
-            assert!(err.contains(field), "{field}: {err}");
-        }
+        nrslam_runtime::config::assert_each_refused_by_name(cases, Params::validate);
     }
 
     #[test]

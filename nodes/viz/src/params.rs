@@ -102,10 +102,7 @@ mod tests {
             line_width_m: [11.0],
             points_per_estimate: [65],
         });
-        for (params, field) in cases {
-            let err = params.validate().unwrap_err().to_string();
-            assert!(err.contains(field), "{field}: {err}");
-        }
+        nrslam_runtime::config::assert_each_refused_by_name(cases, Params::validate);
         assert!(toml::from_str::<Params>("ground_truth = false\nfoo = 1").is_err());
         let p: Params = toml::from_str("representatives = \"farthest-point\"").unwrap();
         assert_eq!(p.representatives, RepresentativeMode::FarthestPoint);
