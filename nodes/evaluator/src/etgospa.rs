@@ -293,11 +293,7 @@ type Inputs<'a> = Checked<'a, ExtendedTarget, EtGospaParams>;
 
 /// ET-GOPSA by one dense assignment (see [`etgospa_dense`]).
 fn dense(inputs: Inputs) -> Result<EtGospaResult, MetricError> {
-    let Checked {
-        truth: targets,
-        estimates,
-        params,
-    } = inputs;
+    let (targets, estimates, params) = (inputs.truth, inputs.estimates, inputs.params);
     let EtGospaParams { c, p, alpha, .. } = *params;
     let (n_targets, n_est) = (targets.len(), estimates.len());
     // The dense slots × estimates matrix (and the targets × estimates tables below, no larger)
@@ -560,11 +556,7 @@ impl NearTargets {
 /// computed exactly as the dense path computes it, for the pairs closer than c; every other pair
 /// has min(c, δ_i) = c.
 fn sparse(inputs: Inputs) -> Result<EtGospaResult, MetricError> {
-    let Checked {
-        truth: targets,
-        estimates,
-        params,
-    } = inputs;
+    let (targets, estimates, params) = (inputs.truth, inputs.estimates, inputs.params);
     let (n_targets, n_est) = (targets.len(), estimates.len());
     if n_targets.saturating_add(n_est) >= u32::MAX as usize {
         return dense(inputs);

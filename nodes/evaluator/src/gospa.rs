@@ -283,11 +283,7 @@ fn check_inputs<'a>(
 
 /// GOSPA by one dense assignment (see [`gospa_dense`]).
 fn dense(inputs: Inputs) -> Result<GospaResult, MetricError> {
-    let Checked {
-        truth,
-        estimates,
-        params,
-    } = inputs;
+    let (truth, estimates, params) = (inputs.truth, inputs.estimates, inputs.params);
     check_size(truth.len(), estimates.len())?;
     let GospaParams { c, p, alpha } = *params;
     let clipped = |i: usize, j: usize| truth[i].distance_m(&estimates[j]).min(c);
@@ -333,11 +329,7 @@ pub fn gospa_sparse(
 
 /// GOSPA by the components of the pairs worth taking (see [`gospa_sparse`]).
 fn sparse(inputs: Inputs) -> Result<GospaResult, MetricError> {
-    let Checked {
-        truth,
-        estimates,
-        params,
-    } = inputs;
+    let (truth, estimates, params) = (inputs.truth, inputs.estimates, inputs.params);
     let (n, m) = (truth.len(), estimates.len());
     if n.saturating_add(m) >= u32::MAX as usize {
         // Beyond the components' u32 indices, and past any dense limit anyway.
