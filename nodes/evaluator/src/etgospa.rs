@@ -46,7 +46,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::assignment::{check_size, solve_bottleneck, solve_partial, AssignmentError, CostMatrix};
 use crate::error::{InvalidMetricParam, MetricError};
-use crate::gospa::{pow_p, root_p, validate_c_p_alpha, GospaParams, DENSE_BELOW_CELLS};
+use crate::gospa::{pow_p, root_p, validate_c_p_alpha, GospaParams};
 use crate::inputs::Checked;
 use crate::point::{check_finite, distance_to_outline_m, Point2};
 use crate::sparse::{solve_components, Box2, Components, Grid, Solved};
@@ -224,10 +224,7 @@ pub fn etgospa(
         .iter()
         .try_fold(0usize, |sum, t| sum.checked_add(t.slots))
         .unwrap_or(usize::MAX);
-    if slots.max(targets.len()).saturating_mul(estimates.len()) <= DENSE_BELOW_CELLS {
-        return dense(inputs);
-    }
-    sparse(inputs)
+    inputs.solve_by_size(slots.max(targets.len()), dense, sparse)
 }
 
 /// ET-GOPSA by one dense assignment over all slots × estimates, at most

@@ -238,18 +238,8 @@ pub fn gospa(
     estimates: &[Point2],
     params: &GospaParams,
 ) -> Result<GospaResult, MetricError> {
-    let inputs = check_inputs(truth, estimates, params)?;
-    if truth.len().saturating_mul(estimates.len()) <= DENSE_BELOW_CELLS {
-        return dense(inputs);
-    }
-    sparse(inputs)
+    check_inputs(truth, estimates, params)?.solve_by_size(truth.len(), dense, sparse)
 }
-
-/// Inputs of at most this many pairs are solved by one dense matrix (no grid, no components):
-/// the same optimum, and no slower up to about here (`cargo bench -p nrslam-evaluator --bench
-/// metrics`, GOSPA: 4 × 4 points 0.9 µs dense against 1.5 µs by components, 16 × 16 3.1 against
-/// 3.5 µs, 64 × 64 over 80 m 27 against 11 µs).
-pub(crate) const DENSE_BELOW_CELLS: usize = 16 * 16;
 
 /// GOSPA by one dense assignment over all truth × estimate pairs, at most
 /// [`MAX_CELLS`](crate::assignment::MAX_CELLS) of them: the reference [`gospa`] is checked
