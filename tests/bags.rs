@@ -116,12 +116,7 @@ fn a_recorded_run_is_counted_replayed_exactly_and_recovered_after_a_cut() {
         "{stderr}"
     );
     let recovered = info_json(&cut_dir, true);
-    let expected: u64 = full
-        .chunks
-        .iter()
-        .filter(|c| c.end_byte <= cut as u64)
-        .map(|c| c.messages)
-        .sum();
+    let expected = full.messages_in_chunks_ending_by(cut as u64);
     assert!(expected > 0);
     assert_eq!(recovered["messages"].as_u64().unwrap(), expected);
     assert_eq!(recovered["undecodable"], 0);

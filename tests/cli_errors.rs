@@ -50,16 +50,12 @@ fn malformed_and_unknown_arguments() {
 
 #[test]
 fn unknown_field_in_launch_and_in_node_params() {
-    let dir = temp();
-    let file = dir.path().join("bad.toml");
     assert_launch_refused(
-        &file,
         "[launch]\nmodee = \"in-process\"\n[[node]]\nname = \"r\"\nkind = \"radar\"\n",
         &["bad.toml", "modee", "line 2"],
     );
 
     assert_launch_refused(
-        &file,
         "[[node]]\nname = \"r\"\nkind = \"radar\"\n[node.params]\nrange_sdt_m = 1.0\n",
         &["bad.toml", "node r", "range_sdt_m"],
     );
@@ -67,15 +63,11 @@ fn unknown_field_in_launch_and_in_node_params() {
 
 #[test]
 fn unknown_kind_and_unwired_input() {
-    let dir = temp();
-    let file = dir.path().join("bad.toml");
     assert_launch_refused(
-        &file,
         "[[node]]\nname = \"x\"\nkind = \"lidar\"\n",
         &["bad.toml", "node x", "lidar", "known:"],
     );
     assert_launch_refused(
-        &file,
         "[[node]]\nname = \"m\"\nkind = \"mapper\"\n",
         &["bad.toml", "node m", "/slam/keyframe", "no node"],
     );
@@ -83,10 +75,7 @@ fn unknown_kind_and_unwired_input() {
 
 #[test]
 fn missing_scene_file_names_the_path() {
-    let dir = temp();
-    let file = dir.path().join("bad.toml");
     assert_launch_refused(
-        &file,
         "[[node]]\nname = \"radar\"\nkind = \"radar\"\n[node.params]\nscene = \"nowhere/hall.toml\"\n",
         &["bad.toml", "node radar", "nowhere/hall.toml"],
     );

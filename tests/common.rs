@@ -118,10 +118,12 @@ pub fn metric(truth: &Path, estimates: &Path, extra: &[&str]) -> Output {
     run(&args)
 }
 
-/// Writes `text` as the launch file `file`, launches it, and asserts the one-line failure of
-/// [`assert_one_line_failure`].
-pub fn assert_launch_refused(file: &Path, text: &str, must_contain: &[&str]) {
-    std::fs::write(file, text).unwrap_or_else(|e| panic!("{}: {e}", file.display()));
+/// Writes `text` as the launch file `bad.toml` in a new temporary folder, launches it, and
+/// asserts the one-line failure of [`assert_one_line_failure`].
+pub fn assert_launch_refused(text: &str, must_contain: &[&str]) {
+    let dir = temp();
+    let file = dir.path().join("bad.toml");
+    std::fs::write(&file, text).unwrap_or_else(|e| panic!("{}: {e}", file.display()));
     let output = run(&["launch", file.to_str().unwrap()]);
     assert_one_line_failure(&output, must_contain);
 }

@@ -125,10 +125,16 @@ fn within(in_range: bool, field: &'static str) -> Check {
     }
 }
 
-/// Finite and ≥ `min` (or > `min` when `strict`).
-fn at_least(value: f64, min: f64, strict: bool, field: &'static str) -> Check {
+/// Finite and > 0: a physical size or rate.
+fn positive(value: f64, field: &'static str) -> Check {
     finite(value, field)?;
-    within(value > min || (!strict && value == min), field)
+    within(value > 0.0, field)
+}
+
+/// Finite and ≥ 0: a distance, deviation or power.
+fn non_negative(value: f64, field: &'static str) -> Check {
+    finite(value, field)?;
+    within(value >= 0.0, field)
 }
 
 fn time(time: &Time, field: &'static str) -> Check {
@@ -160,10 +166,10 @@ fn pose(pose: &Pose, position: &'static str, orientation: &'static str) -> Check
 fn detections(boresight_rad: f64, detections: &[Detection]) -> Check {
     finite(boresight_rad, "boresight_rad")?;
     for d in detections {
-        at_least(d.range_m, 0.0, false, "detections.range_m")?;
+        non_negative(d.range_m, "detections.range_m")?;
         finite(d.angle_rad, "detections.angle_rad")?;
-        at_least(d.range_std_m, 0.0, false, "detections.range_std_m")?;
-        at_least(d.angle_std_rad, 0.0, false, "detections.angle_std_rad")?;
+        non_negative(d.range_std_m, "detections.range_std_m")?;
+        non_negative(d.angle_std_rad, "detections.angle_std_rad")?;
         if d.power_db.is_nan() {
             return Err(Unusable::NonFinite("detections.power_db"));
         }
@@ -233,7 +239,7 @@ impl CheckUsable for OccupancyGrid {
         header(&self.header)?;
         let info = &self.info;
         time(&info.map_load_time, "info.map_load_time.nanosec")?;
-        at_least(f64::from(info.resolution), 0.0, true, "info.resolution")?;
+        positive(f64::from(info.resolution), "info.resolution")?;
         pose(
             &info.origin,
             "info.origin.position",
@@ -325,7 +331,7 @@ impl CheckUsable for MapTargets {
                 (target.radius_m, "targets.radius_m"),
                 (target.rms_residual_m, "targets.rms_residual_m"),
             ] {
-                at_least(value, 0.0, false, field)?;
+                non_negative(value, field)?;
             }
             if target.covariance.len() != parameters * parameters {
                 return Err(Unusable::SizeMismatch("targets.covariance"));
@@ -361,18 +367,11 @@ impl CheckUsable for RadarEcho {
     fn check_usable(&self) -> Check {
         header(&self.header)?;
         finite(self.boresight_rad, "boresight_rad")?;
-        at_least(self.carrier_frequency_hz, 0.0, true, "carrier_frequency_hz")?;
-        at_least(
-            self.subcarrier_spacing_hz,
-            0.0,
-            true,
-            "subcarrier_spacing_hz",
-        )?;
-        at_least(self.symbol_duration_s, 0.0, true, "symbol_duration_s")?;
-        at_least(
+        positive(self.carrier_frequency_hz, "carrier_frequency_hz")?;
+        positive(self.subcarrier_spacing_hz, "subcarrier_spacing_hz")?;
+        positive(self.symbol_duration_s, "symbol_duration_s")?;
+        positive(
             self.antenna_spacing_wavelengths,
-            0.0,
-            true,
             "antenna_spacing_wavelengths",
         )?;
         finite(self.snr_db, "snr_db")?;
@@ -395,14 +394,12 @@ impl CheckUsable for RadarSpectrum {
     fn check_usable(&self) -> Check {
         header(&self.header)?;
         finite(self.boresight_rad, "boresight_rad")?;
-        at_least(self.range_bin_m, 0.0, true, "range_bin_m")?;
-        at_least(
+        positive(self.range_bin_m, "range_bin_m")?;
+        positive(
             self.antenna_spacing_wavelengths,
-            0.0,
-            true,
             "antenna_spacing_wavelengths",
         )?;
-        at_least(self.noise_power, 0.0, false, "noise_power")?;
+        non_negative(self.noise_power, "noise_power")?;
         length(
             self.values.len(),
             interleaved_len(&[self.range_bins, self.angle_bins]),
@@ -440,7 +437,7 @@ impl CheckUsable for RadarScan {
     fn check_usable(&self) -> Check {
         header(&self.header)?;
         for r in &self.returns {
-            at_least(f64::from(r.range), 0.0, false, "returns.range")?;
+            non_negative(f64::from(r.range), "returns.range")?;
             finite(f64::from(r.azimuth), "returns.azimuth")?;
             finite(f64::from(r.elevation), "returns.elevation")?;
             if r.amplitude.is_nan() {

@@ -246,6 +246,21 @@ impl Marker {
         }
     }
 
+    /// A cube of side `size_m` at each of `points` (the cells of a grid): [`Marker::spheres`]
+    /// drawn as cubes, which viewers size alike.
+    pub fn cubes(
+        header: Header,
+        at: (&str, i32),
+        points: &[Point],
+        size_m: f64,
+        color: ColorRGBA,
+    ) -> Self {
+        Marker {
+            marker_type: Marker::CUBE_LIST,
+            ..Marker::spheres(header, at, points, size_m, color)
+        }
+    }
+
     /// A marker id for an id of the graph's messages (`u32`), saturating at `i32::MAX`.
     pub fn id_of(value: u32) -> i32 {
         i32::try_from(value).unwrap_or(i32::MAX)

@@ -9,13 +9,15 @@
 //!
 //! `cargo bench -p nrslam-ofdm --bench fidelity -- --warm-up-time 1 --measurement-time 3`
 
-use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
+mod floor;
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use floor::FftFloor;
 use nrslam_ofdm::spectral::{self, SpectralConfig};
 use nrslam_ofdm::waveform::{self, WaveformConfig};
 use nrslam_ofdm::{FrameRng, OfdmParams, Scatterer};
 use num_complex::Complex64;
 use rand::{Rng, SeedableRng};
-use rustfft::FftPlanner;
 use std::f64::consts::PI;
 use std::hint::black_box;
 
@@ -84,26 +86,7 @@ fn table_one(c: &mut Criterion) {
         })
     });
 
-    let mut planner = FftPlanner::<f64>::new();
-    let ifft = planner.plan_fft_inverse(n);
-    let fft = planner.plan_fft_forward(k);
-    let mut scratch = vec![
-        Complex64::new(0.0, 0.0);
-        ifft.get_inplace_scratch_len()
-            .max(fft.get_inplace_scratch_len())
-    ];
-    let source = grid.received;
-    group.bench_function("floor_rustfft", |b| {
-        b.iter_batched_ref(
-            || (source.clone(), source.clone()),
-            |(kn, nk)| {
-                ifft.process_with_scratch(kn, &mut scratch);
-                fft.process_with_scratch(nk, &mut scratch);
-                black_box((kn[1], nk[1]));
-            },
-            BatchSize::LargeInput,
-        )
-    });
+    FftFloor::new(n, k).bench(&mut group, &grid.received);
     group.finish();
 }
 

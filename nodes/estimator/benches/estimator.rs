@@ -30,43 +30,20 @@
 
 #[path = "../tests/common/mod.rs"]
 mod common;
+#[path = "../../../ofdm/benches/floor/mod.rs"]
+mod floor;
 
-use common::{grid, params, twenty_echoes};
-use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
+use common::table_one_frame;
+use criterion::{criterion_group, criterion_main, Criterion};
+use floor::FftFloor;
 use nrslam_estimator::{Estimator, EstimatorConfig, Refinement};
-use num_complex::Complex64;
-use rustfft::FftPlanner;
 use std::hint::black_box;
 
 fn table_one(c: &mut Criterion) {
-    let p = params(10240, 32, 1);
-    let (n, k) = (p.subcarriers, p.antennas);
-    let echoes = twenty_echoes(&p);
-    let g = grid(&p, &echoes, Some(p.snr_db), 1);
-
+    let (p, g) = table_one_frame();
     let mut group = c.benchmark_group("table1_m1");
     group.sample_size(20);
-
-    let mut planner = FftPlanner::<f64>::new();
-    let ifft = planner.plan_fft_inverse(n);
-    let fft = planner.plan_fft_forward(k);
-    let mut scratch = vec![
-        Complex64::new(0.0, 0.0);
-        ifft.get_inplace_scratch_len()
-            .max(fft.get_inplace_scratch_len())
-    ];
-    let source = g.received.clone();
-    group.bench_function("floor_rustfft", |b| {
-        b.iter_batched_ref(
-            || (source.clone(), source.clone()),
-            |(kn, nk)| {
-                ifft.process_with_scratch(kn, &mut scratch);
-                fft.process_with_scratch(nk, &mut scratch);
-                black_box((kn[1], nk[1]));
-            },
-            BatchSize::LargeInput,
-        )
-    });
+    FftFloor::new(p.subcarriers, p.antennas).bench(&mut group, &g.received);
 
     for (name, cfg) in [
         ("estimator_default", EstimatorConfig::default()),

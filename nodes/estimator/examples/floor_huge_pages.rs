@@ -4,10 +4,12 @@
 //! not given and the two floors coincide).
 #[path = "../tests/common/mod.rs"]
 mod common;
-use common::{grid, params, twenty_echoes};
+#[path = "../../../ofdm/benches/floor/mod.rs"]
+mod floor;
+use common::table_one_frame;
+use floor::FftFloor;
 use nrslam_estimator::{Estimator, EstimatorConfig};
 use num_complex::Complex64;
-use rustfft::FftPlanner;
 use std::time::Instant;
 
 const HUGE_PAGE: usize = 2 << 20;
@@ -35,14 +37,9 @@ fn huge_copy(source: &[Complex64]) -> (Vec<Complex64>, usize) {
 }
 
 fn main() {
-    let p = params(10240, 32, 1);
-    let echoes = twenty_echoes(&p);
-    let g = grid(&p, &echoes, Some(p.snr_db), 1);
+    let (p, g) = table_one_frame();
     let mut est = Estimator::new(&p, EstimatorConfig::default()).unwrap();
-    let mut planner = FftPlanner::<f64>::new();
-    let ifft = planner.plan_fft_inverse(10240);
-    let fft = planner.plan_fft_forward(32);
-    let mut scratch = vec![Complex64::new(0.0, 0.0); 20480];
+    let mut floor = FftFloor::new(p.subcarriers, p.antennas);
     let (mut kn, mut nk) = (g.received.clone(), g.received.clone());
     let ((mut hkn, kn0), (mut hnk, nk0)) = (huge_copy(&g.received), huge_copy(&g.received));
     let n = g.received.len();
@@ -54,14 +51,12 @@ fn main() {
         kn.copy_from_slice(&g.received);
         nk.copy_from_slice(&g.received);
         let t = Instant::now();
-        ifft.process_with_scratch(&mut kn, &mut scratch);
-        fft.process_with_scratch(&mut nk, &mut scratch);
+        floor.transform(&mut kn, &mut nk);
         best_f = best_f.min(t.elapsed().as_secs_f64());
         hkn[kn0..kn0 + n].copy_from_slice(&g.received);
         hnk[nk0..nk0 + n].copy_from_slice(&g.received);
         let t = Instant::now();
-        ifft.process_with_scratch(&mut hkn[kn0..kn0 + n], &mut scratch);
-        fft.process_with_scratch(&mut hnk[nk0..nk0 + n], &mut scratch);
+        floor.transform(&mut hkn[kn0..kn0 + n], &mut hnk[nk0..nk0 + n]);
         best_h = best_h.min(t.elapsed().as_secs_f64());
     }
     println!(

@@ -2,20 +2,16 @@
 //! robust to a loaded machine). Not part of the acceptance measurement (that is the bench).
 #[path = "../tests/common/mod.rs"]
 mod common;
-use common::{grid, params, twenty_echoes};
+#[path = "../../../ofdm/benches/floor/mod.rs"]
+mod floor;
+use common::table_one_frame;
+use floor::FftFloor;
 use nrslam_estimator::{Estimator, EstimatorConfig};
-use num_complex::Complex64;
-use rustfft::FftPlanner;
 use std::time::Instant;
 fn main() {
-    let p = params(10240, 32, 1);
-    let echoes = twenty_echoes(&p);
-    let g = grid(&p, &echoes, Some(p.snr_db), 1);
+    let (p, g) = table_one_frame();
     let mut est = Estimator::new(&p, EstimatorConfig::default()).unwrap();
-    let mut planner = FftPlanner::<f64>::new();
-    let ifft = planner.plan_fft_inverse(10240);
-    let fft = planner.plan_fft_forward(32);
-    let mut scratch = vec![Complex64::new(0.0, 0.0); 20480];
+    let mut floor = FftFloor::new(p.subcarriers, p.antennas);
     let (mut kn, mut nk) = (g.received.clone(), g.received.clone());
     let (mut best_e, mut best_f) = (f64::MAX, f64::MAX);
     let only_estimator = std::env::var_os("ONLY_ESTIMATOR").is_some();
@@ -29,8 +25,7 @@ fn main() {
         kn.copy_from_slice(&g.received);
         nk.copy_from_slice(&g.received);
         let t = Instant::now();
-        ifft.process_with_scratch(&mut kn, &mut scratch);
-        fft.process_with_scratch(&mut nk, &mut scratch);
+        floor.transform(&mut kn, &mut nk);
         best_f = best_f.min(t.elapsed().as_secs_f64());
     }
     println!(

@@ -134,12 +134,18 @@ pub fn validate_params(p: &OfdmParams) -> Result<(), InvalidParam> {
 }
 
 fn alloc<T: Clone>(len: usize, value: T) -> Result<Vec<T>, EstimatorError> {
+    let mut v = reserve(len)?;
+    v.resize(len, value);
+    Ok(v)
+}
+
+/// An empty vector with room for exactly `len` values, or the allocation error (never aborts).
+fn reserve<T>(len: usize) -> Result<Vec<T>, EstimatorError> {
     let mut v = Vec::new();
     v.try_reserve_exact(len)
         .map_err(|_| EstimatorError::Allocation {
             bytes: len.saturating_mul(std::mem::size_of::<T>()),
         })?;
-    v.resize(len, value);
     Ok(v)
 }
 
@@ -167,11 +173,7 @@ fn advise_huge_pages(addr: usize, bytes: usize) {
 
 /// `alloc` with huge pages advised before the memory is first touched.
 fn alloc_huge<T: Clone>(len: usize, value: T) -> Result<Vec<T>, EstimatorError> {
-    let mut v = Vec::new();
-    v.try_reserve_exact(len)
-        .map_err(|_| EstimatorError::Allocation {
-            bytes: len.saturating_mul(std::mem::size_of::<T>()),
-        })?;
+    let mut v = reserve(len)?;
     advise_huge_pages(v.as_ptr() as usize, len * std::mem::size_of::<T>());
     v.resize(len, value);
     Ok(v)

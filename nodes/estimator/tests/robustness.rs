@@ -432,51 +432,20 @@ fn doppler_symbols_keep_the_peak_bin() {
 #[test]
 fn config_validation_names_the_field() {
     let p = params(64, 4, 1);
-    let bad = [
-        (
-            "max_detections",
-            EstimatorConfig {
-                max_detections: 0,
-                ..Default::default()
-            },
-        ),
-        (
-            "threshold_db",
-            EstimatorConfig {
-                threshold_db: f64::NAN,
-                ..Default::default()
-            },
-        ),
-        (
-            "cfar_pfa",
-            EstimatorConfig {
-                cfar_pfa: 0.0,
-                ..Default::default()
-            },
-        ),
-        (
-            "max_range_m",
-            EstimatorConfig {
-                max_range_m: Some(-1.0),
-                ..Default::default()
-            },
-        ),
-        (
-            "zero_padding_angle",
-            EstimatorConfig {
-                zero_padding_angle: 0,
-                ..Default::default()
-            },
-        ),
-        (
-            "refinement.factor",
-            EstimatorConfig {
-                refinement: Refinement::ZeroPadding { factor: 0 },
-                ..Default::default()
-            },
-        ),
-    ];
-    for (field, cfg) in bad {
+    let mut bad = nrslam_runtime::one_bad_field!(EstimatorConfig {
+        max_detections: [0],
+        threshold_db: [f64::NAN],
+        cfar_pfa: [0.0],
+        max_range_m: [Some(-1.0)],
+        zero_padding_angle: [0],
+    });
+    // A nested field, named with its path.
+    let no_padding = EstimatorConfig {
+        refinement: Refinement::ZeroPadding { factor: 0 },
+        ..Default::default()
+    };
+    bad.push((no_padding, "refinement.factor"));
+    for (cfg, field) in bad {
         match Estimator::new(&p, cfg) {
             Err(EstimatorError::Param(e)) => {
                 assert_eq!(e.field, field);

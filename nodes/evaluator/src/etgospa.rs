@@ -46,9 +46,11 @@ use serde::{Deserialize, Serialize};
 
 use crate::assignment::{check_size, solve_bottleneck, solve_partial, AssignmentError, CostMatrix};
 use crate::error::{InvalidMetricParam, MetricError};
-use crate::gospa::{pow_p, root_p, validate_c_p_alpha, GospaParams, DENSE_BELOW_CELLS};
+use crate::gospa::{pow_p, root_p, validate_c_p_alpha, GospaParams};
+use crate::inputs::Checked;
 use crate::point::{check_finite, distance_to_outline_m, Point2};
 use crate::sparse::{solve_components, Box2, Components, Grid, Solved};
+use crate::unassigned::Unassigned;
 
 /// What D_i measures the distance to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -217,15 +219,12 @@ pub fn etgospa(
     estimates: &[Point2],
     params: &EtGospaParams,
 ) -> Result<EtGospaResult, MetricError> {
-    check_inputs(targets, estimates, params)?;
+    let inputs = check_inputs(targets, estimates, params)?;
     let slots = targets
         .iter()
         .try_fold(0usize, |sum, t| sum.checked_add(t.slots))
         .unwrap_or(usize::MAX);
-    if slots.max(targets.len()).saturating_mul(estimates.len()) <= DENSE_BELOW_CELLS {
-        return etgospa_dense_checked(targets, estimates, params);
-    }
-    etgospa_sparse_checked(targets, estimates, params)
+    inputs.solve_by_size(slots.max(targets.len()), dense, sparse)
 }
 
 /// ET-GOPSA by one dense assignment over all slots × estimates, at most
@@ -240,8 +239,7 @@ pub fn etgospa_dense(
     estimates: &[Point2],
     params: &EtGospaParams,
 ) -> Result<EtGospaResult, MetricError> {
-    check_inputs(targets, estimates, params)?;
-    etgospa_dense_checked(targets, estimates, params)
+    dense(check_inputs(targets, estimates, params)?)
 }
 
 /// ET-GOPSA through the components of the graph of the (target, estimate) pairs worth taking,
@@ -259,16 +257,15 @@ pub fn etgospa_sparse(
     estimates: &[Point2],
     params: &EtGospaParams,
 ) -> Result<EtGospaResult, MetricError> {
-    check_inputs(targets, estimates, params)?;
-    etgospa_sparse_checked(targets, estimates, params)
+    sparse(check_inputs(targets, estimates, params)?)
 }
 
 /// The checks every entry point runs: parameters, finite coordinates, measured geometry present.
-fn check_inputs(
-    targets: &[ExtendedTarget],
-    estimates: &[Point2],
-    params: &EtGospaParams,
-) -> Result<(), MetricError> {
+fn check_inputs<'a>(
+    targets: &'a [ExtendedTarget],
+    estimates: &'a [Point2],
+    params: &'a EtGospaParams,
+) -> Result<Inputs<'a>, MetricError> {
     params.validate()?;
     for (i, target) in targets.iter().enumerate() {
         check_finite(&target.samples, || format!("target {i} samples"))?;
@@ -285,15 +282,15 @@ fn check_inputs(
         }
     }
     check_finite(estimates, || "estimates".to_owned())?;
-
-    Ok(())
+    Ok(Checked::after_checks(targets, estimates, params))
 }
 
-fn etgospa_dense_checked(
-    targets: &[ExtendedTarget],
-    estimates: &[Point2],
-    params: &EtGospaParams,
-) -> Result<EtGospaResult, MetricError> {
+/// The inputs of an ET-GOPSA solver.
+type Inputs<'a> = Checked<'a, ExtendedTarget, EtGospaParams>;
+
+/// ET-GOPSA by one dense assignment (see [`etgospa_dense`]).
+fn dense(inputs: Inputs) -> Result<EtGospaResult, MetricError> {
+    let (targets, estimates, params) = (inputs.truth, inputs.estimates, inputs.params);
     let EtGospaParams { c, p, alpha, .. } = *params;
     let (n_targets, n_est) = (targets.len(), estimates.len());
     // The dense slots × estimates matrix (and the targets × estimates tables below, no larger)
@@ -372,6 +369,30 @@ fn etgospa_dense_checked(
     ))
 }
 
+impl EtGospaResult {
+    fn assemble(
+        total: f64,
+        localisation: f64,
+        confusion: f64,
+        slot_count: usize,
+        left: Unassigned,
+        pairs: Vec<(usize, usize)>,
+    ) -> Self {
+        Self {
+            total,
+            localisation,
+            confusion,
+            missed: left.missed,
+            false_estimates: left.false_estimates,
+            slot_count,
+            assigned_count: pairs.len(),
+            missed_count: left.missed_count,
+            false_count: left.false_count,
+            pairs,
+        }
+    }
+}
+
 /// The p = ∞ result of a bottleneck matching, `pairs` (target, estimate) sorted.
 fn infinite_result(
     pairs: Vec<(usize, usize)>,
@@ -381,22 +402,10 @@ fn infinite_result(
     bottleneck: Option<f64>,
 ) -> EtGospaResult {
     let k = pairs.len();
-    let (missed_count, false_count) = (n_slots - k, n_est - k);
     let localisation = bottleneck.unwrap_or(0.0);
-    let missed = if missed_count > 0 { c } else { 0.0 };
-    let false_estimates = if false_count > 0 { c } else { 0.0 };
-    EtGospaResult {
-        total: localisation.max(missed).max(false_estimates),
-        localisation,
-        confusion: 0.0,
-        missed,
-        false_estimates,
-        slot_count: n_slots,
-        assigned_count: k,
-        missed_count,
-        false_count,
-        pairs,
-    }
+    let left = Unassigned::bottleneck(n_slots, n_est, k, c);
+    let total = localisation.max(left.missed).max(left.false_estimates);
+    EtGospaResult::assemble(total, localisation, 0.0, n_slots, left, pairs)
 }
 
 /// The 1 ≤ p < ∞ result of an optimal assignment, `pairs` (target, estimate) sorted, given
@@ -417,9 +426,7 @@ fn finite_result(
     let k = pairs.len();
     let localisation: f64 = pairs.iter().map(|&(i, j)| localisation_of(i, j)).sum();
     let confusion: f64 = pairs.iter().map(|&(i, j)| confusion_of(i, j)).sum();
-    let (missed_count, false_count) = (n_slots - k, n_est - k);
-    let missed = unassigned_cost * missed_count as f64;
-    let false_estimates = unassigned_cost * false_count as f64;
+    let left = Unassigned::summed(n_slots, n_est, k, unassigned_cost);
     // Bases of the p-th-power terms, for an underflow-proof root: a pair contributes
     // D_i = δ_i^p and c^p − D_{−i} = (c (1 − (δ_{−i}/c)^p)^{1/p})^p; an unassigned item c^p/α.
     let mut bases: Vec<(f64, usize)> = Vec::with_capacity(2 * k + 1);
@@ -428,23 +435,13 @@ fn finite_result(
         let other = pow_p(clipped_other(i, j) / c, p);
         bases.push((c * (1.0 - other).powf(1.0 / p), 1));
     }
-    bases.push((c * alpha.powf(-1.0 / p), missed_count + false_count));
-    EtGospaResult {
-        total: root_p(
-            localisation + confusion + missed + false_estimates,
-            &bases,
-            p,
-        ),
-        localisation,
-        confusion,
-        missed,
-        false_estimates,
-        slot_count: n_slots,
-        assigned_count: k,
-        missed_count,
-        false_count,
-        pairs,
-    }
+    bases.push((
+        c * alpha.powf(-1.0 / p),
+        left.missed_count + left.false_count,
+    ));
+    let direct = localisation + confusion + left.missed + left.false_estimates;
+    let total = root_p(direct, &bases, p);
+    EtGospaResult::assemble(total, localisation, confusion, n_slots, left, pairs)
 }
 
 /// min(c, δ) to the best and second best target of each estimate: (best target, best, second
@@ -555,14 +552,11 @@ impl NearTargets {
 /// See [`etgospa_sparse`]. Every value (clipped distances, nearest other target, weights) is
 /// computed exactly as the dense path computes it, for the pairs closer than c; every other pair
 /// has min(c, δ_i) = c.
-fn etgospa_sparse_checked(
-    targets: &[ExtendedTarget],
-    estimates: &[Point2],
-    params: &EtGospaParams,
-) -> Result<EtGospaResult, MetricError> {
+fn sparse(inputs: Inputs) -> Result<EtGospaResult, MetricError> {
+    let (targets, estimates, params) = (inputs.truth, inputs.estimates, inputs.params);
     let (n_targets, n_est) = (targets.len(), estimates.len());
     if n_targets.saturating_add(n_est) >= u32::MAX as usize {
-        return etgospa_dense_checked(targets, estimates, params);
+        return dense(inputs);
     }
     let EtGospaParams { c, p, alpha, .. } = *params;
     let Some(n_slots) = targets
@@ -593,7 +587,7 @@ fn etgospa_sparse_checked(
         let far_can_help = (0..n_est)
             .any(|j| c_pow_p + (c_pow_p - pow_p(nearest.best(j), p)) - 2.0 * unassigned_cost < 0.0);
         if far_can_help {
-            return etgospa_dense_checked(targets, estimates, params);
+            return dense(inputs);
         }
     }
     let pair_cost = |i: usize, j: usize| {

@@ -47,8 +47,10 @@ use serde::{Deserialize, Serialize};
 
 use crate::assignment::{check_size, solve_bottleneck, solve_partial, CostMatrix};
 use crate::error::{InvalidMetricParam, MetricError};
+use crate::inputs::Checked;
 use crate::point::{check_finite, Point2};
 use crate::sparse::{solve_components, Box2, Components, Grid, Solved};
+use crate::unassigned::Unassigned;
 
 /// Smallest and largest c^p accepted: keeps every cost of the assignment well inside f64 range
 /// (c = 5 m allows p up to 143).
@@ -236,18 +238,8 @@ pub fn gospa(
     estimates: &[Point2],
     params: &GospaParams,
 ) -> Result<GospaResult, MetricError> {
-    check_inputs(truth, estimates, params)?;
-    if truth.len().saturating_mul(estimates.len()) <= DENSE_BELOW_CELLS {
-        return gospa_dense_checked(truth, estimates, params);
-    }
-    gospa_sparse_checked(truth, estimates, params)
+    check_inputs(truth, estimates, params)?.solve_by_size(truth.len(), dense, sparse)
 }
-
-/// Inputs of at most this many pairs are solved by one dense matrix (no grid, no components):
-/// the same optimum, and no slower up to about here (`cargo bench -p nrslam-evaluator --bench
-/// metrics`, GOSPA: 4 × 4 points 0.9 µs dense against 1.5 µs by components, 16 × 16 3.1 against
-/// 3.5 µs, 64 × 64 over 80 m 27 against 11 µs).
-pub(crate) const DENSE_BELOW_CELLS: usize = 16 * 16;
 
 /// GOSPA by one dense assignment over all truth × estimate pairs, at most
 /// [`MAX_CELLS`](crate::assignment::MAX_CELLS) of them: the reference [`gospa`] is checked
@@ -261,26 +253,27 @@ pub fn gospa_dense(
     estimates: &[Point2],
     params: &GospaParams,
 ) -> Result<GospaResult, MetricError> {
-    check_inputs(truth, estimates, params)?;
-    gospa_dense_checked(truth, estimates, params)
+    dense(check_inputs(truth, estimates, params)?)
 }
+
+/// The inputs of a GOSPA solver.
+type Inputs<'a> = Checked<'a, Point2, GospaParams>;
 
 /// The checks every entry point runs: parameters and finite coordinates.
-fn check_inputs(
-    truth: &[Point2],
-    estimates: &[Point2],
-    params: &GospaParams,
-) -> Result<(), MetricError> {
+fn check_inputs<'a>(
+    truth: &'a [Point2],
+    estimates: &'a [Point2],
+    params: &'a GospaParams,
+) -> Result<Inputs<'a>, MetricError> {
     params.validate()?;
     check_finite(truth, || "truth".to_owned())?;
-    check_finite(estimates, || "estimates".to_owned())
+    check_finite(estimates, || "estimates".to_owned())?;
+    Ok(Checked::after_checks(truth, estimates, params))
 }
 
-fn gospa_dense_checked(
-    truth: &[Point2],
-    estimates: &[Point2],
-    params: &GospaParams,
-) -> Result<GospaResult, MetricError> {
+/// GOSPA by one dense assignment (see [`gospa_dense`]).
+fn dense(inputs: Inputs) -> Result<GospaResult, MetricError> {
+    let (truth, estimates, params) = (inputs.truth, inputs.estimates, inputs.params);
     check_size(truth.len(), estimates.len())?;
     let GospaParams { c, p, alpha } = *params;
     let clipped = |i: usize, j: usize| truth[i].distance_m(&estimates[j]).min(c);
@@ -321,19 +314,16 @@ pub fn gospa_sparse(
     estimates: &[Point2],
     params: &GospaParams,
 ) -> Result<GospaResult, MetricError> {
-    check_inputs(truth, estimates, params)?;
-    gospa_sparse_checked(truth, estimates, params)
+    sparse(check_inputs(truth, estimates, params)?)
 }
 
-fn gospa_sparse_checked(
-    truth: &[Point2],
-    estimates: &[Point2],
-    params: &GospaParams,
-) -> Result<GospaResult, MetricError> {
+/// GOSPA by the components of the pairs worth taking (see [`gospa_sparse`]).
+fn sparse(inputs: Inputs) -> Result<GospaResult, MetricError> {
+    let (truth, estimates, params) = (inputs.truth, inputs.estimates, inputs.params);
     let (n, m) = (truth.len(), estimates.len());
     if n.saturating_add(m) >= u32::MAX as usize {
         // Beyond the components' u32 indices, and past any dense limit anyway.
-        return gospa_dense_checked(truth, estimates, params);
+        return dense(inputs);
     }
     let GospaParams { c, p, alpha } = *params;
     let infinite = p.is_infinite();
@@ -391,6 +381,26 @@ fn gospa_sparse_checked(
     Ok(finite_result(truth, estimates, params, pairs))
 }
 
+impl GospaResult {
+    fn assemble(
+        total: f64,
+        localisation: f64,
+        left: Unassigned,
+        pairs: Vec<(usize, usize)>,
+    ) -> Self {
+        Self {
+            total,
+            localisation,
+            missed: left.missed,
+            false_estimates: left.false_estimates,
+            assigned_count: pairs.len(),
+            missed_count: left.missed_count,
+            false_count: left.false_count,
+            pairs,
+        }
+    }
+}
+
 /// The p = ∞ result of a bottleneck matching (see [`GospaResult`]).
 fn infinite_result(
     n: usize,
@@ -400,20 +410,10 @@ fn infinite_result(
     bottleneck: Option<f64>,
 ) -> GospaResult {
     let k = pairs.len();
-    let (missed_count, false_count) = (n - k, m - k);
     let localisation = bottleneck.unwrap_or(0.0);
-    let missed = if missed_count > 0 { c } else { 0.0 };
-    let false_estimates = if false_count > 0 { c } else { 0.0 };
-    GospaResult {
-        total: localisation.max(missed).max(false_estimates),
-        localisation,
-        missed,
-        false_estimates,
-        assigned_count: k,
-        missed_count,
-        false_count,
-        pairs,
-    }
+    let left = Unassigned::bottleneck(n, m, k, c);
+    let total = localisation.max(left.missed).max(left.false_estimates);
+    GospaResult::assemble(total, localisation, left, pairs)
 }
 
 /// The 1 ≤ p < ∞ result of an optimal assignment `pairs` (sorted).
@@ -428,20 +428,13 @@ fn finite_result(
     let unassigned_cost = params.c_pow_p() / alpha;
     let k = pairs.len();
     let localisation: f64 = pairs.iter().map(|&(i, j)| pow_p(clipped(i, j), p)).sum();
-    let (missed_count, false_count) = (truth.len() - k, estimates.len() - k);
-    let missed = unassigned_cost * missed_count as f64;
-    let false_estimates = unassigned_cost * false_count as f64;
+    let left = Unassigned::summed(truth.len(), estimates.len(), k, unassigned_cost);
     // (c^p/α)^{1/p} is the base of each unassigned point's term.
     let mut bases: Vec<(f64, usize)> = pairs.iter().map(|&(i, j)| (clipped(i, j), 1)).collect();
-    bases.push((c * alpha.powf(-1.0 / p), missed_count + false_count));
-    GospaResult {
-        total: root_p(localisation + missed + false_estimates, &bases, p),
-        localisation,
-        missed,
-        false_estimates,
-        assigned_count: k,
-        missed_count,
-        false_count,
-        pairs,
-    }
+    bases.push((
+        c * alpha.powf(-1.0 / p),
+        left.missed_count + left.false_count,
+    ));
+    let total = root_p(localisation + left.missed + left.false_estimates, &bases, p);
+    GospaResult::assemble(total, localisation, left, pairs)
 }

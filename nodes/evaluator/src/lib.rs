@@ -40,11 +40,13 @@ pub mod csv_io;
 mod error;
 pub mod etgospa;
 pub mod gospa;
+mod inputs;
 pub mod node;
 mod params;
 mod point;
 pub mod representatives;
 mod sparse;
+mod unassigned;
 
 pub use csv_io::{
     evaluate, evaluate_files, EvaluatorError, MetricParams, MetricReport, TruthTarget,

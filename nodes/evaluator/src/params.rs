@@ -116,67 +116,12 @@ mod tests {
 
     #[test]
     fn each_bad_field_is_named() {
-        let cases = [
-            (
-                Params {
-                    c_m: 0.0,
-                    ..Params::default()
-                },
-                "c_m",
-            ),
-            (
-                Params {
-                    c_m: f64::NAN,
-                    ..Params::default()
-                },
-                "c_m",
-            ),
-            (
-                Params {
-                    p: 0.5,
-                    ..Params::default()
-                },
-                "p",
-            ),
-            (
-                Params {
-                    p: f64::NAN,
-                    ..Params::default()
-                },
-                "p",
-            ),
-            (
-                Params {
-                    p: 400.0,
-                    ..Params::default()
-                },
-                "p",
-            ),
-            (
-                Params {
-                    alpha: 0.0,
-                    ..Params::default()
-                },
-                "alpha",
-            ),
-            (
-                Params {
-                    alpha: 2.5,
-                    ..Params::default()
-                },
-                "alpha",
-            ),
-            (
-                Params {
-                    points_per_estimate: 0,
-                    ..Params::default()
-                },
-                "points_per_estimate",
-            ),
-        ];
-        for (params, field) in cases {
-            let err = params.validate().unwrap_err();
-            assert_eq!(err.field, field, "{err}");
-        }
+        let cases = nrslam_runtime::one_bad_field!(Params {
+            c_m: [0.0, f64::NAN],
+            p: [0.5, f64::NAN, 400.0],
+            alpha: [0.0, 2.5],
+            points_per_estimate: [0],
+        });
+        nrslam_runtime::config::assert_each_refused_by_name(cases, Params::validate);
     }
 }

@@ -260,118 +260,28 @@ mod tests {
 
     #[test]
     fn each_bad_field_is_named() {
-        let d = Params::default;
-        let cases = [
-            (
-                Params {
-                    resolution_m: 0.0,
-                    ..d()
-                },
-                "resolution_m",
-            ),
-            (
-                Params {
-                    resolution_m: 1e-4,
-                    ..d()
-                },
-                "resolution_m",
-            ),
-            (
-                Params {
-                    width_m: -1.0,
-                    ..d()
-                },
-                "width_m",
-            ),
-            (
-                Params {
-                    height_m: f64::INFINITY,
-                    ..d()
-                },
-                "height_m",
-            ),
-            (
-                Params {
-                    origin_x_m: f64::NAN,
-                    ..d()
-                },
-                "origin_x_m",
-            ),
-            (
-                Params {
-                    origin_y_m: f64::NEG_INFINITY,
-                    ..d()
-                },
-                "origin_y_m",
-            ),
-            (
-                Params {
-                    hit_probability: 0.5,
-                    ..d()
-                },
-                "hit_probability",
-            ),
-            (
-                Params {
-                    hit_probability: 1.0,
-                    ..d()
-                },
-                "hit_probability",
-            ),
-            (
-                Params {
-                    miss_probability: 0.5,
-                    ..d()
-                },
-                "miss_probability",
-            ),
-            (
-                Params {
-                    miss_probability: 0.0,
-                    ..d()
-                },
-                "miss_probability",
-            ),
-            (
-                Params {
-                    clamp_min_probability: 0.0,
-                    ..d()
-                },
-                "clamp_min_probability",
-            ),
-            (
-                Params {
-                    clamp_max_probability: 1.0,
-                    ..d()
-                },
-                "clamp_max_probability",
-            ),
-            (
-                Params {
-                    clamp_max_probability: f64::NAN,
-                    ..d()
-                },
-                "clamp_max_probability",
-            ),
-        ];
-        for (params, field) in cases {
-            let err = params.validate().unwrap_err();
-            assert!(err.to_string().contains(field), "{err} should name {field}");
-        }
+        let cases = nrslam_runtime::one_bad_field!(Params {
+            resolution_m: [0.0, 1e-4],
+            width_m: [-1.0],
+            height_m: [f64::INFINITY],
+            origin_x_m: [f64::NAN],
+            origin_y_m: [f64::NEG_INFINITY],
+            hit_probability: [0.5, 1.0],
+            miss_probability: [0.5, 0.0],
+            clamp_min_probability: [0.0],
+            clamp_max_probability: [1.0, f64::NAN],
+        });
+        nrslam_runtime::config::assert_each_refused_by_name(cases, Params::validate);
     }
 
     #[test]
     fn toml_fills_defaults_and_refuses_unknown_fields() {
-        let p: Params = toml::from_str("resolution_m = 0.2\nfree_space = false").unwrap();
-        assert_eq!(
-            p,
-            Params {
-                resolution_m: 0.2,
-                free_space: false,
-                ..Params::default()
-            }
-        );
-        let err = toml::from_str::<Params>("resolution = 0.2").unwrap_err();
-        assert!(err.to_string().contains("resolution"));
+        let expected = Params {
+            resolution_m: 0.2,
+            free_space: false,
+            ..Params::default()
+        };
+        let table = "resolution_m = 0.2\nfree_space = false";
+        nrslam_runtime::config::assert_toml_fills_defaults(table, &expected, "resolution = 0.2");
     }
 }

@@ -72,60 +72,24 @@ mod tests {
 
     #[test]
     fn each_bad_field_is_named() {
-        let cases = [
-            (
-                Params {
-                    eps_m: 0.0,
-                    ..Params::default()
-                },
-                "eps_m",
-            ),
-            (
-                Params {
-                    eps_m: f64::NAN,
-                    ..Params::default()
-                },
-                "eps_m",
-            ),
-            (
-                Params {
-                    min_samples: 0,
-                    ..Params::default()
-                },
-                "min_samples",
-            ),
-            (
-                Params {
-                    occupied_threshold: 0,
-                    ..Params::default()
-                },
-                "occupied_threshold",
-            ),
-            (
-                Params {
-                    occupied_threshold: 101,
-                    ..Params::default()
-                },
-                "occupied_threshold",
-            ),
-        ];
-        for (params, field) in cases {
-            let err = params.validate().unwrap_err();
-            assert!(err.to_string().contains(field), "{err} should name {field}");
-        }
+        let cases = nrslam_runtime::one_bad_field!(Params {
+            eps_m: [0.0, f64::NAN],
+            min_samples: [0],
+            occupied_threshold: [0, 101],
+        });
+        nrslam_runtime::config::assert_each_refused_by_name(cases, Params::validate);
     }
 
     #[test]
     fn toml_fills_defaults_and_refuses_unknown_fields() {
-        let p: Params = toml::from_str("eps_m = 0.8").unwrap();
-        assert_eq!(
-            p,
-            Params {
-                eps_m: 0.8,
-                ..Params::default()
-            }
+        let expected = Params {
+            eps_m: 0.8,
+            ..Params::default()
+        };
+        nrslam_runtime::config::assert_toml_fills_defaults(
+            "eps_m = 0.8",
+            &expected,
+            "epsilon = 0.8",
         );
-        let err = toml::from_str::<Params>("epsilon = 0.8").unwrap_err();
-        assert!(err.to_string().contains("epsilon"));
     }
 }

@@ -195,98 +195,28 @@ mod tests {
 
     #[test]
     fn each_bad_field_is_named() {
-        let base = Params::default;
-        let cases: Vec<(Params, &str)> = vec![
-            (
-                Params {
-                    topic: "/radar/points".into(),
-                    ..base()
-                },
-                "topic",
-            ),
-            (
-                Params {
-                    topic: "/nowhere".into(),
-                    ..base()
-                },
-                "topic",
-            ),
-            (
-                Params {
-                    pose_topic: "/odom".into(),
-                    ..base()
-                },
-                "pose_topic",
-            ),
-            (
-                Params {
-                    x_m: 100.5,
-                    ..base()
-                },
-                "x_m",
-            ),
-            (
-                Params {
-                    y_m: f64::NAN,
-                    ..base()
-                },
-                "y_m",
-            ),
-            (
-                Params {
-                    yaw_rad: 3.2,
-                    ..base()
-                },
-                "yaw_rad",
-            ),
-            (
-                Params {
-                    range_std_m: 0.0,
-                    ..base()
-                },
-                "range_std_m",
-            ),
-            (
-                Params {
-                    angle_std_rad: f64::INFINITY,
-                    ..base()
-                },
-                "angle_std_rad",
-            ),
-            (
-                Params {
-                    min_range_m: -1.0,
-                    ..base()
-                },
-                "min_range_m",
-            ),
-            (
-                Params {
-                    min_range_m: 5.0,
-                    max_range_m: 5.0,
-                    ..base()
-                },
-                "max_range_m",
-            ),
-            (
-                Params {
-                    power_field: "intensity".into(),
-                    ..base()
-                },
-                "power_field",
-            ),
-            (
-                Params {
-                    power_db: f64::NAN,
-                    ..base()
-                },
-                "power_db",
-            ),
-        ];
-        for (params, field) in cases {
-            let err = params.validate().unwrap_err().to_string();
-            assert!(err.contains(field), "{field}: {err}");
-        }
+        let mut cases = nrslam_runtime::one_bad_field!(Params {
+            topic: ["/radar/points".into(), "/nowhere".into()],
+            pose_topic: ["/odom".into()],
+            x_m: [100.5],
+            y_m: [f64::NAN],
+            yaw_rad: [3.2],
+            range_std_m: [0.0],
+            angle_std_rad: [f64::INFINITY],
+            min_range_m: [-1.0],
+        });
+        // The one check across two fields: an empty range is blamed on its upper end.
+        let empty_range = Params {
+            min_range_m: 5.0,
+            max_range_m: 5.0,
+            ..Params::default()
+        };
+        cases.push((empty_range, "max_range_m"));
+        cases.extend(nrslam_runtime::one_bad_field!(Params {
+            power_field: ["intensity".into()],
+            power_db: [f64::NAN],
+        }));
+        nrslam_runtime::config::assert_each_refused_by_name(cases, Params::validate);
     }
 
     #[test]

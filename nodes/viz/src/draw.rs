@@ -7,7 +7,7 @@
 use nrslam_evaluator::ClusterRepresentatives;
 use nrslam_msgs::{
     ColorRGBA, Detections, Header, Marker, MarkerArray, Point, PointCloud2, PointField, Segments,
-    TargetSet, Time, Transform, TransformStamped, Vector3,
+    TargetSet, Time, Transform, TransformStamped,
 };
 
 /// The fixed frame.
@@ -102,14 +102,6 @@ fn colour(index: usize, alpha: f32) -> ColorRGBA {
     ColorRGBA { r, g, b, a: alpha }
 }
 
-fn scale(x: f64, y: f64, z: f64) -> Vector3 {
-    Vector3 { x, y, z }
-}
-
-fn marker(stamp: Time, ns: &str, id: i32, marker_type: i32) -> Marker {
-    Marker::added(Header::new(stamp, MAP_FRAME), ns, id, marker_type)
-}
-
 /// The true targets: each outline as a closed line (ns `targets`, id = target id) and its
 /// ET-GOPSA sample points as spheres (ns `target_samples`).
 pub fn target_markers(targets: &TargetSet, line_width_m: f64, point_size_m: f64) -> MarkerArray {
@@ -150,47 +142,55 @@ pub fn cluster_markers(
     cell_size_m: f64,
     point_size_m: f64,
 ) -> MarkerArray {
-    let stamp = segments.header.stamp;
-    let mut markers = vec![Marker::delete_all(Header::new(stamp, MAP_FRAME))];
-    let mut noise = marker(stamp, "noise", 0, Marker::CUBE_LIST);
-    noise.scale = scale(cell_size_m, cell_size_m, cell_size_m);
-    noise.color = ColorRGBA {
+    let header = Header::new(segments.header.stamp, MAP_FRAME);
+    let cells_labelled = |wanted: &dyn Fn(i32) -> bool| -> Vec<Point> {
+        let labelled = segments.points.iter().zip(&segments.labels);
+        labelled
+            .filter(|(_, &l)| wanted(l))
+            .map(|(p, _)| *p)
+            .collect()
+    };
+    let mut markers = vec![Marker::delete_all(header.clone())];
+    for cluster in representatives {
+        let label = cluster.label;
+        let cells = cells_labelled(&|l| l == label);
+        let in_colour = |alpha| colour(label.unsigned_abs() as usize, alpha);
+        let at = ("clusters", label);
+        markers.push(Marker::cubes(
+            header.clone(),
+            at,
+            &cells,
+            cell_size_m,
+            in_colour(0.8),
+        ));
+        let points: Vec<Point> = cluster
+            .points
+            .iter()
+            .map(|p| Point::planar(p.x_m, p.y_m))
+            .collect();
+        let at = ("representatives", label);
+        markers.push(Marker::spheres(
+            header.clone(),
+            at,
+            &points,
+            point_size_m,
+            in_colour(1.0),
+        ));
+    }
+    let grey = ColorRGBA {
         r: 0.6,
         g: 0.6,
         b: 0.6,
         a: 0.5,
     };
-    for cluster in representatives {
-        let label = cluster.label;
-        let mut cells = marker(stamp, "clusters", label, Marker::CUBE_LIST);
-        cells.scale = scale(cell_size_m, cell_size_m, cell_size_m);
-        cells.color = colour(label.unsigned_abs() as usize, 0.8);
-        cells.points = segments
-            .points
-            .iter()
-            .zip(&segments.labels)
-            .filter(|(_, &l)| l == label)
-            .map(|(p, _)| *p)
-            .collect();
-        markers.push(cells);
-        let mut points = marker(stamp, "representatives", label, Marker::SPHERE_LIST);
-        points.scale = scale(point_size_m, point_size_m, point_size_m);
-        points.color = colour(label.unsigned_abs() as usize, 1.0);
-        points.points = cluster
-            .points
-            .iter()
-            .map(|p| Point::planar(p.x_m, p.y_m))
-            .collect();
-        markers.push(points);
-    }
-    noise.points = segments
-        .points
-        .iter()
-        .zip(&segments.labels)
-        .filter(|(_, &l)| l < 0)
-        .map(|(p, _)| *p)
-        .collect();
-    markers.push(noise);
+    let noise = cells_labelled(&|l| l < 0);
+    markers.push(Marker::cubes(
+        header,
+        ("noise", 0),
+        &noise,
+        cell_size_m,
+        grey,
+    ));
     MarkerArray { markers }
 }
 

@@ -95,48 +95,14 @@ mod tests {
     #[test]
     fn defaults_are_valid_and_each_bad_field_is_named() {
         Params::default().validate().unwrap();
-        let base = Params::default;
-        let cases = [
-            (
-                Params {
-                    path_max_poses: 0,
-                    ..base()
-                },
-                "path_max_poses",
-            ),
-            (
-                Params {
-                    cell_size_m: 0.0,
-                    ..base()
-                },
-                "cell_size_m",
-            ),
-            (
-                Params {
-                    point_size_m: f64::NAN,
-                    ..base()
-                },
-                "point_size_m",
-            ),
-            (
-                Params {
-                    line_width_m: 11.0,
-                    ..base()
-                },
-                "line_width_m",
-            ),
-            (
-                Params {
-                    points_per_estimate: 65,
-                    ..base()
-                },
-                "points_per_estimate",
-            ),
-        ];
-        for (params, field) in cases {
-            let err = params.validate().unwrap_err().to_string();
-            assert!(err.contains(field), "{field}: {err}");
-        }
+        let cases = nrslam_runtime::one_bad_field!(Params {
+            path_max_poses: [0],
+            cell_size_m: [0.0],
+            point_size_m: [f64::NAN],
+            line_width_m: [11.0],
+            points_per_estimate: [65],
+        });
+        nrslam_runtime::config::assert_each_refused_by_name(cases, Params::validate);
         assert!(toml::from_str::<Params>("ground_truth = false\nfoo = 1").is_err());
         let p: Params = toml::from_str("representatives = \"farthest-point\"").unwrap();
         assert_eq!(p.representatives, RepresentativeMode::FarthestPoint);

@@ -283,6 +283,13 @@ impl BagContents {
         self.chunks.last().map_or(0, |c| c.end_byte)
     }
 
+    /// Messages in the complete chunks that end at or before byte `end` of the MCAP file: what
+    /// a recovery of the file cut at `end` keeps.
+    pub fn messages_in_chunks_ending_by(&self, end: u64) -> u64 {
+        let complete = self.chunks.iter().filter(|c| c.end_byte <= end);
+        complete.map(|c| c.messages).sum()
+    }
+
     /// First and last log time (ns), if any message was read.
     pub fn time_range_ns(&self) -> Option<(u64, u64)> {
         let first = self.messages.iter().map(|m| m.log_time_ns).min()?;
@@ -631,10 +638,20 @@ impl Summary {
 
 /// A chunk's records (uncompressed) against the CRC its header records (0: none recorded).
 fn check_crc(at: u64, header: &format::ChunkHeader, records: &[u8]) -> Result<(), Fail> {
+    check_crc_with(at, header, || Ok(crc32(records)))
+}
+
+/// As [`check_crc`], the records' CRC from `crc`, called only when the header records one (for
+/// records streamed from the file rather than held in memory).
+fn check_crc_with(
+    at: u64,
+    header: &format::ChunkHeader,
+    crc: impl FnOnce() -> Result<u32, Fail>,
+) -> Result<(), Fail> {
     if header.uncompressed_crc == 0 {
         return Ok(());
     }
-    let crc = crc32(records);
+    let crc = crc()?;
     if crc != header.uncompressed_crc {
         return Err(damage(
             at,
@@ -1113,18 +1130,7 @@ impl FileMessages {
             return self.parse_chunk(at, end_byte, buf);
         }
         if records_len > self.in_memory_chunk_bytes {
-            if header.uncompressed_crc != 0 {
-                let crc = self.crc_of(records_at, records_len)?;
-                if crc != header.uncompressed_crc {
-                    return Err(damage(
-                        at,
-                        format!(
-                            "chunk CRC mismatch (recorded {:08x}, computed {crc:08x})",
-                            header.uncompressed_crc
-                        ),
-                    ));
-                }
-            }
+            check_crc_with(at, &header, || self.crc_of(records_at, records_len))?;
             return Ok(OpenChunk::File {
                 start: at,
                 next: records_at,
@@ -1551,12 +1557,19 @@ mod tests {
     use super::*;
     use crate::bag_common::write_bag;
     use nrslam_msgs::{topics, Time};
+    use tempfile::TempDir;
+
+    /// [`write_bag`] into `run` in a new temporary folder, which lives as long as the `TempDir`.
+    fn written_bag(frames: u32, chunk_size_bytes: u64) -> (TempDir, PathBuf, BagInfo) {
+        let dir = tempfile::tempdir().unwrap();
+        let bag = dir.path().join("run");
+        let info = write_bag(&bag, frames, chunk_size_bytes);
+        (dir, bag, info)
+    }
 
     #[test]
     fn a_written_bag_reads_back_message_for_message() {
-        let dir = tempfile::tempdir().unwrap();
-        let bag = dir.path().join("run");
-        let info = write_bag(&bag, 20, 1024);
+        let (_dir, bag, info) = written_bag(20, 1024);
         assert_eq!(info.message_count, 40);
         assert_eq!(info.starting_time.nanoseconds_since_epoch, 500_000_000);
         assert_eq!(info.duration.nanoseconds, 9_500_000_000);
@@ -1591,9 +1604,7 @@ mod tests {
 
     #[test]
     fn chunks_read_record_by_record_give_the_same_messages() {
-        let dir = tempfile::tempdir().unwrap();
-        let bag = dir.path().join("run");
-        write_bag(&bag, 30, 700);
+        let (_dir, bag, _) = written_bag(30, 700);
         let whole = open(&bag, ReadMode::Strict).unwrap();
         let mut opened = Bag::open(&bag, ReadMode::Strict).unwrap();
         opened.set_in_memory_chunk_bytes(100);
@@ -1615,9 +1626,7 @@ mod tests {
 
     #[test]
     fn a_cut_off_file_is_an_error_strictly_and_loses_at_most_one_chunk_when_recovered() {
-        let dir = tempfile::tempdir().unwrap();
-        let bag = dir.path().join("run");
-        write_bag(&bag, 50, 512);
+        let (_dir, bag, _) = written_bag(50, 512);
         let full = open(&bag, ReadMode::Strict).unwrap();
         let path = full.mcap_path.clone();
         let bytes = std::fs::read(&path).unwrap();
@@ -1635,12 +1644,7 @@ mod tests {
                 "a prefix of the recording"
             );
             // Exactly the chunks that end before the cut survive: the one being cut is lost.
-            let expected: u64 = full
-                .chunks
-                .iter()
-                .filter(|c| c.end_byte <= cut as u64)
-                .map(|c| c.messages)
-                .sum();
+            let expected = full.messages_in_chunks_ending_by(cut as u64);
             assert_eq!(recovered.messages.len() as u64, expected, "cut at {cut}");
             assert!(recovered.complete_bytes() <= cut as u64);
             assert_eq!(recovered.losses.len(), 1, "{:?}", recovered.losses);
@@ -1674,9 +1678,7 @@ mod tests {
 
     #[test]
     fn unknown_topics_are_refused_by_name() {
-        let dir = tempfile::tempdir().unwrap();
-        let bag = dir.path().join("run");
-        write_bag(&bag, 2, 1024);
+        let (_dir, bag, _) = written_bag(2, 1024);
         let mut contents = open(&bag, ReadMode::Strict).unwrap();
         let error = contents
             .retain_topics(&["/nope".to_owned()])

@@ -125,6 +125,14 @@ pub fn twenty_echoes(p: &OfdmParams) -> Vec<Echo> {
         .collect()
 }
 
+/// The benches' and timing examples' frame: Table I sizes with one symbol (N 10240, K 32, M 1)
+/// and [`twenty_echoes`] at the Table I SNR, noise seed 1.
+pub fn table_one_frame() -> (OfdmParams, ResourceGrid) {
+    let p = params(10240, 32, 1);
+    let g = grid(&p, &twenty_echoes(&p), Some(p.snr_db), 1);
+    (p, g)
+}
+
 /// Wraps a sine difference into [−1/(d/λ)/2, …) for d = λ/2: [−1, 1).
 pub fn sine_error(est_rad: f64, true_rad: f64) -> f64 {
     let d = est_rad.sin() - true_rad.sin();
