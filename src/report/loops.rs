@@ -59,8 +59,7 @@ impl Reporter {
                 let weak_axis_information =
                     k.loop_informations.get(9 * index..9 * index + 9).map(|o| {
                         let h = [[o[0], o[1], o[2]], [o[3], o[4], o[5]], [o[6], o[7], o[8]]];
-                        let marginal = nrslam_association::loop_closure::translation_marginal(&h);
-                        nrslam_association::loop_closure::symmetric_eigen_2x2(&marginal).1
+                        nrslam_association::loop_closure::weakest_translation_information(&h)
                     });
                 error_m.is_finite().then_some(ScoredLoopEdge {
                     from: *from,

@@ -346,6 +346,13 @@ fn match_information(
     h
 }
 
+/// The information along the weakest translation direction of `information` (over x m, y m,
+/// yaw rad) once the heading is free: the smallest eigenvalue of [`translation_marginal`], m⁻²
+/// for an edge's information. Small when the match can slide along a straight side.
+pub fn weakest_translation_information(information: &[[f64; 3]; 3]) -> f64 {
+    symmetric_eigen_2x2(&translation_marginal(information)).1
+}
+
 /// The translation block of `information` once the heading is free (its Schur complement).
 pub fn translation_marginal(information: &[[f64; 3]; 3]) -> [[f64; 2]; 2] {
     let h = information;
@@ -459,6 +466,16 @@ mod tests {
             ..found
         };
         assert!(straight.constraint() < 1e-6, "{straight:?}");
+    }
+
+    #[test]
+    fn the_weakest_translation_information_frees_the_heading_first() {
+        // Without coupling to the heading it is the smaller translation diagonal.
+        let decoupled = [[4.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 10.0]];
+        assert!((weakest_translation_information(&decoupled) - 1.0).abs() < 1e-12);
+        // Coupling y to the heading lets a turn explain part of a shift in y: less is pinned.
+        let coupled = [[4.0, 0.0, 0.0], [0.0, 1.0, 2.0], [0.0, 2.0, 10.0]];
+        assert!((weakest_translation_information(&coupled) - (1.0 - 4.0 / 10.0)).abs() < 1e-12);
     }
 
     #[test]

@@ -217,6 +217,12 @@ pub struct LoopClosureParams {
     /// A match whose correlative score is at least this is accepted alone (1 disables it: every
     /// loop that changes the graph needs a second one).
     pub standalone_score: f64,
+    /// Weakest translation information of a match's loop edge (its smallest eigenvalue once the
+    /// heading is marginalised, m⁻², as `loops.csv`'s `weak_axis_information_per_m2`) for the
+    /// match to join the graph by agreeing with it or by a pending match's confirmation; a match
+    /// scoring `standalone_score` joins without it. Those two paths are how a first revisit
+    /// closes, and a first revisit along one side can slide along it. 0: no minimum.
+    pub confirm_min_information_per_m2: f64,
     /// A match that waits for confirmation is dropped after this many keyframes.
     pub pending_keyframes: u32,
 }
@@ -261,6 +267,7 @@ impl Default for LoopClosureParams {
             pair_per_m: 0.02,
             pair_deg: 1.5,
             standalone_score: 0.95,
+            confirm_min_information_per_m2: 1.0,
             pending_keyframes: 20,
         }
     }
@@ -311,7 +318,7 @@ impl LoopClosureParams {
 
     /// (field, value, min, max) of the real-valued fields checked as plain closed ranges, in the
     /// order [`Self::validate`] checks them first.
-    fn real_ranges(&self) -> [(&'static str, f64, f64, f64); 22] {
+    fn real_ranges(&self) -> [(&'static str, f64, f64, f64); 23] {
         [
             (
                 "loop_closure.overlap_distance_m",
@@ -382,6 +389,12 @@ impl LoopClosureParams {
                 1.0,
             ),
             ("loop_closure.max_ambiguity", self.max_ambiguity, 0.0, 1.0),
+            (
+                "loop_closure.confirm_min_information_per_m2",
+                self.confirm_min_information_per_m2,
+                0.0,
+                1e6,
+            ),
             (
                 "loop_closure.ambiguity_distance_m",
                 self.ambiguity_distance_m,

@@ -38,7 +38,10 @@ use nrslam_runtime::InvalidParam;
 
 use crate::icp::{IcpResult, PointMap};
 use crate::keyframe::KeyframeSelector;
-use crate::loop_closure::{match_loop, symmetric_eigen_2x2, translation_marginal, LoopMatch};
+use crate::loop_closure::{
+    match_loop, symmetric_eigen_2x2, translation_marginal, weakest_translation_information,
+    LoopMatch,
+};
 use crate::params::{LoopClosureParams, Params};
 use crate::pose::Pose2;
 use crate::pose_graph::{Edge, EdgeKind, OptimiserSettings, PoseGraph};
@@ -584,8 +587,15 @@ impl Association {
                         relative: found.relative,
                         information: found.information,
                     };
+                    let information: [[f64; 3]; 3] = loop_information(&edge, &lc).into();
                     let (confirmed, why) = if found.score >= lc.standalone_score {
                         (Some(Vec::new()), "score")
+                    } else if weakest_translation_information(&information)
+                        < lc.confirm_min_information_per_m2
+                    {
+                        // Neither agreement nor a pending match can vouch for a match that may
+                        // have slid along a side: both pass it with the slide in it.
+                        (None, "may slide")
                     } else if self.agrees_with_graph(&edge) {
                         (Some(Vec::new()), "agrees with the graph")
                     } else {
