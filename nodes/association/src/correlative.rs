@@ -1221,19 +1221,6 @@ mod tests {
             let best = search_with(&grids, query, initial, &window, &options, 0.0)
                 .unwrap()
                 .unwrap();
-            let second = runner_up(
-                &grids,
-                query,
-                initial,
-                &window,
-                &options,
-                Exclusion::around(&best, 2.0),
-                0.0,
-            )
-            .unwrap()
-            .unwrap();
-            // Asked only for a runner-up above its own score, the search finds the same one,
-            // and just above it, none.
             let above = |min_score| {
                 runner_up(
                     &grids,
@@ -1246,13 +1233,13 @@ mod tests {
                 )
                 .unwrap()
             };
+            let second = above(0.0).unwrap();
+            // Asked only for a runner-up above its own score, the search finds the same one,
+            // and just above it, none.
             assert_eq!(above(second.score), Some(second));
             assert_eq!(above(second.score * (1.0 + 1e-9) + 1e-12), None);
             assert!(second.pose.distance_m(&best.pose) >= 2.0);
-            let exclude = Exclusion {
-                center_m: [best.pose.x_m, best.pose.y_m],
-                radius_m: 2.0,
-            };
+            let exclude = Exclusion::around(&best, 2.0);
             let reference = exhaustive_search(
                 grids.grid(),
                 query,
