@@ -177,19 +177,7 @@ pub fn match_loop(
     let stride = query_m.len().div_ceil(400).max(1);
     let sample: Vec<[f64; 2]> = query_m.iter().step_by(stride).copied().collect();
     let step_m = loop_params.search_step_m;
-    // A grid that cannot be built (a runaway extent: points kilometres apart) is not a submap
-    // worth searching.
-    let kernel = if loop_params.search_sigma_m > 0.0 {
-        Kernel::Gaussian {
-            sigma_m: loop_params.search_sigma_m,
-        }
-    } else {
-        Kernel::Hit { cells: 1 }
-    };
-    let grid = ProbabilityGrid::with_kernel(&submap_m, step_m, kernel)
-        .map_err(|_| LoopRejection::TooFewPoints)?;
-    let grids = MultiResolutionGrid::new(grid, suggested_depth(radius_m, step_m))
-        .map_err(|_| LoopRejection::TooFewPoints)?;
+    let grids = search_grids(&submap_m, radius_m, loop_params)?;
 
     let steps_t = (radius_m / step_m).ceil() as i64;
     let step_rad = loop_params.search_step_deg.to_radians();
@@ -244,38 +232,7 @@ pub fn match_loop(
     };
     let mut map = PointMap::for_params(&refine);
     map.extend(&submap_m);
-    // Refinement moves the search's best motion by about a lattice step: a candidate whose inlier
-    // ratio falls short even with two steps of slack cannot pass after it, and is refused before
-    // the ICP (which on such a candidate creeps through all its iterations).
-    let (inliers, overlapping) =
-        inliers_and_overlap(&map, &sample, &best, loop_params, 2.0 * step_m);
-    if (inliers as f64) < loop_params.min_inlier_ratio * overlapping as f64 {
-        return Err(LoopRejection::LowInlierRatio(
-            inliers as f64 / overlapping.max(1) as f64,
-        ));
-    }
-    let icp = align(&map, &query_m, best, &refine);
-    if !matches!(icp.status, IcpStatus::Converged | IcpStatus::MaxIterations) {
-        return Err(LoopRejection::IcpFailed);
-    }
-    // The refinement's gate is wide enough to pull a lap's drift in, and then lets points that
-    // belong to other surfaces pull at the pose; a second pass within the verifier's own inlier
-    // distance ends where the inliers agree.
-    let fine = Params {
-        max_correspondence_m: loop_params
-            .inlier_distance_m
-            .min(refine.max_correspondence_m),
-        ..refine.clone()
-    };
-    let fine_icp = align(&map, &query_m, icp.pose, &fine);
-    let relative = if matches!(
-        fine_icp.status,
-        IcpStatus::Converged | IcpStatus::MaxIterations
-    ) {
-        fine_icp.pose
-    } else {
-        icp.pose
-    };
+    let relative = refine_match(&map, (&query_m, &sample), best, &refine, loop_params)?;
     if steps_t > 0 && steps_r > 0 && outside(&relative) {
         return Err(LoopRejection::AtSearchEdge);
     }
@@ -300,6 +257,74 @@ pub fn match_loop(
         runner_up,
         information,
     })
+}
+
+/// The search's grids of `submap_m` for a window of `radius_m`: a binary raster, or a Gaussian
+/// likelihood field when `search_sigma_m` > 0. A grid that cannot be built (a runaway extent:
+/// points kilometres apart) is not a submap worth searching.
+fn search_grids(
+    submap_m: &[[f64; 2]],
+    radius_m: f64,
+    loop_params: &LoopClosureParams,
+) -> Result<MultiResolutionGrid, LoopRejection> {
+    let step_m = loop_params.search_step_m;
+    let kernel = if loop_params.search_sigma_m > 0.0 {
+        Kernel::Gaussian {
+            sigma_m: loop_params.search_sigma_m,
+        }
+    } else {
+        Kernel::Hit { cells: 1 }
+    };
+    let grid = ProbabilityGrid::with_kernel(submap_m, step_m, kernel)
+        .map_err(|_| LoopRejection::TooFewPoints)?;
+    MultiResolutionGrid::new(grid, suggested_depth(radius_m, step_m))
+        .map_err(|_| LoopRejection::TooFewPoints)
+}
+
+/// Refines the search's `best` motion of the query (all its points, and the search's `sample`
+/// of them) against the submap `map` by ICP with the `refine` parameters, then by a second pass
+/// inside the verifier's inlier distance.
+fn refine_match(
+    map: &PointMap,
+    (query_m, sample): (&[[f64; 2]], &[[f64; 2]]),
+    best: Pose2,
+    refine: &Params,
+    loop_params: &LoopClosureParams,
+) -> Result<Pose2, LoopRejection> {
+    // Refinement moves the search's best motion by about a lattice step: a candidate whose inlier
+    // ratio falls short even with two steps of slack cannot pass after it, and is refused before
+    // the ICP (which on such a candidate creeps through all its iterations).
+    let slack_m = 2.0 * loop_params.search_step_m;
+    let (inliers, overlapping) = inliers_and_overlap(map, sample, &best, loop_params, slack_m);
+    if (inliers as f64) < loop_params.min_inlier_ratio * overlapping as f64 {
+        return Err(LoopRejection::LowInlierRatio(
+            inliers as f64 / overlapping.max(1) as f64,
+        ));
+    }
+    let icp = align(map, query_m, best, refine);
+    if !matches!(icp.status, IcpStatus::Converged | IcpStatus::MaxIterations) {
+        return Err(LoopRejection::IcpFailed);
+    }
+    // The refinement's gate is wide enough to pull a lap's drift in, and then lets points that
+    // belong to other surfaces pull at the pose; a second pass within the verifier's own inlier
+    // distance ends where the inliers agree.
+    let fine = Params {
+        max_correspondence_m: loop_params
+            .inlier_distance_m
+            .min(refine.max_correspondence_m),
+        ..refine.clone()
+    };
+    let fine_icp = align(map, query_m, icp.pose, &fine);
+    Ok(
+        if matches!(
+            fine_icp.status,
+            IcpStatus::Converged | IcpStatus::MaxIterations
+        ) {
+            fine_icp.pose
+        } else {
+            icp.pose
+        },
+    )
 }
 
 /// How well the inlier pairs pin the query down, direction by direction: the point-to-line
