@@ -1000,6 +1000,19 @@ mod tests {
         crate::fixtures::build_grids(points, cell_m, Kernel::Gaussian { sigma_m }, depth)
     }
 
+    /// A window of ±`linear_m` and ±`angular_rad`, searched in rotation steps of `step_rad`.
+    fn stepped(linear_m: f64, angular_rad: f64, step_rad: f64) -> (SearchWindow, SearchOptions) {
+        let window = SearchWindow {
+            linear_m,
+            angular_rad,
+        };
+        let options = SearchOptions {
+            angular_step_rad: Some(step_rad),
+            ..SearchOptions::default()
+        };
+        (window, options)
+    }
+
     /// The branch and bound with its count of scored nodes.
     fn counted(
         grids: &MultiResolutionGrid,
@@ -1128,14 +1141,7 @@ mod tests {
         let truth = Pose2::new(1.3, 0.4, 0.25);
         let scan: Vec<[f64; 2]> = seen_from(&truth, &points).into_iter().step_by(4).collect();
         let initial = Pose2::new(truth.x_m - 2.1, truth.y_m + 3.3, truth.yaw_rad - 0.1);
-        let window = SearchWindow {
-            linear_m: 6.0,
-            angular_rad: 12f64.to_radians(),
-        };
-        let options = SearchOptions {
-            angular_step_rad: Some(1f64.to_radians()),
-            ..SearchOptions::default()
-        };
+        let (window, options) = stepped(6.0, 12f64.to_radians(), 1f64.to_radians());
         let grids = grids(&points, 0.25, 0.25, 4);
         let (found, scored) = counted(&grids, &scan, initial, &window, &options, 0.0);
         let exhaustive =
@@ -1154,14 +1160,7 @@ mod tests {
         let line: Vec<[f64; 2]> = (0..=30).map(|i| [f64::from(i) * 0.1, 0.0]).collect();
         let grids = grids(&line, 0.1, 0.05, 3);
         let initial = Pose2::new(1.52, 0.41, 0.0);
-        let window = SearchWindow {
-            linear_m: 1.0,
-            angular_rad: 0.1,
-        };
-        let options = SearchOptions {
-            angular_step_rad: Some(0.05),
-            ..SearchOptions::default()
-        };
+        let (window, options) = stepped(1.0, 0.1, 0.05);
         let scan = [[0.0, 0.0]];
         let found = search_with(&grids, &scan, initial, &window, &options, 0.0)
             .unwrap()
@@ -1208,14 +1207,7 @@ mod tests {
             .filter(|p| p[0] > 8.0 && p[0] < 20.0)
             .copied()
             .collect();
-        let window = SearchWindow {
-            linear_m: 6.0,
-            angular_rad: 0.1,
-        };
-        let options = SearchOptions {
-            angular_step_rad: Some(0.02),
-            ..SearchOptions::default()
-        };
+        let (window, options) = stepped(6.0, 0.1, 0.02);
         let check = |map: &[[f64; 2]], query: &[[f64; 2]], initial: Pose2| {
             let grids = grids(map, 0.25, 0.2, 4);
             let best = search_with(&grids, query, initial, &window, &options, 0.0)
