@@ -111,9 +111,11 @@ pub struct LineFit {
 /// The map that scans are matched against: points in the map frame, metres, with a k-d tree over
 /// them and, for point-to-line matching, a local line normal at each point.
 ///
-/// The tree is immutable and rebuilt by [`PointMap::extend`], which the association calls only
-/// when a keyframe is added: a rebuild is O(n log n), a query O(log n), and there are far more
-/// queries (scan points × iterations × frames) than keyframes. kiddo's immutable tree also
+/// The tree is immutable and rebuilt by [`PointMap::extend`]: a rebuild is O(n log n), a query
+/// O(log n), and the association builds such maps only where the queries far outnumber the
+/// points (a loop candidate's submap, refined over many ICP iterations; the last keyframe's
+/// points). The growing keyframe map that the per-frame statistics read is a
+/// [`crate::point_grid::PointGrid`] instead, which adds a keyframe without a rebuild. kiddo's immutable tree also
 /// accepts any number of coincident points, which repeated noise-free detections produce.
 #[derive(Default)]
 pub struct PointMap {

@@ -59,6 +59,7 @@ pub mod keyframe;
 pub mod loop_closure;
 pub mod node;
 pub mod params;
+pub mod point_grid;
 pub mod pose;
 pub mod pose_graph;
 pub mod scan_matcher;

@@ -43,6 +43,7 @@ use crate::loop_closure::{
     LoopMatch,
 };
 use crate::params::{LoopClosureParams, Params};
+use crate::point_grid::PointGrid;
 use crate::pose::Pose2;
 use crate::pose_graph::{Edge, EdgeKind, OptimiserSettings, PoseGraph};
 use crate::scan_matcher::{match_scan, DistributionMap, RadarPoint};
@@ -148,7 +149,8 @@ pub struct LoopEdge {
 #[derive(Debug)]
 pub struct Association {
     params: Params,
-    map: PointMap,
+    /// The keyframe map's points, for the association statistics.
+    map: PointGrid,
     /// The map as cell Gaussians, which tracking matches against.
     cells: DistributionMap,
     keyframes: KeyframeSelector,
@@ -184,7 +186,7 @@ impl Association {
         params.validate()?;
         let keyframes =
             KeyframeSelector::new(params.keyframe_distance_m, params.keyframe_rotation_rad());
-        let map = PointMap::for_params(&params);
+        let map = PointGrid::new(params.max_correspondence_m);
         let cells = params.distribution_map();
         Ok(Association {
             params,
@@ -415,17 +417,15 @@ impl Association {
         let mut overlapping = 0;
         for (p, s) in scan.iter().zip(std) {
             let in_map = pose.transform_point(*p);
-            if let Some((_, d2)) = self.map.nearest(&in_map) {
-                if d2 <= gate_m2 {
-                    stats.associated += 1;
-                    sum_m2 += d2;
-                    // The larger axis of the point's error ellipse, plus the map's own error.
-                    let range_m = p[0].hypot(p[1]);
-                    let sigma2 =
-                        s[0].powi(2).max((range_m * s[1]).powi(2)) + self.params.map_std_m.powi(2);
-                    if d2 <= self.params.gate_sigma.powi(2) * sigma2 {
-                        stats.inliers += 1;
-                    }
+            if let Some(d2) = self.map.nearest_within_gate_m2(&in_map) {
+                stats.associated += 1;
+                sum_m2 += d2;
+                // The larger axis of the point's error ellipse, plus the map's own error.
+                let range_m = p[0].hypot(p[1]);
+                let sigma2 =
+                    s[0].powi(2).max((range_m * s[1]).powi(2)) + self.params.map_std_m.powi(2);
+                if d2 <= self.params.gate_sigma.powi(2) * sigma2 {
+                    stats.inliers += 1;
                 }
             }
             if self
@@ -707,7 +707,7 @@ impl Association {
         for record in &self.records[first..] {
             points_m.extend(record.points_in_map());
         }
-        self.map = PointMap::for_params(&self.params);
+        self.map = PointGrid::new(self.params.max_correspondence_m);
         self.map.extend(&points_m);
         self.cells = self.params.distribution_map();
         self.cells.extend(&points_m);
@@ -733,8 +733,8 @@ impl Association {
         self.slam_pose
     }
 
-    /// The keyframe map.
-    pub fn map(&self) -> &PointMap {
+    /// The keyframe map's points, as the association statistics read them.
+    pub fn map(&self) -> &PointGrid {
         &self.map
     }
 
