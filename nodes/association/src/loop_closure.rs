@@ -198,20 +198,6 @@ pub fn match_loop(
         .ok()
         .flatten()
         .ok_or(LoopRejection::TooFewPoints)?;
-    let runner_up = runner_up_mean_value(
-        &grids,
-        &sample,
-        (predicted, &window, &options),
-        &best,
-        (loop_params.ambiguity_distance_m, loop_params.max_ambiguity),
-    );
-    let score = best.mean_value;
-    let best = best.pose;
-    // Ambiguity needs only the search: checked before the costlier refinement.
-    if runner_up > loop_params.max_ambiguity * score {
-        return Err(LoopRejection::Ambiguous { score, runner_up });
-    }
-
     // A peak on the window's edge (outermost ring of translations or of rotations) is a
     // truncated slope, not a verified maximum.
     let edge_m = (radius_m - step_m).max(0.0);
@@ -220,11 +206,12 @@ pub fn match_loop(
         motion.distance_m(&predicted) > edge_m + 1e-9
             || motion.rotation_to_rad(&predicted) > edge_rad.max(0.0)
     };
-    if steps_t > 0 && steps_r > 0 && outside(&best) {
+    if steps_t > 0 && steps_r > 0 && outside(&best.pose) {
         return Err(LoopRejection::AtSearchEdge);
     }
 
-    // Refinement: ICP of the query against the submap, from the search's best motion.
+    // Refinement: ICP of the query against the submap, from the search's best motion. The
+    // cheap refusals come first: a hopeless overlap, then an ambiguous peak (a second search).
     let refine = Params {
         max_correction_m: 2.0 * step_m + 1.0,
         max_correction_deg: 2.0 * loop_params.search_step_deg + 5.0,
@@ -232,7 +219,19 @@ pub fn match_loop(
     };
     let mut map = PointMap::for_params(&refine);
     map.extend(&submap_m);
-    let relative = refine_match(&map, (&query_m, &sample), best, &refine, loop_params)?;
+    refuse_hopeless(&map, &sample, &best.pose, loop_params)?;
+    let runner_up = runner_up_mean_value(
+        &grids,
+        &sample,
+        (predicted, &window, &options),
+        &best,
+        (loop_params.ambiguity_distance_m, loop_params.max_ambiguity),
+    );
+    let score = best.mean_value;
+    if runner_up > loop_params.max_ambiguity * score {
+        return Err(LoopRejection::Ambiguous { score, runner_up });
+    }
+    let relative = refine_match(&map, &query_m, best.pose, &refine, loop_params)?;
     if steps_t > 0 && steps_r > 0 && outside(&relative) {
         return Err(LoopRejection::AtSearchEdge);
     }
@@ -281,26 +280,35 @@ fn search_grids(
         .map_err(|_| LoopRejection::TooFewPoints)
 }
 
-/// Refines the search's `best` motion of the query (all its points, and the search's `sample`
-/// of them) against the submap `map` by ICP with the `refine` parameters, then by a second pass
-/// inside the verifier's inlier distance.
-fn refine_match(
+/// Refuses a candidate whose inlier ratio at the search's `best` motion of the query's `sample`
+/// falls short even with two lattice steps of slack: refinement moves that motion by about a
+/// step, so it cannot pass after it (and on such a candidate the ICP creeps through all its
+/// iterations).
+fn refuse_hopeless(
     map: &PointMap,
-    (query_m, sample): (&[[f64; 2]], &[[f64; 2]]),
-    best: Pose2,
-    refine: &Params,
+    sample: &[[f64; 2]],
+    best: &Pose2,
     loop_params: &LoopClosureParams,
-) -> Result<Pose2, LoopRejection> {
-    // Refinement moves the search's best motion by about a lattice step: a candidate whose inlier
-    // ratio falls short even with two steps of slack cannot pass after it, and is refused before
-    // the ICP (which on such a candidate creeps through all its iterations).
+) -> Result<(), LoopRejection> {
     let slack_m = 2.0 * loop_params.search_step_m;
-    let (inliers, overlapping) = inliers_and_overlap(map, sample, &best, loop_params, slack_m);
+    let (inliers, overlapping) = inliers_and_overlap(map, sample, best, loop_params, slack_m);
     if (inliers as f64) < loop_params.min_inlier_ratio * overlapping as f64 {
         return Err(LoopRejection::LowInlierRatio(
             inliers as f64 / overlapping.max(1) as f64,
         ));
     }
+    Ok(())
+}
+
+/// Refines the search's `best` motion of the query `query_m` against the submap `map` by ICP
+/// with the `refine` parameters, then by a second pass inside the verifier's inlier distance.
+fn refine_match(
+    map: &PointMap,
+    query_m: &[[f64; 2]],
+    best: Pose2,
+    refine: &Params,
+    loop_params: &LoopClosureParams,
+) -> Result<Pose2, LoopRejection> {
     let icp = align(map, query_m, best, refine);
     if !matches!(icp.status, IcpStatus::Converged | IcpStatus::MaxIterations) {
         return Err(LoopRejection::IcpFailed);
