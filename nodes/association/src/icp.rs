@@ -113,10 +113,10 @@ pub struct LineFit {
 ///
 /// The tree is immutable and rebuilt by [`PointMap::extend`]: a rebuild is O(n log n), a query
 /// O(log n), and the association builds such maps only where the queries far outnumber the
-/// points (a loop candidate's submap, refined over many ICP iterations; the last keyframe's
-/// points). The growing keyframe map that the per-frame statistics read is a
-/// [`crate::point_grid::PointGrid`] instead, which adds a keyframe without a rebuild. kiddo's immutable tree also
-/// accepts any number of coincident points, which repeated noise-free detections produce.
+/// points (a loop candidate's submap, refined over many ICP iterations). The maps that the
+/// per-frame statistics read grow by a keyframe at a time and are
+/// [`crate::point_grid::PointGrid`]s instead. kiddo's immutable tree also accepts any number of
+/// coincident points, which repeated noise-free detections produce.
 #[derive(Default)]
 pub struct PointMap {
     points_m: Vec<[f64; 2]>,
@@ -252,7 +252,7 @@ impl PointMap {
     }
 }
 
-fn squared_distance_m2(a: &[f64; 2], b: &[f64; 2]) -> f64 {
+pub(crate) fn squared_distance_m2(a: &[f64; 2], b: &[f64; 2]) -> f64 {
     let dx = a[0] - b[0];
     let dy = a[1] - b[1];
     dx * dx + dy * dy

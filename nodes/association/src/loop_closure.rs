@@ -72,9 +72,7 @@ impl LoopMatch {
     /// The smallest eigenvalue of [`LoopMatch::information`]: 0 when the query can slide along
     /// a straight edge, 0.5 with edges in every direction.
     pub fn constraint(&self) -> f64 {
-        symmetric_eigen_2x2(&translation_marginal(&self.information))
-            .1
-            .max(0.0)
+        weakest_translation_information(&self.information).max(0.0)
     }
 }
 
@@ -110,10 +108,10 @@ fn runner_up_mean_value(
     sample: &[[f64; 2]],
     (predicted, window, options): (Pose2, &SearchWindow, &SearchOptions),
     best: &crate::correlative::Match,
-    (distance_m, ambiguity): (f64, f64),
+    loop_params: &LoopClosureParams,
 ) -> f64 {
-    let min_score = ambiguity * best.score;
-    let away = Exclusion::around(best, distance_m);
+    let min_score = loop_params.max_ambiguity * best.score;
+    let away = Exclusion::around(best, loop_params.ambiguity_distance_m);
     let runner = runner_up(grids, sample, predicted, window, options, away, min_score)
         .ok()
         .flatten()
@@ -225,7 +223,7 @@ pub fn match_loop(
         &sample,
         (predicted, &window, &options),
         &best,
-        (loop_params.ambiguity_distance_m, loop_params.max_ambiguity),
+        loop_params,
     );
     let score = best.mean_value;
     if runner_up > loop_params.max_ambiguity * score {

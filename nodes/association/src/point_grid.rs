@@ -1,10 +1,12 @@
-//! The keyframe map as the per-frame association statistics read it: map points hashed into
+//! The keyframe maps as the per-frame association statistics read them: map points hashed into
 //! square cells as wide as the association gate, so that the nearest point within the gate is
 //! found exactly in the 3 × 3 cells around a query, and a keyframe's points are added in O(1)
 //! each. [`crate::icp::PointMap`]'s k-d tree answers the same question but is rebuilt whole on
 //! every keyframe; for statistics alone that rebuild was about a tenth of a hall run's CPU time.
 
 use std::collections::HashMap;
+
+use crate::icp::squared_distance_m2;
 
 /// Map points (map frame, metres) in square cells of the gate's width.
 #[derive(Debug, Clone)]
@@ -64,8 +66,7 @@ impl PointGrid {
             for dy in -1..=1i64 {
                 let cell = (cx.saturating_add(dx), cy.saturating_add(dy));
                 for p in self.cells.get(&cell).into_iter().flatten() {
-                    let (ex, ey) = (p[0] - query_m[0], p[1] - query_m[1]);
-                    let d2 = ex * ex + ey * ey;
+                    let d2 = squared_distance_m2(query_m, p);
                     if best.is_none_or(|b| d2 < b) {
                         best = Some(d2);
                     }

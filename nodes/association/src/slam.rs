@@ -36,7 +36,7 @@
 
 use nrslam_runtime::InvalidParam;
 
-use crate::icp::{IcpResult, PointMap};
+use crate::icp::IcpResult;
 use crate::keyframe::KeyframeSelector;
 use crate::loop_closure::{
     match_loop, symmetric_eigen_2x2, translation_marginal, weakest_translation_information,
@@ -157,7 +157,7 @@ pub struct Association {
     records: Vec<KeyframeRecord>,
     graph: PoseGraph,
     /// Points of the last keyframe (map frame), for the overlap rule.
-    last_keyframe_map: PointMap,
+    last_keyframe_map: PointGrid,
     /// The SLAM pose after the last scan (or the initial pose before any scan).
     slam_pose: Option<Pose2>,
     /// The odometry pose that `slam_pose` corresponds to, and its stamp.
@@ -187,6 +187,7 @@ impl Association {
         let keyframes =
             KeyframeSelector::new(params.keyframe_distance_m, params.keyframe_rotation_rad());
         let map = PointGrid::new(params.max_correspondence_m);
+        let last_keyframe_map = PointGrid::new(params.max_correspondence_m);
         let cells = params.distribution_map();
         Ok(Association {
             params,
@@ -195,7 +196,7 @@ impl Association {
             keyframes,
             records: Vec::new(),
             graph: PoseGraph::new(),
-            last_keyframe_map: PointMap::new(),
+            last_keyframe_map,
             slam_pose: None,
             odom_at_slam_pose: None,
             latest_odom: None,
@@ -407,7 +408,6 @@ impl Association {
     }
 
     fn frame_stats(&self, scan: &[[f64; 2]], std: &[[f64; 2]], pose: &Pose2) -> FrameStats {
-        let gate_m2 = self.params.max_correspondence_m * self.params.max_correspondence_m;
         let mut stats = FrameStats {
             detections: scan.len(),
             keyframe_overlap: 1.0,
@@ -430,8 +430,8 @@ impl Association {
             }
             if self
                 .last_keyframe_map
-                .nearest(&in_map)
-                .is_some_and(|(_, d2)| d2 <= gate_m2)
+                .nearest_within_gate_m2(&in_map)
+                .is_some()
             {
                 overlapping += 1;
             }
@@ -468,7 +468,7 @@ impl Association {
         }
         self.map.extend(&points_m);
         self.cells.extend(&points_m);
-        self.last_keyframe_map = PointMap::new();
+        self.last_keyframe_map = PointGrid::new(self.params.max_correspondence_m);
         self.last_keyframe_map.extend(&points_m);
         let node = self.graph.add_node(pose);
         if let Some(previous) = self.records.last() {
@@ -587,10 +587,9 @@ impl Association {
                         relative: found.relative,
                         information: found.information,
                     };
-                    let information: [[f64; 3]; 3] = loop_information(&edge, &lc).into();
                     let (confirmed, why) = if found.score >= lc.standalone_score {
                         (Some(Vec::new()), "score")
-                    } else if weakest_translation_information(&information)
+                    } else if weakest_translation_information(&loop_information(&edge, &lc).into())
                         < lc.confirm_min_information_per_m2
                     {
                         // Neither agreement nor a pending match can vouch for a match that may
@@ -717,7 +716,7 @@ impl Association {
         self.rebuild_maps_from(0);
         if let Some(last) = self.records.last() {
             let points: Vec<[f64; 2]> = last.points_in_map().collect();
-            self.last_keyframe_map = PointMap::new();
+            self.last_keyframe_map = PointGrid::new(self.params.max_correspondence_m);
             self.last_keyframe_map.extend(&points);
         }
     }
