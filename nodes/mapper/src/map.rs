@@ -105,6 +105,17 @@ pub fn percent_thresholds() -> &'static [f64; 100] {
     })
 }
 
+/// The `percent` of a cell whose log-odds changed in a batch not yet converted.
+const STALE_PERCENT: i8 = i8::MIN;
+
+/// Marks `index` for conversion at the end of the batch, once.
+fn mark_stale(percent: &mut [i8], stale: &mut Vec<usize>, index: usize) {
+    if percent[index] != STALE_PERCENT {
+        percent[index] = STALE_PERCENT;
+        stale.push(index);
+    }
+}
+
 /// [`occupancy_percent`] by counting `thresholds` (from [`percent_thresholds`]).
 pub fn occupancy_percent_from(thresholds: &[f64; 100], log_odds: f64) -> i8 {
     thresholds.partition_point(|&t| t <= log_odds) as i8
@@ -135,16 +146,24 @@ pub struct OccupancyMap {
     footprint: Option<(f64, f64)>,
     log_odds: Vec<f64>,
     /// Per cell, what the published grid says: −1 never observed, else round(100·p) of
-    /// `log_odds`. Kept up to date by every update, so publishing copies it rather than
-    /// converting every cell of the grid per keyframe (most cells do not change between two).
+    /// `log_odds`, or [`STALE_PERCENT`] while a batch of updates is under way. Kept up to date
+    /// by every update, so publishing copies it rather than converting every cell of the grid
+    /// per keyframe (most cells do not change between two).
     percent: Vec<i8>,
+    /// Cells whose `percent` is [`STALE_PERCENT`], each once: converted when the batch ends, so
+    /// that a rebuild from hundreds of keyframes converts each cell once, not once per keyframe
+    /// whose beams cross it.
+    stale: Vec<usize>,
+    /// True while [`Self::integrate_keyframes`] defers the conversion to its end.
+    deferring: bool,
     thresholds: &'static [f64; 100],
     /// Per cell, the last update that touched it: `3·update + 1` in the hit set, `+ 2` in the free
     /// set, `+ 3` hit and already applied. Membership tests for the per-keyframe sets in O(1),
     /// without sorting or a hash set; the stride of 3 keeps one update's marks apart from the
-    /// next's, and u64 never wraps.
-    set_mark: Vec<u64>,
-    updates: u64,
+    /// next's. u32 halves the memory the beam walks touch against u64; before the marks would
+    /// wrap (after about 1.4 billion updates) they are cleared and counting restarts.
+    set_mark: Vec<u32>,
+    updates: u32,
     out_of_grid_total: u64,
     /// Scratch: the keyframe's hit cells, reused between keyframes.
     hit_scratch: Vec<(usize, [f64; 2], [i64; 2])>,
@@ -174,6 +193,8 @@ impl OccupancyMap {
                 .then(|| (params.range_resolution_m, params.beamwidth_deg.to_radians())),
             log_odds: vec![0.0; cells],
             percent: vec![-1; cells],
+            stale: Vec::new(),
+            deferring: false,
             thresholds: percent_thresholds(),
             set_mark: vec![0; cells],
             updates: 0,
@@ -243,7 +264,7 @@ impl OccupancyMap {
             return None;
         }
         let index = row * self.width_cells + column;
-        (self.percent[index] >= 0).then(|| self.log_odds[index])
+        (self.percent[index] != -1).then(|| self.log_odds[index])
     }
 
     /// Integrates one keyframe: the AGV pose estimate, the array boresight and the detections.
@@ -350,6 +371,10 @@ impl OccupancyMap {
             });
         }
 
+        if self.updates >= u32::MAX / 3 - 1 {
+            self.set_mark.fill(0);
+            self.updates = 0;
+        }
         self.updates += 1;
         let hit_mark = 3 * self.updates + 1;
         let free_mark = 3 * self.updates + 2;
@@ -400,11 +425,11 @@ impl OccupancyMap {
                     (start[1].floor() as i64).clamp(0, self.height_cells as i64 - 1),
                 ];
                 let width_cells = self.width_cells;
-                let (set_mark, log_odds, percent, thresholds) = (
+                let (set_mark, log_odds, percent, stale) = (
                     &mut self.set_mark,
                     &mut self.log_odds,
                     &mut self.percent,
-                    self.thresholds,
+                    &mut self.stale,
                 );
                 let (miss, floor) = (self.miss_log_odds, self.min_log_odds);
                 walk_cells(start, end, start_cell, end_cell, |column, row| {
@@ -413,7 +438,7 @@ impl OccupancyMap {
                     if set_mark[index] != hit_mark && set_mark[index] != free_mark {
                         set_mark[index] = free_mark;
                         log_odds[index] = (log_odds[index] + miss).max(floor);
-                        percent[index] = occupancy_percent_from(thresholds, log_odds[index]);
+                        mark_stale(percent, stale, index);
                         report.free_cells += 1;
                     }
                 });
@@ -426,11 +451,45 @@ impl OccupancyMap {
                 self.set_mark[index] = applied_mark;
                 self.log_odds[index] =
                     (self.log_odds[index] + self.hit_log_odds).min(self.max_log_odds);
-                self.percent[index] = occupancy_percent_from(self.thresholds, self.log_odds[index]);
+                mark_stale(&mut self.percent, &mut self.stale, index);
             }
         }
         self.hit_scratch = hits;
+        if !self.deferring {
+            self.convert_stale();
+        }
         Ok(report)
+    }
+
+    /// Integrates keyframes in order, as [`Self::integrate_keyframe`] on each, converting the
+    /// published percentages once at the end (the rebuild after a pose-graph correction).
+    ///
+    /// # Errors
+    /// The first keyframe's error, with its index in `keyframes`; the keyframes before it stay
+    /// integrated, and the map is consistent.
+    pub fn integrate_keyframes<'a>(
+        &mut self,
+        keyframes: impl IntoIterator<Item = &'a Keyframe>,
+    ) -> Result<(), (usize, MapError)> {
+        self.deferring = true;
+        let result = keyframes
+            .into_iter()
+            .enumerate()
+            .try_for_each(|(index, keyframe)| {
+                self.integrate_keyframe(keyframe)
+                    .map(|_| ())
+                    .map_err(|e| (index, e))
+            });
+        self.deferring = false;
+        self.convert_stale();
+        result
+    }
+
+    fn convert_stale(&mut self) {
+        for &index in &self.stale {
+            self.percent[index] = occupancy_percent_from(self.thresholds, self.log_odds[index]);
+        }
+        self.stale.clear();
     }
 
     /// The grid as `nav_msgs/OccupancyGrid` data: row-major from the origin cell, x fastest;

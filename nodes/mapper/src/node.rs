@@ -78,14 +78,15 @@ impl MapperNode {
             }
         }
         let mut map = OccupancyMap::new(&self.params)?;
-        for keyframe in &corrected {
-            map.integrate_keyframe(keyframe).map_err(|e| {
-                NodeError::invalid_input(
-                    KEYFRAME_POSES,
-                    format!("keyframe {} at its corrected pose: {e}", keyframe.id),
-                )
-            })?;
-        }
+        map.integrate_keyframes(&corrected).map_err(|(index, e)| {
+            NodeError::invalid_input(
+                KEYFRAME_POSES,
+                format!(
+                    "keyframe {} at its corrected pose: {e}",
+                    corrected[index].id
+                ),
+            )
+        })?;
         self.map = map;
         self.keyframes = corrected;
         self.revision = poses.revision;

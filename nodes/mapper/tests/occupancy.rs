@@ -458,3 +458,62 @@ fn the_footprint_covers_the_resolution_cell_and_widens_with_range() {
         1
     );
 }
+
+/// Keyframes at random poses on a 12 m × 10 m grid, each with up to five echoes.
+fn keyframes() -> impl Strategy<Value = Vec<Keyframe>> {
+    let echoes = proptest::collection::vec((0.0..9.0f64, -1.2..1.2f64), 0..6);
+    proptest::collection::vec((0.0..12.0f64, 0.0..10.0f64, -PI..PI, echoes), 0..30).prop_map(
+        |frames| {
+            frames
+                .into_iter()
+                .enumerate()
+                .map(|(id, (x_m, y_m, yaw_rad, echoes))| Keyframe {
+                    id: id as u32,
+                    pose: Pose::from_planar(x_m, y_m, yaw_rad),
+                    boresight_rad: FRAC_PI_2,
+                    detections: echoes.into_iter().map(|(r, a)| echo(r, a)).collect(),
+                    ..Keyframe::default()
+                })
+                .collect()
+        },
+    )
+}
+
+fn half_metre_grid() -> OccupancyMap {
+    OccupancyMap::new(&Params {
+        resolution_m: 0.5,
+        origin_x_m: 0.0,
+        origin_y_m: 0.0,
+        width_m: 12.0,
+        height_m: 10.0,
+        ..Params::default()
+    })
+    .unwrap()
+}
+
+proptest! {
+    /// The rebuild's batch, which converts each cell's percentage once at its end, publishes
+    /// what integrating the keyframes one by one publishes; a keyframe that fails stops the
+    /// batch where one-by-one integration would stop, with no cell left unconverted.
+    #[test]
+    fn a_batch_of_keyframes_publishes_what_one_by_one_does(
+        mut keyframes in keyframes(),
+        bad in proptest::option::of(0usize..30),
+    ) {
+        let bad = bad.filter(|&i| i < keyframes.len());
+        if let Some(i) = bad {
+            keyframes[i].detections.push(echo(f64::NAN, 0.0));
+        }
+        let mut one_by_one = half_metre_grid();
+        for keyframe in &keyframes {
+            if one_by_one.integrate_keyframe(keyframe).is_err() {
+                break;
+            }
+        }
+        let mut batch = half_metre_grid();
+        let result = batch.integrate_keyframes(&keyframes);
+        prop_assert_eq!(result.err().map(|(i, _)| i), bad);
+        prop_assert_eq!(batch.occupancy_data(), one_by_one.occupancy_data());
+        prop_assert!(batch.occupancy_data().iter().all(|&v| (-1..=100).contains(&v)));
+    }
+}
