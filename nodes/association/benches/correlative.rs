@@ -12,7 +12,9 @@
 //! `match_loop` runs with the default parameters (hit raster on 0.25 m cells, 1° steps, prior
 //! σ = 3 m) for the best motion and then the runner-up ≥ 2 m from it; `precompute` is building
 //! the grid and its maxima; `depth` is the branch and bound with 1 to 7 precomputed levels
-//! (`suggested_depth` picks 4 at 0.25 m and 5 at 0.1 m here).
+//! (`suggested_depth` picks 4 at 0.25 m and 5 at 0.1 m here); `fine_search/<step>` is loop
+//! closure's fine search after the ICP (field and maxima built, then searched), at the two
+//! `fine_step_m` values docs/slam.md compares.
 //!
 //! Measured on the 2-core machine, otherwise idle (criterion's means over two runs; its
 //! intervals were within ±10 %):
@@ -239,6 +241,37 @@ fn depth(c: &mut Criterion, case: &Case) {
     group.finish();
 }
 
+/// Loop closure's fine search (`fine_sigma_m` 0.1 m, ±0.3 m × ±1.5°, Hess's angular step) from
+/// 0.14 m and 0.5° off the query's true pose, at the two `fine_step_m` values measured in
+/// docs/slam.md: building the field and its maxima, then the branch and bound.
+fn fine_search(c: &mut Criterion, case: &Case) {
+    let truth = Pose2::new(1.0, -0.5, 0.2);
+    let start = truth.compose(&Pose2::new(0.1, -0.1, 0.5f64.to_radians()));
+    let window = SearchWindow {
+        linear_m: 0.3,
+        angular_rad: 1.5f64.to_radians(),
+    };
+    let options = SearchOptions::default();
+    let mut group = c.benchmark_group("fine_search");
+    group.sample_size(20);
+    for step_m in [0.05, 0.1] {
+        let kernel = Kernel::Gaussian { sigma_m: 0.1 };
+        let depth = suggested_depth(window.linear_m, step_m);
+        let settle = || {
+            let grids = build_grids(black_box(&case.submap), step_m, kernel, depth);
+            search_with(&grids, &case.query, start, &window, &options, 0.0)
+        };
+        let found = settle().unwrap().unwrap();
+        eprintln!(
+            "fine_search/{step_m}: {:.3} m, {:.2}° from the truth",
+            found.pose.distance_m(&truth),
+            found.pose.rotation_to_rad(&truth).to_degrees()
+        );
+        group.bench_function(format!("{step_m}"), |b| b.iter(settle));
+    }
+    group.finish();
+}
+
 fn correlative(c: &mut Criterion) {
     let case = case();
     eprintln!(
@@ -250,6 +283,7 @@ fn correlative(c: &mut Criterion) {
     loop_closure(c, &case);
     precompute(c, &case);
     depth(c, &case);
+    fine_search(c, &case);
 }
 
 criterion_group!(benches, correlative);

@@ -24,7 +24,14 @@
 //!    Closure in 2D LIDAR SLAM"), which returns exactly what scoring every motion would, at a
 //!    fraction of the cost; a second search that leaves out the disc of `ambiguity_distance_m`
 //!    around it finds the best score elsewhere ([`crate::correlative::runner_up`]).
-//! 2. **Refinement.** Point-to-line ICP from the best motion ([`crate::icp::align`]).
+//! 2. **Refinement.** Point-to-line ICP from the best motion ([`crate::icp::align`]), with a
+//!    correspondence gate (`refine_correspondence_m`) wide enough to pull in a lap's drift.
+//!    Least squares then lets the query points that have no counterpart in the submap (a
+//!    revisit overlaps its old view only in part) pull the pose off by decimetres, even from
+//!    the true pose; so a fine correlative search (`fine_sigma_m`, `fine_step_m`, within
+//!    `fine_window_m` and `fine_window_deg` of the ICP's pose) settles the match where the most
+//!    query points lie on the submap's outlines. It is a maximum of a likelihood field, robust
+//!    to points with no counterpart as Cartographer's final scan-to-submap match is.
 //! 3. **Verification.** The loop is accepted only when enough query points have a submap point
 //!    within `inlier_distance_m` (`min_inlier_ratio`), and the search peak is unambiguous (the
 //!    runner-up scores at most `max_ambiguity` of the best): the hall's targets stand on a
@@ -229,7 +236,11 @@ pub fn match_loop(
     if runner_up > loop_params.max_ambiguity * score {
         return Err(LoopRejection::Ambiguous { score, runner_up });
     }
-    let relative = refine_match(&map, &query_m, best.pose, &refine, loop_params)?;
+    // The ICP's gate is wide enough to pull a lap's drift in, and then lets query points with no
+    // counterpart in the submap pull at the pose; the fine search settles it where the most
+    // points lie on submap outlines.
+    let relative = refine_match(&map, &query_m, best.pose, &refine)?;
+    let relative = fine_search(&submap_m, &sample, relative, loop_params);
     if steps_t > 0 && steps_r > 0 && outside(&relative) {
         return Err(LoopRejection::AtSearchEdge);
     }
@@ -282,6 +293,74 @@ fn search_grids(
 /// falls short even with two lattice steps of slack: refinement moves that motion by about a
 /// step, so it cannot pass after it (and on such a candidate the ICP creeps through all its
 /// iterations).
+/// The fine correlative search that settles a refined match (`LoopClosureParams::fine_sigma_m`):
+/// the motion within the fine window of `refined` that maximises the mean likelihood of
+/// `sample` on the submap's field; `refined` itself when the search is off or finds nothing.
+fn fine_search(
+    submap_m: &[[f64; 2]],
+    sample: &[[f64; 2]],
+    refined: Pose2,
+    loop_params: &LoopClosureParams,
+) -> Pose2 {
+    let (sigma_m, step_m) = (loop_params.fine_sigma_m, loop_params.fine_step_m);
+    if sigma_m <= 0.0 {
+        return refined;
+    }
+    // Only the submap points whose blur the moved sample can reach enter the field: the
+    // search moves a point by at most the window's translation plus its rotation times the
+    // point's distance from the query's origin.
+    let moved: Vec<[f64; 2]> = sample.iter().map(|p| refined.transform_point(*p)).collect();
+    let farthest_m = moved
+        .iter()
+        .map(|p| (p[0] - refined.x_m).hypot(p[1] - refined.y_m))
+        .fold(0.0, f64::max);
+    let margin_m = loop_params.fine_window_m
+        + farthest_m * loop_params.fine_window_deg.to_radians()
+        + 3.0 * sigma_m
+        + 2.0 * step_m;
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for p in &moved {
+        for axis in 0..2 {
+            lo[axis] = lo[axis].min(p[axis] - margin_m);
+            hi[axis] = hi[axis].max(p[axis] + margin_m);
+        }
+    }
+    let reachable: Vec<[f64; 2]> = submap_m
+        .iter()
+        .filter(|p| (0..2).all(|axis| (lo[axis]..=hi[axis]).contains(&p[axis])))
+        .copied()
+        .collect();
+    if reachable.is_empty() {
+        return refined;
+    }
+    // A field too large for the grid's limits (a tiny step over a wide window) leaves the
+    // ICP's pose, said in the log, rather than refusing every loop.
+    let field = ProbabilityGrid::with_kernel(&reachable, step_m, Kernel::Gaussian { sigma_m })
+        .and_then(|grid| {
+            MultiResolutionGrid::new(grid, suggested_depth(loop_params.fine_window_m, step_m))
+        });
+    let grids = match field {
+        Ok(grids) => grids,
+        Err(error) => {
+            tracing::warn!(%error, "loop closure: no fine search, the ICP's pose stands");
+            return refined;
+        }
+    };
+    let window = SearchWindow {
+        linear_m: loop_params.fine_window_m,
+        angular_rad: loop_params.fine_window_deg.to_radians(),
+    };
+    let options = SearchOptions {
+        angular_step_rad: None,
+        prior_sigma_m: None,
+        exclude: None,
+    };
+    search_with(&grids, sample, refined, &window, &options, 0.0)
+        .ok()
+        .flatten()
+        .map_or(refined, |found| found.pose)
+}
+
 fn refuse_hopeless(
     map: &PointMap,
     sample: &[[f64; 2]],
@@ -299,38 +378,18 @@ fn refuse_hopeless(
 }
 
 /// Refines the search's `best` motion of the query `query_m` against the submap `map` by ICP
-/// with the `refine` parameters, then by a second pass inside the verifier's inlier distance.
+/// with the `refine` parameters.
 fn refine_match(
     map: &PointMap,
     query_m: &[[f64; 2]],
     best: Pose2,
     refine: &Params,
-    loop_params: &LoopClosureParams,
 ) -> Result<Pose2, LoopRejection> {
     let icp = align(map, query_m, best, refine);
     if !matches!(icp.status, IcpStatus::Converged | IcpStatus::MaxIterations) {
         return Err(LoopRejection::IcpFailed);
     }
-    // The refinement's gate is wide enough to pull a lap's drift in, and then lets points that
-    // belong to other surfaces pull at the pose; a second pass within the verifier's own inlier
-    // distance ends where the inliers agree.
-    let fine = Params {
-        max_correspondence_m: loop_params
-            .inlier_distance_m
-            .min(refine.max_correspondence_m),
-        ..refine.clone()
-    };
-    let fine_icp = align(map, query_m, icp.pose, &fine);
-    Ok(
-        if matches!(
-            fine_icp.status,
-            IcpStatus::Converged | IcpStatus::MaxIterations
-        ) {
-            fine_icp.pose
-        } else {
-            icp.pose
-        },
-    )
+    Ok(icp.pose)
 }
 
 /// How well the inlier pairs pin the query down, direction by direction: the point-to-line
@@ -543,6 +602,55 @@ mod tests {
         let found = match_views(&points, &candidate, &query, predicted, &blurred).unwrap();
         assert!(found.relative.distance_m(&truth) < 0.05, "{found:?}");
         assert!(found.score > 0.8 && found.score < 1.0, "{found:?}");
+    }
+
+    #[test]
+    fn the_fine_search_settles_a_match_near_the_truth_and_off_leaves_it() {
+        let (points, candidate, query, truth) = revisit();
+        let submap = seen_from(&candidate, &points);
+        let sample = seen_from(&query, &points);
+        let off = truth.compose(&Pose2::new(0.15, -0.1, 0.8f64.to_radians()));
+        let params = LoopClosureParams::default();
+        let settled = fine_search(&submap, &sample, off, &params);
+        assert!(settled.distance_m(&truth) < 0.05, "{settled:?}");
+        assert!(
+            settled.rotation_to_rad(&truth) < 0.3f64.to_radians(),
+            "{settled:?}"
+        );
+        let without = LoopClosureParams {
+            fine_sigma_m: 0.0,
+            ..params.clone()
+        };
+        assert_eq!(fine_search(&submap, &sample, off, &without), off);
+        // A field beyond the grid's limits leaves the pose too.
+        let huge = LoopClosureParams {
+            fine_step_m: 0.001,
+            fine_window_m: 10.0,
+            ..params.clone()
+        };
+        assert_eq!(fine_search(&submap, &sample, off, &huge), off);
+        // A query with nothing near the submap keeps its pose.
+        let far: Vec<[f64; 2]> = sample.iter().map(|p| [p[0] + 100.0, p[1]]).collect();
+        assert_eq!(fine_search(&submap, &far, off, &params), off);
+    }
+
+    #[test]
+    fn points_with_no_counterpart_do_not_pull_the_settled_match() {
+        let (points, candidate, query, truth) = revisit();
+        // The query also sees a wall the submap does not hold, 0.5 m beside the long side of
+        // the first box, as many points as that side has: least squares would split the
+        // difference, the likelihood field's maximum does not.
+        let mut seen: Vec<[f64; 2]> = points.clone();
+        seen.extend((0..20).map(|k| [2.0 + 0.2 * f64::from(k), 2.5]));
+        let sample = seen_from(&query, &seen);
+        let submap = seen_from(&candidate, &points);
+        let off = truth.compose(&Pose2::new(-0.1, -0.2, -0.5f64.to_radians()));
+        let settled = fine_search(&submap, &sample, off, &LoopClosureParams::default());
+        assert!(settled.distance_m(&truth) < 0.05, "{settled:?}");
+        assert!(
+            settled.rotation_to_rad(&truth) < 0.3f64.to_radians(),
+            "{settled:?}"
+        );
     }
 
     #[test]

@@ -198,6 +198,21 @@ pub struct LoopClosureParams {
     /// metres (tracking's `max_correspondence_m` is tighter: it corrects one frame's odometry,
     /// this a lap's drift).
     pub refine_correspondence_m: f64,
+    /// After the ICP refinement, a loop match is settled by a fine correlative search around
+    /// it on a likelihood field of the submap with this blur σ, metres: the motion that puts the
+    /// most query points on submap outlines, where least squares lets the points with no
+    /// counterpart (a revisit overlaps its old view in part) pull the pose off by decimetres.
+    /// 0: no fine search (the ICP's pose is the match). Finite, 0..=10.
+    pub fine_sigma_m: f64,
+    /// Cell of the fine search's likelihood field and its translation step, metres. Finite,
+    /// 0.001..=1. Its rotation step moves the farthest query point by at most one cell.
+    pub fine_step_m: f64,
+    /// Translations the fine search tries around the ICP's pose, up to this far, metres.
+    /// Finite, 0..=10.
+    pub fine_window_m: f64,
+    /// Rotations the fine search tries either side of the ICP's heading, degrees. Finite,
+    /// 0..=30.
+    pub fine_window_deg: f64,
     /// A verified match is accepted at once when it agrees with the pose graph's current
     /// estimate of the same relative pose within this, metres (and `agreement_deg`): it
     /// confirms what the graph already holds. Otherwise it waits for a second match it agrees
@@ -261,6 +276,10 @@ impl Default for LoopClosureParams {
             local_map_m: 0.0,
             search_sigma_m: 0.0,
             refine_correspondence_m: 1.0,
+            fine_sigma_m: 0.1,
+            fine_step_m: 0.05,
+            fine_window_m: 0.3,
+            fine_window_deg: 1.5,
             agreement_m: 0.3,
             agreement_deg: 2.0,
             pair_m: 0.3,
@@ -291,6 +310,15 @@ impl LoopClosureParams {
             self.refine_correspondence_m,
             0.01,
             100.0,
+        )?;
+        InvalidParam::check_range("loop_closure.fine_sigma_m", self.fine_sigma_m, 0.0, 10.0)?;
+        InvalidParam::check_range("loop_closure.fine_step_m", self.fine_step_m, 0.001, 1.0)?;
+        InvalidParam::check_range("loop_closure.fine_window_m", self.fine_window_m, 0.0, 10.0)?;
+        InvalidParam::check_range(
+            "loop_closure.fine_window_deg",
+            self.fine_window_deg,
+            0.0,
+            30.0,
         )?;
         InvalidParam::check_range("loop_closure.agreement_m", self.agreement_m, 0.0, 1e3)?;
         InvalidParam::check_range("loop_closure.agreement_deg", self.agreement_deg, 0.0, 180.0)?;
@@ -785,6 +813,18 @@ mod tests {
             }),
             ("loop_closure.query_keyframes", |p| {
                 p.loop_closure.query_keyframes = 0
+            }),
+            ("loop_closure.fine_sigma_m", |p| {
+                p.loop_closure.fine_sigma_m = -0.1
+            }),
+            ("loop_closure.fine_step_m", |p| {
+                p.loop_closure.fine_step_m = 0.0
+            }),
+            ("loop_closure.fine_window_m", |p| {
+                p.loop_closure.fine_window_m = f64::NAN
+            }),
+            ("loop_closure.fine_window_deg", |p| {
+                p.loop_closure.fine_window_deg = 45.0
             }),
         ];
         for (field, mutate) in cases {
