@@ -295,42 +295,10 @@ impl Default for LoopClosureParams {
 impl LoopClosureParams {
     /// Checks every field; the error names the first offending field (as `loop_closure.NAME`).
     pub fn validate(&self) -> Result<(), InvalidParam> {
-        let ranges = self.real_ranges();
+        let ranges = self.real_ranges().into_iter().chain(self.matching_ranges());
         for (field, value, min, max) in ranges {
             InvalidParam::check_range(field, value, min, max)?;
         }
-        InvalidParam::check_range(
-            "loop_closure.search_sigma_m",
-            self.search_sigma_m,
-            0.0,
-            10.0,
-        )?;
-        InvalidParam::check_range(
-            "loop_closure.refine_correspondence_m",
-            self.refine_correspondence_m,
-            0.01,
-            100.0,
-        )?;
-        InvalidParam::check_range("loop_closure.fine_sigma_m", self.fine_sigma_m, 0.0, 10.0)?;
-        InvalidParam::check_range("loop_closure.fine_step_m", self.fine_step_m, 0.001, 1.0)?;
-        InvalidParam::check_range("loop_closure.fine_window_m", self.fine_window_m, 0.0, 10.0)?;
-        InvalidParam::check_range(
-            "loop_closure.fine_window_deg",
-            self.fine_window_deg,
-            0.0,
-            30.0,
-        )?;
-        InvalidParam::check_range("loop_closure.agreement_m", self.agreement_m, 0.0, 1e3)?;
-        InvalidParam::check_range("loop_closure.agreement_deg", self.agreement_deg, 0.0, 180.0)?;
-        InvalidParam::check_range("loop_closure.pair_m", self.pair_m, 0.0, 1e3)?;
-        InvalidParam::check_range("loop_closure.pair_per_m", self.pair_per_m, 0.0, 1.0)?;
-        InvalidParam::check_range("loop_closure.pair_deg", self.pair_deg, 0.0, 180.0)?;
-        InvalidParam::check_range(
-            "loop_closure.standalone_score",
-            self.standalone_score,
-            0.0,
-            1.0,
-        )?;
         let counts = self.count_ranges();
         for (field, value, min, max) in counts {
             if !(min..=max).contains(&value) {
@@ -342,6 +310,45 @@ impl LoopClosureParams {
             }
         }
         Ok(())
+    }
+
+    /// (field, value, min, max) of the real fields of matching and confirmation, which
+    /// [`Self::validate`] checks after [`Self::real_ranges`].
+    fn matching_ranges(&self) -> [(&'static str, f64, f64, f64); 12] {
+        [
+            (
+                "loop_closure.search_sigma_m",
+                self.search_sigma_m,
+                0.0,
+                10.0,
+            ),
+            (
+                "loop_closure.refine_correspondence_m",
+                self.refine_correspondence_m,
+                0.01,
+                100.0,
+            ),
+            ("loop_closure.fine_sigma_m", self.fine_sigma_m, 0.0, 10.0),
+            ("loop_closure.fine_step_m", self.fine_step_m, 0.001, 1.0),
+            ("loop_closure.fine_window_m", self.fine_window_m, 0.0, 10.0),
+            (
+                "loop_closure.fine_window_deg",
+                self.fine_window_deg,
+                0.0,
+                30.0,
+            ),
+            ("loop_closure.agreement_m", self.agreement_m, 0.0, 1e3),
+            ("loop_closure.agreement_deg", self.agreement_deg, 0.0, 180.0),
+            ("loop_closure.pair_m", self.pair_m, 0.0, 1e3),
+            ("loop_closure.pair_per_m", self.pair_per_m, 0.0, 1.0),
+            ("loop_closure.pair_deg", self.pair_deg, 0.0, 180.0),
+            (
+                "loop_closure.standalone_score",
+                self.standalone_score,
+                0.0,
+                1.0,
+            ),
+        ]
     }
 
     /// (field, value, min, max) of the real-valued fields checked as plain closed ranges, in the
