@@ -289,10 +289,6 @@ fn search_grids(
         .map_err(|_| LoopRejection::TooFewPoints)
 }
 
-/// Refuses a candidate whose inlier ratio at the search's `best` motion of the query's `sample`
-/// falls short even with two lattice steps of slack: refinement moves that motion by about a
-/// step, so it cannot pass after it (and on such a candidate the ICP creeps through all its
-/// iterations).
 /// The fine correlative search that settles a refined match (`LoopClosureParams::fine_sigma_m`):
 /// the motion within the fine window of `refined` that maximises the mean likelihood of
 /// `sample` on the submap's field; `refined` itself when the search is off or finds nothing.
@@ -361,6 +357,10 @@ fn fine_search(
         .map_or(refined, |found| found.pose)
 }
 
+/// Refuses a candidate whose inlier ratio at the search's `best` motion of the query's `sample`
+/// falls short even with two lattice steps of slack: refinement moves that motion by about a
+/// step, so it cannot pass after it (and on such a candidate the ICP creeps through all its
+/// iterations).
 fn refuse_hopeless(
     map: &PointMap,
     sample: &[[f64; 2]],
