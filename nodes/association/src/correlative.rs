@@ -387,6 +387,20 @@ impl MultiResolutionGrid {
         Ok(MultiResolutionGrid { grid, levels })
     }
 
+    /// `points_m` rasterised on cells of `cell_m` with `kernel`, with the maxima a branch and
+    /// bound over a window of `linear_m` either side wants ([`suggested_depth`]).
+    ///
+    /// Errors: as [`ProbabilityGrid::with_kernel`] and [`MultiResolutionGrid::new`].
+    pub fn for_window(
+        points_m: &[[f64; 2]],
+        cell_m: f64,
+        kernel: Kernel,
+        linear_m: f64,
+    ) -> Result<Self, CorrelativeError> {
+        let grid = ProbabilityGrid::with_kernel(points_m, cell_m, kernel)?;
+        Self::new(grid, suggested_depth(linear_m, cell_m))
+    }
+
     /// The base grid.
     pub fn grid(&self) -> &ProbabilityGrid {
         &self.grid
@@ -629,6 +643,9 @@ fn rasterise_gaussian(
         let (c0, c1) = (first(0).max(0.0) as usize, last(0) as usize);
         let (r0, r1) = (first(1).max(0.0) as usize, last(1) as usize);
         let c1 = c1.min(width - 1);
+        if c0 > c1 {
+            continue;
+        }
         column_factors.clear();
         column_factors.extend((c0..=c1).map(|column| {
             let x0 = origin_m[0] + column as f64 * cell_m;

@@ -41,8 +41,7 @@
 //! ties between equal scores by the smallest (rotation, x, y) step.
 
 use crate::correlative::{
-    runner_up, search_with, suggested_depth, Exclusion, Kernel, MultiResolutionGrid,
-    ProbabilityGrid, SearchOptions, SearchWindow,
+    runner_up, search_with, Exclusion, Kernel, MultiResolutionGrid, SearchOptions, SearchWindow,
 };
 use crate::icp::{align, IcpStatus, PointMap};
 use crate::params::{LoopClosureParams, Params};
@@ -283,9 +282,7 @@ fn search_grids(
     } else {
         Kernel::Hit { cells: 1 }
     };
-    let grid = ProbabilityGrid::with_kernel(submap_m, step_m, kernel)
-        .map_err(|_| LoopRejection::TooFewPoints)?;
-    MultiResolutionGrid::new(grid, suggested_depth(radius_m, step_m))
+    MultiResolutionGrid::for_window(submap_m, step_m, kernel, radius_m)
         .map_err(|_| LoopRejection::TooFewPoints)
 }
 
@@ -331,10 +328,9 @@ fn fine_search(
     }
     // A field too large for the grid's limits (a tiny step over a wide window) leaves the
     // ICP's pose, said in the log, rather than refusing every loop.
-    let field = ProbabilityGrid::with_kernel(&reachable, step_m, Kernel::Gaussian { sigma_m })
-        .and_then(|grid| {
-            MultiResolutionGrid::new(grid, suggested_depth(loop_params.fine_window_m, step_m))
-        });
+    let kernel = Kernel::Gaussian { sigma_m };
+    let field =
+        MultiResolutionGrid::for_window(&reachable, step_m, kernel, loop_params.fine_window_m);
     let grids = match field {
         Ok(grids) => grids,
         Err(error) => {

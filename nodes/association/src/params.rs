@@ -612,6 +612,12 @@ impl Params {
         )
     }
 
+    /// An empty map of points for the per-frame association statistics, gated at
+    /// `max_correspondence_m`.
+    pub fn statistics_grid(&self) -> crate::point_grid::PointGrid {
+        crate::point_grid::PointGrid::new(self.max_correspondence_m)
+    }
+
     /// Checks every field; the error names the first offending field and its allowed range.
     pub fn validate(&self) -> Result<(), InvalidParam> {
         self.validate_matching()?;

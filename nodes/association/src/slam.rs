@@ -186,8 +186,8 @@ impl Association {
         params.validate()?;
         let keyframes =
             KeyframeSelector::new(params.keyframe_distance_m, params.keyframe_rotation_rad());
-        let map = PointGrid::new(params.max_correspondence_m);
-        let last_keyframe_map = PointGrid::new(params.max_correspondence_m);
+        let map = params.statistics_grid();
+        let last_keyframe_map = params.statistics_grid();
         let cells = params.distribution_map();
         Ok(Association {
             params,
@@ -468,7 +468,7 @@ impl Association {
         }
         self.map.extend(&points_m);
         self.cells.extend(&points_m);
-        self.last_keyframe_map = PointGrid::new(self.params.max_correspondence_m);
+        self.last_keyframe_map = self.params.statistics_grid();
         self.last_keyframe_map.extend(&points_m);
         let node = self.graph.add_node(pose);
         if let Some(previous) = self.records.last() {
@@ -706,7 +706,7 @@ impl Association {
         for record in &self.records[first..] {
             points_m.extend(record.points_in_map());
         }
-        self.map = PointGrid::new(self.params.max_correspondence_m);
+        self.map = self.params.statistics_grid();
         self.map.extend(&points_m);
         self.cells = self.params.distribution_map();
         self.cells.extend(&points_m);
@@ -716,7 +716,7 @@ impl Association {
         self.rebuild_maps_from(0);
         if let Some(last) = self.records.last() {
             let points: Vec<[f64; 2]> = last.points_in_map().collect();
-            self.last_keyframe_map = PointGrid::new(self.params.max_correspondence_m);
+            self.last_keyframe_map = self.params.statistics_grid();
             self.last_keyframe_map.extend(&points);
         }
     }
