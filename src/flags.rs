@@ -177,9 +177,33 @@ pub const RATE: Real = Real {
 /// A timeout in whole seconds.
 pub const TIMEOUT_S: Whole = Whole::new(1, WEEK_S, "1 to 604800 s (a week)");
 
+/// `--rate`, the real-time factor that `launch`, `run` and `bag play` share.
+#[derive(Args, Debug, Clone, Copy, Default)]
+pub struct RateArgs {
+    /// Real-time factor R: simulated (or recorded) seconds per wall-clock second (2 = twice real
+    /// time), 1e-6 to 1e6. 0 (default): as fast as the subscribers take the messages. Nothing is
+    /// dropped either way (reliable publication that blocks on congestion).
+    #[arg(
+        long,
+        value_name = "R",
+        default_value_t = 0.0,
+        value_parser = RATE.parser(),
+        allow_hyphen_values = true
+    )]
+    pub rate: f64,
+}
+
+impl RateArgs {
+    /// Checks `--rate` against its range (clap's parser checks it too; this covers arguments
+    /// built in code).
+    pub fn validate(&self) -> Result<()> {
+        check("--rate", RATE.check(self.rate)).map(drop)
+    }
+}
+
 /// Checks `--rate` and `--start-timeout-s`, which `launch` and `run` share.
-pub fn check_pacing(rate: f64, start_timeout_s: u64) -> Result<()> {
-    check("--rate", RATE.check(rate))?;
+pub fn check_pacing(pacing: &RateArgs, start_timeout_s: u64) -> Result<()> {
+    pacing.validate()?;
     check("--start-timeout-s", TIMEOUT_S.check(start_timeout_s))?;
     Ok(())
 }

@@ -118,7 +118,7 @@ pub fn reproduce(args: ReproduceArgs) -> Result<()> {
             seed: args.seed,
             out: Some(out),
             mode: None,
-            rate: 0.0,
+            pacing: flags::RateArgs::default(),
             start_timeout_s: 30,
             record: None,
             record_topics: Vec::new(),

@@ -43,15 +43,8 @@ pub struct RunArgs {
     /// come up, 0 to 3600 s.
     #[arg(long, value_name = "SECONDS", default_value_t = 1.0, value_parser = STARTUP_DELAY_S.parser(), allow_hyphen_values = true)]
     pub startup_delay_s: f64,
-    /// Real-time factor for a source, 1e-6 to 1e6 (0: as fast as possible).
-    #[arg(
-        long,
-        value_name = "R",
-        default_value_t = 0.0,
-        value_parser = flags::RATE.parser(),
-        allow_hyphen_values = true
-    )]
-    pub rate: f64,
+    #[command(flatten)]
+    pub pacing: crate::flags::RateArgs,
     /// An input topic whose stream already ended (repeatable): the launcher passes these when it
     /// respawns a node, so it does not wait for ends it missed.
     #[arg(long, value_name = "TOPIC")]
@@ -66,7 +59,7 @@ const STARTUP_DELAY_S: Real = Real::closed(0.0, 3600.0, "0 to 3600 s");
 impl RunArgs {
     /// Checks every numeric flag against its range; the error names the flag.
     pub fn validate(&self) -> Result<()> {
-        flags::check_pacing(self.rate, self.start_timeout_s)?;
+        flags::check_pacing(&self.pacing, self.start_timeout_s)?;
         flags::check(
             "--startup-delay-s",
             STARTUP_DELAY_S.check(self.startup_delay_s),
@@ -133,7 +126,7 @@ pub fn run(args: RunArgs) -> Result<()> {
     let run = transport::NodeRun {
         wait_for_start: args.start_barrier,
         start_timeout,
-        rate: args.rate,
+        rate: args.pacing.rate,
         inbox: args.transport.inbox_options()?,
         ended,
     };

@@ -46,11 +46,11 @@ use serde::{Deserialize, Serialize};
 
 use crate::assignment::{check_size, solve_bottleneck, solve_partial, AssignmentError, CostMatrix};
 use crate::error::{InvalidMetricParam, MetricError};
-use crate::gospa::{pow_p, root_p, validate_c_p_alpha, GospaParams};
+use crate::gospa::{pow_p, validate_c_p_alpha, GospaParams};
 use crate::inputs::Checked;
 use crate::point::{check_finite, distance_to_outline_m, Point2};
 use crate::sparse::{solve_components, Box2, Components, Grid, Solved};
-use crate::unassigned::Unassigned;
+use crate::unassigned::Parts;
 
 /// What D_i measures the distance to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -334,10 +334,9 @@ fn dense(inputs: Inputs) -> Result<EtGospaResult, MetricError> {
             .map(|&(r, j)| (slot_target[r], j))
             .collect();
         pairs.sort_unstable();
-        return Ok(infinite_result(
+        return Ok(EtGospaResult::bottleneck(
             pairs,
-            n_slots,
-            n_est,
+            (n_slots, n_est),
             c,
             matching.bottleneck,
         ));
@@ -359,10 +358,9 @@ fn dense(inputs: Inputs) -> Result<EtGospaResult, MetricError> {
         .map(|(r, j)| (slot_target[r], j))
         .collect();
     pairs.sort_unstable();
-    Ok(finite_result(
+    Ok(EtGospaResult::summed(
         pairs,
-        n_slots,
-        n_est,
+        (n_slots, n_est),
         params,
         |i, j| clipped[i * n_est + j],
         clipped_other,
@@ -370,78 +368,51 @@ fn dense(inputs: Inputs) -> Result<EtGospaResult, MetricError> {
 }
 
 impl EtGospaResult {
-    fn assemble(
-        total: f64,
-        localisation: f64,
-        confusion: f64,
-        slot_count: usize,
-        left: Unassigned,
-        pairs: Vec<(usize, usize)>,
-    ) -> Self {
+    /// The result of an assignment `pairs` (target, estimate), sorted, over `slot_count` slots.
+    fn assemble(parts: Parts, slot_count: usize, pairs: Vec<(usize, usize)>) -> Self {
         Self {
-            total,
-            localisation,
-            confusion,
-            missed: left.missed,
-            false_estimates: left.false_estimates,
+            total: parts.total,
+            localisation: parts.localisation,
+            confusion: parts.confusion,
+            missed: parts.left.missed,
+            false_estimates: parts.left.false_estimates,
             slot_count,
             assigned_count: pairs.len(),
-            missed_count: left.missed_count,
-            false_count: left.false_count,
+            missed_count: parts.left.missed_count,
+            false_count: parts.left.false_count,
             pairs,
         }
     }
-}
 
-/// The p = ∞ result of a bottleneck matching, `pairs` (target, estimate) sorted.
-fn infinite_result(
-    pairs: Vec<(usize, usize)>,
-    n_slots: usize,
-    n_est: usize,
-    c: f64,
-    bottleneck: Option<f64>,
-) -> EtGospaResult {
-    let k = pairs.len();
-    let localisation = bottleneck.unwrap_or(0.0);
-    let left = Unassigned::bottleneck(n_slots, n_est, k, c);
-    let total = localisation.max(left.missed).max(left.false_estimates);
-    EtGospaResult::assemble(total, localisation, 0.0, n_slots, left, pairs)
-}
-
-/// The 1 ≤ p < ∞ result of an optimal assignment, `pairs` (target, estimate) sorted, given
-/// min(c, δ_i(y_j)) and min(c, δ_{−i}(y_j)).
-fn finite_result(
-    pairs: Vec<(usize, usize)>,
-    n_slots: usize,
-    n_est: usize,
-    params: &EtGospaParams,
-    clipped: impl Fn(usize, usize) -> f64,
-    clipped_other: impl Fn(usize, usize) -> f64,
-) -> EtGospaResult {
-    let EtGospaParams { c, p, alpha, .. } = *params;
-    let c_pow_p = pow_p(c, p);
-    let unassigned_cost = c_pow_p / alpha;
-    let localisation_of = |i: usize, j: usize| pow_p(clipped(i, j), p);
-    let confusion_of = |i: usize, j: usize| c_pow_p - pow_p(clipped_other(i, j), p);
-    let k = pairs.len();
-    let localisation: f64 = pairs.iter().map(|&(i, j)| localisation_of(i, j)).sum();
-    let confusion: f64 = pairs.iter().map(|&(i, j)| confusion_of(i, j)).sum();
-    let left = Unassigned::summed(n_slots, n_est, k, unassigned_cost);
-    // Bases of the p-th-power terms, for an underflow-proof root: a pair contributes
-    // D_i = δ_i^p and c^p − D_{−i} = (c (1 − (δ_{−i}/c)^p)^{1/p})^p; an unassigned item c^p/α.
-    let mut bases: Vec<(f64, usize)> = Vec::with_capacity(2 * k + 1);
-    for &(i, j) in &pairs {
-        bases.push((clipped(i, j), 1));
-        let other = pow_p(clipped_other(i, j) / c, p);
-        bases.push((c * (1.0 - other).powf(1.0 / p), 1));
+    /// The p = ∞ result of a bottleneck matching, `pairs` (target, estimate) sorted.
+    fn bottleneck(
+        pairs: Vec<(usize, usize)>,
+        (n_slots, n_est): (usize, usize),
+        c: f64,
+        bottleneck: Option<f64>,
+    ) -> Self {
+        let parts = Parts::bottleneck((n_slots, n_est), pairs.len(), c, bottleneck);
+        Self::assemble(parts, n_slots, pairs)
     }
-    bases.push((
-        c * alpha.powf(-1.0 / p),
-        left.missed_count + left.false_count,
-    ));
-    let direct = localisation + confusion + left.missed + left.false_estimates;
-    let total = root_p(direct, &bases, p);
-    EtGospaResult::assemble(total, localisation, confusion, n_slots, left, pairs)
+
+    /// The 1 ≤ p < ∞ result of an optimal assignment, `pairs` (target, estimate) sorted, given
+    /// min(c, δ_i(y_j)) and min(c, δ_{−i}(y_j)).
+    fn summed(
+        pairs: Vec<(usize, usize)>,
+        (n_slots, n_est): (usize, usize),
+        params: &EtGospaParams,
+        clipped: impl Fn(usize, usize) -> f64,
+        clipped_other: impl Fn(usize, usize) -> f64,
+    ) -> Self {
+        let parts = Parts::summed(
+            &pairs,
+            (n_slots, n_est),
+            (params.c, params.p, params.alpha),
+            clipped,
+            Some(clipped_other),
+        );
+        Self::assemble(parts, n_slots, pairs)
+    }
 }
 
 /// min(c, δ) to the best and second best target of each estimate: (best target, best, second
@@ -630,12 +601,16 @@ fn sparse(inputs: Inputs) -> Result<EtGospaResult, MetricError> {
     )?;
     pairs.sort_unstable();
     if infinite {
-        return Ok(infinite_result(pairs, n_slots, n_est, c, bottleneck));
+        return Ok(EtGospaResult::bottleneck(
+            pairs,
+            (n_slots, n_est),
+            c,
+            bottleneck,
+        ));
     }
-    Ok(finite_result(
+    Ok(EtGospaResult::summed(
         pairs,
-        n_slots,
-        n_est,
+        (n_slots, n_est),
         params,
         clipped,
         clipped_other,

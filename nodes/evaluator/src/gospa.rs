@@ -50,7 +50,7 @@ use crate::error::{InvalidMetricParam, MetricError};
 use crate::inputs::Checked;
 use crate::point::{check_finite, Point2};
 use crate::sparse::{solve_components, Box2, Components, Grid, Solved};
-use crate::unassigned::Unassigned;
+use crate::unassigned::Parts;
 
 /// Smallest and largest c^p accepted: keeps every cost of the assignment well inside f64 range
 /// (c = 5 m allows p up to 143).
@@ -281,9 +281,8 @@ fn dense(inputs: Inputs) -> Result<GospaResult, MetricError> {
     if p.is_infinite() {
         let costs = CostMatrix::from_fn(truth.len(), estimates.len(), clipped)?;
         let matching = solve_bottleneck(&costs, c);
-        return Ok(infinite_result(
-            truth.len(),
-            estimates.len(),
+        return Ok(GospaResult::bottleneck(
+            (truth.len(), estimates.len()),
             c,
             matching.pairs,
             matching.bottleneck,
@@ -293,7 +292,7 @@ fn dense(inputs: Inputs) -> Result<GospaResult, MetricError> {
     let unassigned_cost = params.c_pow_p() / alpha;
     let weight = |i: usize, j: usize| pow_p(clipped(i, j), p) - 2.0 * unassigned_cost;
     let pairs = solve_partial(&CostMatrix::from_fn(truth.len(), estimates.len(), weight)?);
-    Ok(finite_result(truth, estimates, params, pairs))
+    Ok(GospaResult::summed(truth, estimates, params, pairs))
 }
 
 /// GOSPA through the connected components of the graph of the pairs worth taking, each solved
@@ -363,7 +362,7 @@ fn sparse(inputs: Inputs) -> Result<GospaResult, MetricError> {
     } = solve_components(graph, |_| 1, key, infinite, c, (n, m))?;
     if infinite {
         pairs.sort_unstable();
-        return Ok(infinite_result(n, m, c, pairs, bottleneck));
+        return Ok(GospaResult::bottleneck((n, m), c, pairs, bottleneck));
     }
     if far < 0.0 {
         let mut truth_used = vec![false; n];
@@ -378,63 +377,49 @@ fn sparse(inputs: Inputs) -> Result<GospaResult, MetricError> {
         pairs.extend(filler);
     }
     pairs.sort_unstable();
-    Ok(finite_result(truth, estimates, params, pairs))
+    Ok(GospaResult::summed(truth, estimates, params, pairs))
 }
 
 impl GospaResult {
-    fn assemble(
-        total: f64,
-        localisation: f64,
-        left: Unassigned,
-        pairs: Vec<(usize, usize)>,
-    ) -> Self {
+    /// The result of an assignment `pairs` (truth, estimate), sorted.
+    fn assemble(parts: Parts, pairs: Vec<(usize, usize)>) -> Self {
         Self {
-            total,
-            localisation,
-            missed: left.missed,
-            false_estimates: left.false_estimates,
+            total: parts.total,
+            localisation: parts.localisation,
+            missed: parts.left.missed,
+            false_estimates: parts.left.false_estimates,
             assigned_count: pairs.len(),
-            missed_count: left.missed_count,
-            false_count: left.false_count,
+            missed_count: parts.left.missed_count,
+            false_count: parts.left.false_count,
             pairs,
         }
     }
-}
 
-/// The p = ∞ result of a bottleneck matching (see [`GospaResult`]).
-fn infinite_result(
-    n: usize,
-    m: usize,
-    c: f64,
-    pairs: Vec<(usize, usize)>,
-    bottleneck: Option<f64>,
-) -> GospaResult {
-    let k = pairs.len();
-    let localisation = bottleneck.unwrap_or(0.0);
-    let left = Unassigned::bottleneck(n, m, k, c);
-    let total = localisation.max(left.missed).max(left.false_estimates);
-    GospaResult::assemble(total, localisation, left, pairs)
-}
+    /// The p = ∞ result of a bottleneck matching (see [`GospaResult`]).
+    fn bottleneck(
+        (n, m): (usize, usize),
+        c: f64,
+        pairs: Vec<(usize, usize)>,
+        bottleneck: Option<f64>,
+    ) -> Self {
+        Self::assemble(Parts::bottleneck((n, m), pairs.len(), c, bottleneck), pairs)
+    }
 
-/// The 1 ≤ p < ∞ result of an optimal assignment `pairs` (sorted).
-fn finite_result(
-    truth: &[Point2],
-    estimates: &[Point2],
-    params: &GospaParams,
-    pairs: Vec<(usize, usize)>,
-) -> GospaResult {
-    let GospaParams { c, p, alpha } = *params;
-    let clipped = |i: usize, j: usize| truth[i].distance_m(&estimates[j]).min(c);
-    let unassigned_cost = params.c_pow_p() / alpha;
-    let k = pairs.len();
-    let localisation: f64 = pairs.iter().map(|&(i, j)| pow_p(clipped(i, j), p)).sum();
-    let left = Unassigned::summed(truth.len(), estimates.len(), k, unassigned_cost);
-    // (c^p/α)^{1/p} is the base of each unassigned point's term.
-    let mut bases: Vec<(f64, usize)> = pairs.iter().map(|&(i, j)| (clipped(i, j), 1)).collect();
-    bases.push((
-        c * alpha.powf(-1.0 / p),
-        left.missed_count + left.false_count,
-    ));
-    let total = root_p(localisation + left.missed + left.false_estimates, &bases, p);
-    GospaResult::assemble(total, localisation, left, pairs)
+    /// The 1 ≤ p < ∞ result of an optimal assignment `pairs` (sorted).
+    fn summed(
+        truth: &[Point2],
+        estimates: &[Point2],
+        params: &GospaParams,
+        pairs: Vec<(usize, usize)>,
+    ) -> Self {
+        let GospaParams { c, p, alpha } = *params;
+        let parts = Parts::summed(
+            &pairs,
+            (truth.len(), estimates.len()),
+            (c, p, alpha),
+            |i: usize, j: usize| truth[i].distance_m(&estimates[j]).min(c),
+            None::<fn(usize, usize) -> f64>,
+        );
+        Self::assemble(parts, pairs)
+    }
 }

@@ -25,17 +25,8 @@ const MAX_START_OFFSET_S: f64 = 365.0 * 86_400.0;
 pub struct PlayArgs {
     /// Bag folder (a split bag's files are played in metadata.yaml's order).
     pub dir: PathBuf,
-    /// Real-time factor R: recorded seconds per wall-clock second (2 = twice as fast), 1e-6 to
-    /// 1e6. 0 (default): as fast as the subscribers take the messages; nothing is dropped either
-    /// way (reliable publication that blocks on congestion).
-    #[arg(
-        long,
-        value_name = "R",
-        default_value_t = 0.0,
-        value_parser = crate::flags::RATE.parser(),
-        allow_hyphen_values = true
-    )]
-    pub rate: f64,
+    #[command(flatten)]
+    pub pacing: crate::flags::RateArgs,
     /// Play again from the start when the bag ends, until Ctrl-C (no end-of-stream is sent).
     #[arg(long = "loop")]
     pub repeat: bool,
@@ -86,7 +77,7 @@ pub struct PlayArgs {
 
 impl PlayArgs {
     fn validate(&self) -> Result<()> {
-        crate::flags::check("--rate", crate::flags::RATE.check(self.rate))?;
+        self.pacing.validate()?;
         if !(self.match_timeout_s.is_finite() && (0.0..=3600.0).contains(&self.match_timeout_s)) {
             bail!(
                 "--match-timeout-s: {} is out of range (allowed: 0 to 3600 s)",
@@ -186,12 +177,16 @@ pub fn play(args: PlayArgs) -> Result<()> {
         });
     // Clock ticks every `period_ns` of recorded time: 1/HZ wall seconds at the played rate.
     let period_ns = args.clock.map(|hz| {
-        let scale = if args.rate > 0.0 { args.rate } else { 1.0 };
+        let scale = if args.pacing.rate > 0.0 {
+            args.pacing.rate
+        } else {
+            1.0
+        };
         ((scale / hz) * 1e9).max(1.0) as u64
     });
     let mut published = 0u64;
     'outer: loop {
-        let mut pacer = Pacer::new(args.rate);
+        let mut pacer = Pacer::new(args.pacing.rate);
         let mut from_ns = known_start.map(|s| s.saturating_add(offset_ns));
         let mut next_tick = from_ns;
         let bar = byte_progress(bag.file_bytes(), "playing");

@@ -28,16 +28,8 @@ pub struct LaunchArgs {
     /// Default: the launch file's mode.
     #[arg(long, value_name = "MODE")]
     pub mode: Option<Mode>,
-    /// Real-time factor R: simulated seconds per wall-clock second (2 = twice real time), from
-    /// 1e-6 to 1e6. 0 (default): as fast as the nodes go. Nothing is dropped either way.
-    #[arg(
-        long,
-        value_name = "R",
-        default_value_t = 0.0,
-        value_parser = flags::RATE.parser(),
-        allow_hyphen_values = true
-    )]
-    pub rate: f64,
+    #[command(flatten)]
+    pub pacing: crate::flags::RateArgs,
     /// How long node processes may take to come up, in seconds, 1 to 604800 (a week)
     /// (processes mode).
     #[arg(long, value_name = "SECONDS", default_value_t = 30, value_parser = flags::TIMEOUT_S.parser::<u64>(), allow_hyphen_values = true)]
@@ -70,7 +62,7 @@ impl LaunchArgs {
     /// Checks every numeric flag against its range (clap's parsers check them too; this covers
     /// `LaunchArgs` built in code, e.g. by `nrslam reproduce`). The error names the flag.
     pub fn validate(&self) -> Result<()> {
-        flags::check_pacing(self.rate, self.start_timeout_s)?;
+        flags::check_pacing(&self.pacing, self.start_timeout_s)?;
         if let Some(id) = self.ros_domain_id {
             flags::check("--ros-domain-id", ROS_DOMAIN_ID.check(id))?;
         }

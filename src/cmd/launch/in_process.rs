@@ -94,7 +94,7 @@ pub(super) fn run_in_process(
         reporter: Reporter::default(),
         bar: progress(built.expected_frames),
         mirror,
-        pacer: Pacer::new(args.rate),
+        pacer: Pacer::new(args.pacing.rate),
         recorder,
     };
     let result = Graph::new(built.nodes).run(&mut observer);

@@ -79,7 +79,7 @@ pub fn launch(args: LaunchArgs) -> Result<()> {
     let mut run_info = serde_json::json!({
         "mode": match mode { Mode::InProcess => "in-process", Mode::Processes => "processes" },
         "wall_time_s": started.elapsed().as_secs_f64(),
-        "rate": args.rate,
+        "rate": args.pacing.rate,
     });
     if let Some((bag, _)) = &replayed {
         run_info["replayed_bag"] = serde_json::Value::from(bag.display().to_string());

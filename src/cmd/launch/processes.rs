@@ -62,7 +62,7 @@ fn node_args(
         ("--seed", args.seed.to_string()),
         ("--connect", endpoint.to_owned()),
         ("--namespace", args.transport.namespace.clone()),
-        ("--rate", args.rate.to_string()),
+        ("--rate", args.pacing.rate.to_string()),
         ("--start-timeout-s", args.start_timeout_s.to_string()),
         ("--on-bad-input", args.transport.on_bad_input.clone()),
     ] {
