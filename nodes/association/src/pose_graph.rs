@@ -273,6 +273,10 @@ pub enum OptimiseError {
     /// The sparse symbolic factorisation could not be set up (out of memory or index overflow).
     #[error("sparse Cholesky setup failed: {0}")]
     SolverSetup(&'static str),
+    /// The information matrix is not numerically positive definite: some motion of the free
+    /// nodes is not constrained by the edges, so its covariance is unbounded.
+    #[error("the graph's information matrix is singular (a free node is not pinned down)")]
+    Singular,
 }
 
 /// How [`PoseGraph::optimise`] ended.
@@ -578,6 +582,60 @@ fn add_diagonal_block(values: &mut [f64], slot: BlockSlot, block: &Matrix3<f64>)
     }
 }
 
+impl SparseNormalEquations {
+    /// The diagonal 3×3 blocks of `H⁻¹` (the undamped `H` as last assembled), one per free
+    /// block, by solving for the unit vectors in batches of columns; `None` when `H` is not
+    /// numerically positive definite. Costs one factorisation and 3n sparse triangular solves.
+    fn inverse_diagonal_blocks(&mut self) -> Option<Vec<Matrix3<f64>>> {
+        /// Blocks solved per batch: the right-hand sides take dim × 3 × BATCH values.
+        const BATCH: usize = 32;
+        let dim = self.gradient.len();
+        let pattern =
+            SymbolicSparseColMatRef::new_checked(dim, dim, &self.col_ptr, None, &self.row_idx);
+        let matrix = SparseColMatRef::new(pattern, &self.hessian);
+        let llt = self
+            .symbolic
+            .factorize_numeric_llt::<f64>(
+                &mut self.factor,
+                matrix,
+                Side::Upper,
+                LltRegularization::default(),
+                Par::Seq,
+                MemStack::new(&mut self.workspace),
+                Default::default(),
+            )
+            .ok()?;
+        let blocks = dim / 3;
+        let columns = 3 * BATCH.min(blocks.max(1));
+        let mut scratch = MemBuffer::try_new(
+            self.symbolic
+                .solve_in_place_scratch::<f64>(columns, Par::Seq),
+        )
+        .ok()?;
+        let mut rhs = vec![0.0; dim * columns];
+        let mut out = Vec::with_capacity(blocks);
+        for first in (0..blocks).step_by(BATCH) {
+            let count = BATCH.min(blocks - first);
+            rhs.fill(0.0);
+            for k in 0..3 * count {
+                rhs[k * dim + 3 * first + k] = 1.0;
+            }
+            let view =
+                MatMut::from_column_major_slice_mut(&mut rhs[..dim * 3 * count], dim, 3 * count);
+            llt.solve_in_place_with_conj(Conj::No, view, Par::Seq, MemStack::new(&mut scratch));
+            for b in 0..count {
+                let row = 3 * (first + b);
+                let block = Matrix3::from_fn(|p, q| rhs[(3 * b + q) * dim + row + p]);
+                if !block.iter().all(|v| v.is_finite()) || (0..3).any(|d| block[(d, d)] <= 0.0) {
+                    return None;
+                }
+                out.push((block + block.transpose()) * 0.5);
+            }
+        }
+        Some(out)
+    }
+}
+
 impl NormalEquations for SparseNormalEquations {
     fn new(layout: &Layout) -> Result<Self, OptimiseError> {
         Self::with_ordering(layout, Ordering::Amd)
@@ -843,6 +901,69 @@ impl PoseGraph {
         Ok(())
     }
 
+    /// Assembles the normal equations at the current poses into `system`, each edge with the
+    /// information `information(index, edge)` times its robust kernel's weight.
+    fn assemble<S: NormalEquations>(
+        &self,
+        layout: &Layout,
+        settings: &OptimiserSettings,
+        system: &mut S,
+        information: impl Fn(usize, &Edge) -> Matrix3<f64>,
+    ) {
+        system.clear();
+        for (index, e) in self.edges.iter().enumerate() {
+            let blocks = layout.edge_blocks[index];
+            if blocks == [None, None] {
+                continue;
+            }
+            let (xi, xj) = (&self.nodes[e.from], &self.nodes[e.to]);
+            let err = edge_error(xi, xj, &e.measurement);
+            let chi2 = (err.transpose() * e.information * err)[0];
+            let (kernel, k_sigma) = settings.kernel(e.kind);
+            let omega = information(index, e) * kernel.weight(chi2, k_sigma);
+            let (a, b) = jacobians(xi, xj, &e.measurement);
+            let (at_omega, bt_omega) = (a.transpose() * omega, b.transpose() * omega);
+            let edge = EdgeBlocks {
+                h_ff: at_omega * a,
+                h_tt: bt_omega * b,
+                h_ft: at_omega * b,
+                g_f: at_omega * err,
+                g_t: bt_omega * err,
+            };
+            system.add(index, blocks, &edge);
+        }
+    }
+
+    /// The marginal covariance of every node's pose (x m, y m, yaw rad; map frame) at the
+    /// current poses: the diagonal 3×3 blocks of the inverse of the Gauss–Newton information
+    /// matrix, the Laplace approximation of the posterior (Grisetti et al. 2010). Fixed nodes
+    /// get zero. `information(index, edge)` is the information each edge is taken to carry
+    /// (its own, [`Edge::information`], or a calibrated one), weighted by its robust kernel at
+    /// its current residual as in [`PoseGraph::optimise`].
+    ///
+    /// # Errors
+    /// What [`PoseGraph::optimise`] would refuse (no edges, no free node, a non-finite pose or
+    /// cost, bad settings), and [`OptimiseError::Singular`] when an unanchored node leaves the
+    /// information singular.
+    pub fn marginal_covariances(
+        &self,
+        settings: &OptimiserSettings,
+        information: impl Fn(usize, &Edge) -> Matrix3<f64>,
+    ) -> Result<Vec<Matrix3<f64>>, OptimiseError> {
+        let layout = Layout::new(&self.fixed, &self.edges);
+        self.check(settings, &layout, self.cost(&self.nodes, settings))?;
+        let mut system = SparseNormalEquations::new(&layout)?;
+        self.assemble(&layout, settings, &mut system, information);
+        let blocks = system
+            .inverse_diagonal_blocks()
+            .ok_or(OptimiseError::Singular)?;
+        Ok(layout
+            .block_of
+            .iter()
+            .map(|b| b.map_or_else(Matrix3::zeros, |b| blocks[b]))
+            .collect())
+    }
+
     /// The Levenberg–Marquardt loop, on either linear solver.
     fn run<S: NormalEquations>(&mut self, settings: &OptimiserSettings) -> OptimiseReport {
         let layout = Layout::new(&self.fixed, &self.edges);
@@ -870,28 +991,7 @@ impl PoseGraph {
         let mut cost = initial_cost;
         for iteration in 1..=settings.max_iterations {
             report.iterations = iteration;
-            system.clear();
-            for (index, e) in self.edges.iter().enumerate() {
-                let blocks = layout.edge_blocks[index];
-                if blocks == [None, None] {
-                    continue;
-                }
-                let (xi, xj) = (&self.nodes[e.from], &self.nodes[e.to]);
-                let err = edge_error(xi, xj, &e.measurement);
-                let chi2 = (err.transpose() * e.information * err)[0];
-                let (kernel, k_sigma) = settings.kernel(e.kind);
-                let omega = e.information * kernel.weight(chi2, k_sigma);
-                let (a, b) = jacobians(xi, xj, &e.measurement);
-                let (at_omega, bt_omega) = (a.transpose() * omega, b.transpose() * omega);
-                let edge = EdgeBlocks {
-                    h_ff: at_omega * a,
-                    h_tt: bt_omega * b,
-                    h_ft: at_omega * b,
-                    g_f: at_omega * err,
-                    g_t: bt_omega * err,
-                };
-                system.add(index, blocks, &edge);
-            }
+            self.assemble(&layout, settings, &mut system, |_, e| e.information);
             // Levenberg–Marquardt: retry with more damping until the cost falls.
             let mut accepted = false;
             for _ in 0..10 {
@@ -1713,5 +1813,85 @@ mod tests {
         // The accumulated drift is now shared between both ends.
         let middle = graph.nodes()[last / 2].distance_m(&truth[last / 2]);
         assert!(middle < before, "{middle} m vs {before} m");
+    }
+
+    /// The dense reference: the diagonal blocks of the inverse of the whole information matrix.
+    fn dense_marginals(graph: &PoseGraph, settings: &OptimiserSettings) -> Vec<Matrix3<f64>> {
+        let layout = Layout::new(&graph.fixed, &graph.edges);
+        let mut system = DenseNormalEquations::new(&layout).unwrap();
+        graph.assemble(&layout, settings, &mut system, |_, e| e.information);
+        let inverse = system.hessian.cholesky().unwrap().inverse();
+        layout
+            .block_of
+            .iter()
+            .map(|b| {
+                b.map_or_else(Matrix3::zeros, |b| {
+                    inverse.fixed_view::<3, 3>(3 * b, 3 * b).into_owned()
+                })
+            })
+            .collect()
+    }
+
+    #[test]
+    fn marginals_match_the_dense_inverse_across_batches_and_loops() {
+        // 3 laps of 40 poses (more blocks than one batch of solves) with loop edges between laps.
+        let truth = laps(10, 120);
+        let mut graph = multi_lap_graph(&truth, 40, 6, 5);
+        let settings = OptimiserSettings::default();
+        graph.optimise(&settings);
+        let sparse = graph
+            .marginal_covariances(&settings, |_, e| e.information)
+            .unwrap();
+        let dense = dense_marginals(&graph, &settings);
+        assert_eq!(sparse.len(), truth.len());
+        assert_eq!(sparse[0], Matrix3::zeros(), "the fixed first node");
+        for (k, (a, b)) in sparse.iter().zip(&dense).enumerate() {
+            let scale = b.abs().max().max(1e-12);
+            assert!((a - b).abs().max() <= 1e-9 * scale, "node {k}: {a} vs {b}");
+        }
+    }
+
+    #[test]
+    fn a_straight_chain_accumulates_its_steps_variances() {
+        // Along a straight line with exact heading the along-track variance after k steps is
+        // k σ², whatever the (tiny) heading uncertainty does across the track.
+        let truth: Vec<Pose2> = (0..30).map(|k| Pose2::new(k as f64, 0.0, 0.0)).collect();
+        let (std_m, std_rad) = (0.1, 1e-6);
+        let graph = exact_odometry_graph(&truth, std_m, std_rad);
+        let settings = OptimiserSettings::default();
+        let covariances = graph
+            .marginal_covariances(&settings, |_, e| e.information)
+            .unwrap();
+        for (k, c) in covariances.iter().enumerate() {
+            let expected = k as f64 * std_m * std_m;
+            assert!(
+                (c[(0, 0)] - expected).abs() < 1e-9,
+                "node {k}: {}",
+                c[(0, 0)]
+            );
+            assert!(
+                c[(1, 1)] >= expected - 1e-9,
+                "across-track no smaller than along"
+            );
+        }
+        // Doubling every edge's information halves every covariance.
+        let halved = graph
+            .marginal_covariances(&settings, |_, e| e.information * 2.0)
+            .unwrap();
+        for (a, b) in covariances.iter().zip(&halved) {
+            assert!((a * 0.5 - b).abs().max() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn an_unanchored_node_has_no_covariance() {
+        let truth: Vec<Pose2> = (0..4).map(|k| Pose2::new(k as f64, 0.0, 0.0)).collect();
+        let mut graph = exact_odometry_graph(&truth, 0.1, 0.01);
+        graph.add_node(Pose2::new(9.0, 9.0, 0.0));
+        let settings = OptimiserSettings::default();
+        assert_eq!(
+            graph.marginal_covariances(&settings, |_, e| e.information),
+            Err(OptimiseError::Singular)
+        );
     }
 }
