@@ -279,10 +279,31 @@ fn print_keyframe_errors(
         }
     }
     let kf_rmse = (kf_err.iter().map(|e| e * e).sum::<f64>() / kf_err.len() as f64).sqrt();
+    let (nees, std_m, yaw_nees) = keyframe_nees(slam, truths);
+    println!("keyframe position NEES {nees:.3} (2 if honest), mean std {std_m:.3} m, yaw NEES {yaw_nees:.3} (1 if honest)");
     println!(
         "pose RMSE {:.3} m, final keyframe RMSE {:.3} m, loops {}",
         pose_rmse_m,
         kf_rmse,
         slam.loop_closures()
     );
+}
+
+/// The keyframes' position NEES against the truth under their published covariance, and their
+/// mean position standard deviation (m), over every keyframe but the first (which anchors).
+fn keyframe_nees(slam: &Association, truths: &[Pose2]) -> (f64, f64, f64) {
+    let (mut nees, mut std_m, mut n, mut yaw) = (0.0, 0.0, 0.0, 0.0);
+    for (record, truth) in slam.keyframe_records().iter().zip(truths).skip(1) {
+        let c = record.covariance;
+        let (ex, ey) = (record.pose.x_m - truth.x_m, record.pose.y_m - truth.y_m);
+        let det = c[(0, 0)] * c[(1, 1)] - c[(0, 1)] * c[(0, 1)];
+        if det > 0.0 {
+            nees += (c[(1, 1)] * ex * ex - 2.0 * c[(0, 1)] * ex * ey + c[(0, 0)] * ey * ey) / det;
+            std_m += (0.5 * (c[(0, 0)] + c[(1, 1)])).sqrt();
+            n += 1.0;
+            let e_yaw = nrslam_association::wrap_angle_rad(record.pose.yaw_rad - truth.yaw_rad);
+            yaw += e_yaw * e_yaw / c[(2, 2)];
+        }
+    }
+    (nees / n, std_m / n, yaw / n)
 }

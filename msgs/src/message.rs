@@ -249,6 +249,7 @@ mod tests {
                 loop_to_ids: vec![],
                 loop_relatives: vec![planar_pose()],
                 loop_informations: vec![1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 100.0],
+                pose_covariances: vec![0.0; 18],
             }),
             Message::AssociationStats(AssociationStats {
                 header: header.clone(),

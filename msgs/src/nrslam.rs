@@ -70,6 +70,10 @@ pub struct KeyframePoses {
     /// yaw rad) of the relative pose, error taken in the relative pose's own frame, row-major,
     /// nine values per loop, same order. Empty from a back end that does not say.
     pub loop_informations: Vec<f64>,
+    /// Each keyframe's pose uncertainty: its covariance over (x m, y m, yaw rad), map frame,
+    /// row-major, nine values per keyframe in `ids` order (zero for the keyframe that anchors
+    /// the map). Empty from a back end that does not say.
+    pub pose_covariances: Vec<f64>,
 }
 
 /// What data association did with one radar frame (`/slam/association_stats`).

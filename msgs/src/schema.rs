@@ -57,7 +57,7 @@ const DEFINITIONS: &[(&str, &str)] = &[
     ),
     (
         "nrslam_msgs/KeyframePoses",
-        "std_msgs/Header header\nuint32 revision\nuint32[] ids\ngeometry_msgs/Pose[] poses\nuint32[] loop_from_ids\nuint32[] loop_to_ids\ngeometry_msgs/Pose[] loop_relatives\nfloat64[] loop_informations\n",
+        "std_msgs/Header header\nuint32 revision\nuint32[] ids\ngeometry_msgs/Pose[] poses\nuint32[] loop_from_ids\nuint32[] loop_to_ids\ngeometry_msgs/Pose[] loop_relatives\nfloat64[] loop_informations\nfloat64[] pose_covariances\n",
     ),
     (
         "nrslam_msgs/AssociationStats",

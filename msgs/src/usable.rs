@@ -284,6 +284,9 @@ impl CheckUsable for KeyframePoses {
         for &v in &self.loop_informations {
             finite(v, "loop_informations")?;
         }
+        for &v in &self.pose_covariances {
+            finite(v, "pose_covariances")?;
+        }
         Ok(())
     }
 }

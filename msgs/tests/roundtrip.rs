@@ -121,7 +121,8 @@ proptest! {
         let loop_to_ids = (0..loops as u32).map(|k| k + 10).collect();
         let loop_relatives = poses[..loops].to_vec();
         let loop_informations = (0..9 * loops).map(|k| k as f64 * 0.5).collect();
-        round_trip(Message::KeyframePoses(KeyframePoses { header: header.clone(), revision, ids, poses, loop_from_ids, loop_to_ids, loop_relatives, loop_informations }))?;
+        let pose_covariances = (0..9 * poses.len()).map(|k| k as f64 * 0.25).collect();
+        round_trip(Message::KeyframePoses(KeyframePoses { header: header.clone(), revision, ids, poses, loop_from_ids, loop_to_ids, loop_relatives, loop_informations, pose_covariances }))?;
         round_trip(Message::AssociationStats(AssociationStats {
             header,
             detections: counts[0], associated: counts[1], inliers: counts[2],

@@ -341,6 +341,7 @@ pub fn random_message(type_name: &str, rng: &mut Rng) -> Message {
             loop_to_ids: r.u32s(2),
             loop_relatives: r.poses(2),
             loop_informations: r.f64s(18),
+            pose_covariances: r.f64s(36),
         }),
         "nrslam_msgs/msg/AssociationStats" => Message::AssociationStats(AssociationStats {
             header: r.header(),

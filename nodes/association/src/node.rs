@@ -141,6 +141,10 @@ impl AssociationNode {
                             (0..9).map(move |k| omega[(k / 3, k % 3)])
                         })
                         .collect(),
+                    pose_covariances: records
+                        .iter()
+                        .flat_map(|r| (0..9).map(move |k| r.covariance[(k / 3, k % 3)]))
+                        .collect(),
                 },
             );
         }

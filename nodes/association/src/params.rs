@@ -110,6 +110,16 @@ pub struct Params {
     /// Floor of that prior's heading std, degrees (the increment's own is
     /// `loop_closure.odometry_std_deg_per_m` × the distance).
     pub prior_std_deg: f64,
+    /// The keyframes' published pose covariances (`/slam/keyframe_poses`) are the marginals of
+    /// the pose graph with every sequential edge's information (its odometry model plus what
+    /// the scan match that placed the keyframe knows of its pose) times this factor. Both parts
+    /// are deliberately loose for the optimisation; × 8 makes the keyframes' position NEES 2.1
+    /// on the hall and on random scenes alike (docs/slam.md). 1e-6..=1e6.
+    pub covariance_sequential_scale: f64,
+    /// The same factor for loop edges' information (their match's). Default 0: loops make the
+    /// map agree with itself, not with the true frame, and the measured keyframe errors are
+    /// those of the sequential chain alone (docs/slam.md). 0..=1e6.
+    pub covariance_loop_scale: f64,
 }
 
 /// Loop detection, verification and pose-graph parameters (see [`crate::loop_closure`] and
@@ -538,6 +548,8 @@ impl Default for Params {
             robust_sigma: 3.0,
             prior_std_m: 0.01,
             prior_std_deg: 0.1,
+            covariance_sequential_scale: 8.0,
+            covariance_loop_scale: 0.0,
         }
     }
 }
@@ -696,6 +708,22 @@ impl Params {
             true,
             180.0,
             "0 < value <= 180 (degrees)",
+        )?;
+        check_range(
+            "covariance_sequential_scale",
+            self.covariance_sequential_scale,
+            1e-6,
+            false,
+            1e6,
+            "1e-6 <= value <= 1e6",
+        )?;
+        check_range(
+            "covariance_loop_scale",
+            self.covariance_loop_scale,
+            0.0,
+            false,
+            1e6,
+            "0 <= value <= 1e6",
         )?;
         // Two distinct correspondences determine a planar rigid transform; fewer never can.
         check_within(

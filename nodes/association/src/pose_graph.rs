@@ -348,6 +348,30 @@ fn jacobians(xi: &Pose2, xj: &Pose2, z: &Pose2) -> (Matrix3<f64>, Matrix3<f64>) 
     (a, b)
 }
 
+/// The marginal covariance of a node `xj` joined to the rest of a graph by one edge only, from
+/// `xi` (whose marginal covariance is `covariance_i`) with measurement `z` and `information`:
+/// the linearised propagation `B⁻¹A Σᵢ AᵀB⁻ᵀ + B⁻¹ Ω⁻¹ B⁻ᵀ` of the edge's error Jacobians, which
+/// is what [`PoseGraph::marginal_covariances`] gives such a leaf at these poses. `None` when
+/// the information cannot be inverted.
+pub fn leaf_covariance(
+    xi: &Pose2,
+    xj: &Pose2,
+    z: &Pose2,
+    covariance_i: &Matrix3<f64>,
+    information: &Matrix3<f64>,
+) -> Option<Matrix3<f64>> {
+    let (a, b) = jacobians(xi, xj, z);
+    let b_inv = b.try_inverse()?;
+    let edge_covariance = information.try_inverse()?;
+    let from_i = b_inv * a;
+    let covariance =
+        from_i * covariance_i * from_i.transpose() + b_inv * edge_covariance * b_inv.transpose();
+    covariance
+        .iter()
+        .all(|v| v.is_finite())
+        .then(|| (covariance + covariance.transpose()) * 0.5)
+}
+
 /// Checks an information matrix: finite, symmetric, positive semi-definite, not zero.
 fn check_information(information: &Matrix3<f64>) -> Result<(), EdgeError> {
     if !information.iter().all(|v| v.is_finite()) {
@@ -1893,5 +1917,35 @@ mod tests {
             graph.marginal_covariances(&settings, |_, e| e.information),
             Err(OptimiseError::Singular)
         );
+    }
+
+    #[test]
+    fn a_leaf_propagates_as_the_whole_graph_says() {
+        let truth = laps(8, 40);
+        let mut graph = multi_lap_graph(&truth, 32, 3, 9);
+        let settings = OptimiserSettings::default();
+        graph.optimise(&settings);
+        let before = graph
+            .marginal_covariances(&settings, |_, e| e.information)
+            .unwrap();
+        let last = graph.nodes().len() - 1;
+        let z = Pose2::new(0.9, 0.2, 0.1);
+        let xi = graph.nodes()[last];
+        let xj = xi.compose(&z);
+        let leaf = graph.add_node(xj);
+        let information = Matrix3::new(400.0, 30.0, 5.0, 30.0, 250.0, -8.0, 5.0, -8.0, 900.0);
+        graph.add_edge(Edge::with_information(
+            last,
+            leaf,
+            z,
+            information,
+            EdgeKind::Odometry,
+        ));
+        let after = graph
+            .marginal_covariances(&settings, |_, e| e.information)
+            .unwrap();
+        let propagated = leaf_covariance(&xi, &xj, &z, &before[last], &information).unwrap();
+        assert!((propagated - after[leaf]).abs().max() < 1e-9 * after[leaf].abs().max());
+        assert!(leaf_covariance(&xi, &xj, &z, &before[last], &Matrix3::zeros()).is_none());
     }
 }

@@ -303,6 +303,38 @@ fn pair_with_cells(
     (sum_m2, paired_points)
 }
 
+/// The information the scan's pairs with the map carry about the pose at `pose` (over x m, y m
+/// and yaw rad about the AGV, map frame): the Gauss–Newton Hessian of [`match_scan`]'s cost
+/// without its prior, robust weights included, divided by `settings.neighbours` (each point
+/// pairs with that many cells, which are not independent measurements of it).
+pub fn scan_information(
+    map: &DistributionMap,
+    scan: &[RadarPoint],
+    pose: Pose2,
+    settings: &MatchSettings,
+) -> Matrix3<f64> {
+    let points: Vec<(RadarPoint, Matrix2<f64>)> = scan
+        .iter()
+        .filter(|p| {
+            p.position_m.iter().all(|v| v.is_finite())
+                && p.range_std_m.is_finite()
+                && p.angle_std_rad.is_finite()
+        })
+        .map(|p| (*p, p.covariance_m2()))
+        .collect();
+    let mut pairs = Vec::new();
+    pair_with_cells(map, &points, pose, settings, &mut pairs);
+    let robust2 = settings.robust_sigma * settings.robust_sigma;
+    let mut h = Matrix3::zeros();
+    for pair in &pairs {
+        let m2 = (pair.residual.transpose() * pair.info * pair.residual)[0];
+        let weight = 1.0 / (1.0 + m2 / robust2);
+        let j = nalgebra::Matrix2x3::new(1.0, 0.0, -pair.lever[1], 0.0, 1.0, pair.lever[0]);
+        h += j.transpose() * (pair.info * weight) * j;
+    }
+    h / settings.neighbours.max(1) as f64
+}
+
 /// Matches `scan` against `map` from the `initial` pose (the prediction) by Gauss–Newton on the
 /// point-to-distribution cost (module docs). Returns the corrected pose, or `initial` with the
 /// reason it was kept. Non-finite points are ignored; no input yields a non-finite pose.

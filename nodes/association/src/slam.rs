@@ -45,8 +45,8 @@ use crate::loop_closure::{
 use crate::params::{LoopClosureParams, Params};
 use crate::point_grid::PointGrid;
 use crate::pose::Pose2;
-use crate::pose_graph::{Edge, EdgeKind, OptimiserSettings, PoseGraph};
-use crate::scan_matcher::{match_scan, DistributionMap, RadarPoint};
+use crate::pose_graph::{leaf_covariance, Edge, EdgeKind, OptimiserSettings, PoseGraph};
+use crate::scan_matcher::{match_scan, scan_information, DistributionMap, RadarPoint};
 
 /// A detection at `range_m` and angle of arrival `angle_rad` (from the array boresight,
 /// counter-clockwise), for an array whose boresight is `boresight_rad` from the AGV heading, as a
@@ -119,6 +119,10 @@ pub struct KeyframeRecord {
     pub scan_agv_m: Vec<[f64; 2]>,
     /// Distance travelled from the start to this keyframe, metres.
     pub travelled_m: f64,
+    /// Uncertainty of `pose` over (x m, y m, yaw rad), map frame: the pose graph's marginal
+    /// covariance under `covariance_sequential_scale` and `covariance_loop_scale` (zero for the
+    /// first keyframe, which anchors the map).
+    pub covariance: nalgebra::Matrix3<f64>,
 }
 
 impl KeyframeRecord {
@@ -178,6 +182,10 @@ pub struct Association {
     loop_edges: Vec<LoopEdge>,
     /// Verified matches that wait for a second one to confirm them.
     pending: Vec<LoopEdge>,
+    /// Per pose-graph edge, the information the keyframes' covariances take it to carry: a
+    /// sequential edge's odometry model plus the scan match's own information, a loop edge's
+    /// match information.
+    uncertainty_information: Vec<nalgebra::Matrix3<f64>>,
 }
 
 impl Association {
@@ -209,6 +217,7 @@ impl Association {
             local_from: 0,
             loop_edges: Vec::new(),
             pending: Vec::new(),
+            uncertainty_information: Vec::new(),
         })
     }
 
@@ -382,7 +391,17 @@ impl Association {
         };
         let mut loop_match = None;
         if let Some(id) = keyframe_id {
-            self.add_keyframe(id, pose, scan);
+            let tracking_information = if self.params.scan_matching && !self.cells.is_empty() {
+                scan_information(
+                    &self.cells,
+                    &radar_points,
+                    pose,
+                    &self.params.match_settings(),
+                )
+            } else {
+                nalgebra::Matrix3::zeros()
+            };
+            self.add_keyframe(id, pose, scan, &tracking_information);
             if self.params.loop_closure.enabled {
                 if self.cooldown > 0 {
                     self.cooldown -= 1;
@@ -451,7 +470,15 @@ impl Association {
         lc.enabled && lc.local_map_m > 0.0 && self.travelled_at_closure_m.is_none()
     }
 
-    fn add_keyframe(&mut self, id: u32, pose: Pose2, scan: Vec<[f64; 2]>) {
+    /// Adds keyframe `id` at `pose` to the maps and the pose graph; `tracking_information` is
+    /// what the scan match that placed it knows of its pose (map frame).
+    fn add_keyframe(
+        &mut self,
+        id: u32,
+        pose: Pose2,
+        scan: Vec<[f64; 2]>,
+        tracking_information: &nalgebra::Matrix3<f64>,
+    ) {
         let points_m: Vec<[f64; 2]> = scan.iter().map(|&p| pose.transform_point(p)).collect();
         if self.local_tracking() {
             // Drop keyframes that fell out of the local window, then add the new one.
@@ -471,6 +498,7 @@ impl Association {
         self.last_keyframe_map = self.params.statistics_grid();
         self.last_keyframe_map.extend(&points_m);
         let node = self.graph.add_node(pose);
+        let mut covariance = nalgebra::Matrix3::zeros();
         if let Some(previous) = self.records.last() {
             let lc = &self.params.loop_closure;
             let relative = previous.pose.between(&pose);
@@ -479,20 +507,31 @@ impl Association {
             let std_rad = (lc.odometry_std_deg_per_m * distance_m)
                 .max(lc.odometry_min_std_deg)
                 .to_radians();
-            self.graph.add_edge(Edge::with_std(
-                node - 1,
-                node,
-                relative,
-                std_m,
-                std_rad,
-                EdgeKind::Odometry,
-            ));
+            let edge = Edge::with_std(node - 1, node, relative, std_m, std_rad, EdgeKind::Odometry);
+            // The scan match's information is over the map frame; the edge's error is in the
+            // previous keyframe's frame.
+            let (sin, cos) = previous.pose.yaw_rad.sin_cos();
+            let to_previous = nalgebra::Matrix3::new(cos, sin, 0.0, -sin, cos, 0.0, 0.0, 0.0, 1.0);
+            let information = (edge.information
+                + to_previous * tracking_information * to_previous.transpose())
+                * self.params.covariance_sequential_scale;
+            covariance = leaf_covariance(
+                &previous.pose,
+                &pose,
+                &relative,
+                &previous.covariance,
+                &information,
+            )
+            .unwrap_or(previous.covariance);
+            self.uncertainty_information.push(information);
+            self.graph.add_edge(edge);
         }
         self.records.push(KeyframeRecord {
             id,
             pose,
             scan_agv_m: scan,
             travelled_m: self.travelled_m,
+            covariance,
         });
     }
 
@@ -671,13 +710,16 @@ impl Association {
     fn apply_loop(&mut self, edges: &[LoopEdge]) {
         let lc = self.params.loop_closure.clone();
         for edge in edges {
+            let information = loop_information(edge, &lc);
             self.graph.add_edge(Edge::with_information(
                 edge.from,
                 edge.to,
                 edge.relative,
-                loop_information(edge, &lc),
+                information,
                 EdgeKind::Loop,
             ));
+            self.uncertainty_information
+                .push(information * self.params.covariance_loop_scale);
             self.loop_edges.push(*edge);
         }
         self.pending.clear();
@@ -691,6 +733,20 @@ impl Association {
         }
         for (record, pose) in self.records.iter_mut().zip(self.graph.nodes()) {
             record.pose = *pose;
+        }
+        let uncertainty = &self.uncertainty_information;
+        match self
+            .graph
+            .marginal_covariances(&settings, |index, _| uncertainty[index])
+        {
+            Ok(covariances) => {
+                for (record, covariance) in self.records.iter_mut().zip(covariances) {
+                    record.covariance = covariance;
+                }
+            }
+            Err(reason) => {
+                tracing::warn!(%reason, "keyframe covariances kept from before the loop closure");
+            }
         }
         self.travelled_at_closure_m = Some(self.travelled_m);
         self.rebuild_map();
@@ -908,5 +964,35 @@ mod tests {
         assert!(!out.stats.odometry_rejected);
         assert_eq!(out.pose, Pose2::new(50.0, 0.0, 0.0));
         assert_eq!(out.stats.detections, 0);
+    }
+
+    #[test]
+    fn keyframe_covariances_start_at_zero_and_grow_along_the_chain() {
+        let params = Params::default();
+        let scale = params.covariance_sequential_scale;
+        let mut slam = Association::new(params.clone()).unwrap();
+        for k in 0..40 {
+            slam.on_odometry_at(
+                0.5 * f64::from(k),
+                Pose2::new(0.25 * f64::from(k), 0.0, 0.0),
+            )
+            .unwrap();
+            slam.on_scan(&[]).unwrap();
+        }
+        let records = slam.keyframe_records();
+        assert!(records.len() >= 5, "{} keyframes", records.len());
+        assert_eq!(records[0].covariance, nalgebra::Matrix3::zeros());
+        for pair in records.windows(2) {
+            let (a, b) = (&pair[0].covariance, &pair[1].covariance);
+            for d in 0..3 {
+                assert!(b[(d, d)] > a[(d, d)], "{a} then {b}");
+            }
+        }
+        // Without scans, each 1 m step adds the odometry model's variance divided by the scale.
+        let lc = &params.loop_closure;
+        let step_m = records[1].pose.distance_m(&records[0].pose);
+        let std_m = (lc.odometry_std_per_m * step_m).max(lc.odometry_min_std_m);
+        let along = records[1].covariance[(0, 0)];
+        assert!((along - std_m * std_m / scale).abs() < 1e-12, "{along}");
     }
 }

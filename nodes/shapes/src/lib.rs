@@ -41,6 +41,7 @@ pub mod fit;
 pub mod geometry;
 pub mod node;
 mod params;
+pub mod pose_uncertainty;
 pub mod rectangle;
 pub mod shape;
 pub mod tracker;

@@ -6,7 +6,10 @@
 //! drawn as a [`MarkerArray`] (each fitted outline as a closed line, namespace `shapes`, id =
 //! target id, and its sample points as spheres, namespace `shape_samples`, after a DELETEALL).
 //! The keyframe positions of the latest `/slam/keyframe_poses` are the viewpoints that tell a
-//! one-sided rectangle which way it extends (away from where it was seen from).
+//! one-sided rectangle which way it extends (away from where it was seen from), and their pose
+//! covariances, where the back end publishes them, are added to each published shape's
+//! covariance (module [`pose_uncertainty`](crate::pose_uncertainty)): the fit knows only the
+//! cells' scatter, not how far the poses that placed them were off.
 
 use nrslam_msgs::topics::{KEYFRAME_POSES, MAP_TARGETS, MAP_TARGET_MARKERS, SEGMENTS};
 use nrslam_msgs::{
@@ -17,6 +20,7 @@ use nrslam_runtime::{Node, NodeContext, NodeError, NodeResult, Outbox};
 use std::collections::BTreeMap;
 
 use crate::evaluate::TruthShape;
+use crate::pose_uncertainty::{pose_covariance, Viewpoint};
 use crate::{FittedShape, Params, ShapeKind, ShapeTracker, TrackedTarget};
 
 /// Frame of everything published.
@@ -30,7 +34,9 @@ const SAMPLE_SIZE_M: f64 = 0.3;
 #[derive(Debug)]
 pub struct ShapesNode {
     tracker: ShapeTracker,
-    viewpoints_m: Vec<[f64; 2]>,
+    viewpoints: Vec<Viewpoint>,
+    pose_support_m: f64,
+    pose_covariance_share: f64,
 }
 
 /// Builds the node from `params` (validated here). It draws no random numbers and reads no
@@ -38,17 +44,33 @@ pub struct ShapesNode {
 pub fn build(params: Params, _ctx: &NodeContext) -> Result<Box<dyn Node>, NodeError> {
     params.validate()?;
     Ok(Box::new(ShapesNode {
+        pose_support_m: params.pose_support_m,
+        pose_covariance_share: params.pose_covariance_share,
         tracker: ShapeTracker::new(params),
-        viewpoints_m: Vec::new(),
+        viewpoints: Vec::new(),
     }))
 }
 
 impl ShapesNode {
     fn on_keyframe_poses(&mut self, poses: &KeyframePoses) {
-        self.viewpoints_m = poses
+        // Nine values per keyframe, or none (a back end that does not say adds no uncertainty).
+        let covariances = &poses.pose_covariances;
+        let covariance_of = |k: usize| {
+            covariances
+                .get(9 * k..9 * k + 9)
+                .filter(|_| covariances.len() == 9 * poses.poses.len())
+                .map_or([[0.0; 3]; 3], |c| {
+                    [[c[0], c[1], c[2]], [c[3], c[4], c[5]], [c[6], c[7], c[8]]]
+                })
+        };
+        self.viewpoints = poses
             .poses
             .iter()
-            .map(|p| [p.position.x, p.position.y])
+            .enumerate()
+            .map(|(k, p)| Viewpoint {
+                position_m: [p.position.x, p.position.y],
+                covariance: covariance_of(k),
+            })
             .collect();
     }
 
@@ -70,8 +92,19 @@ impl ShapesNode {
             }
         }
         let clusters: Vec<Vec<[f64; 2]>> = clusters.into_values().collect();
-        let mut targets = self.tracker.update(&clusters, &self.viewpoints_m);
+        let positions_m: Vec<[f64; 2]> = self.viewpoints.iter().map(|v| v.position_m).collect();
+        let mut targets = self.tracker.update(&clusters, &positions_m);
         targets.sort_by_key(|t| t.id);
+        for target in &mut targets {
+            let shape = &mut target.shape;
+            let (center, yaw) = pose_covariance(
+                shape.center_m,
+                &self.viewpoints,
+                self.pose_support_m,
+                self.pose_covariance_share,
+            );
+            add_pose_covariance(shape, center, yaw);
+        }
         let stamp = segments.header.stamp;
         let message = MapTargets {
             header: Header::new(stamp, MAP_FRAME),
@@ -83,6 +116,23 @@ impl ShapesNode {
         outbox.publish(MAP_TARGET_MARKERS, markers(&message, stamp));
         outbox.publish(MAP_TARGETS, message);
         Ok(())
+    }
+}
+
+/// Adds the pose errors' covariance over the centre (m²) and the yaw (rad², rectangles) to the
+/// shape's own; a shape without a full covariance is left as it is.
+fn add_pose_covariance(shape: &mut FittedShape, center: [[f64; 2]; 2], yaw_rad2: f64) {
+    let n = shape.parameter_count();
+    if shape.covariance.len() != n * n {
+        return;
+    }
+    for (r, row) in center.iter().enumerate() {
+        for (c, value) in row.iter().enumerate() {
+            shape.covariance[r * n + c] += value;
+        }
+    }
+    if shape.kind == ShapeKind::Rectangle {
+        shape.covariance[4 * n + 4] += yaw_rad2;
     }
 }
 
