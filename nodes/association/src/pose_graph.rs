@@ -1948,4 +1948,40 @@ mod tests {
         assert!((propagated - after[leaf]).abs().max() < 1e-9 * after[leaf].abs().max());
         assert!(leaf_covariance(&xi, &xj, &z, &before[last], &Matrix3::zeros()).is_none());
     }
+
+    #[test]
+    fn without_loop_information_the_marginals_are_the_chain_propagated() {
+        // What Association::update_covariances relies on when loops are left out of the model.
+        let truth = laps(10, 80);
+        let mut graph = multi_lap_graph(&truth, 40, 4, 2);
+        let settings = OptimiserSettings::default();
+        graph.optimise(&settings);
+        let chain_only = |_: usize, e: &Edge| match e.kind {
+            EdgeKind::Odometry => e.information,
+            EdgeKind::Loop => Matrix3::zeros(),
+        };
+        let marginals = graph.marginal_covariances(&settings, chain_only).unwrap();
+        let mut propagated = vec![Matrix3::zeros(); graph.nodes().len()];
+        for e in graph
+            .edges()
+            .iter()
+            .filter(|e| e.kind == EdgeKind::Odometry)
+        {
+            let (xi, xj) = (graph.nodes()[e.from], graph.nodes()[e.to]);
+            propagated[e.to] = leaf_covariance(
+                &xi,
+                &xj,
+                &e.measurement,
+                &propagated[e.from],
+                &e.information,
+            )
+            .unwrap();
+        }
+        for (k, (a, b)) in marginals.iter().zip(&propagated).enumerate() {
+            assert!(
+                (a - b).abs().max() <= 1e-9 * b.abs().max().max(1e-12),
+                "node {k}"
+            );
+        }
+    }
 }

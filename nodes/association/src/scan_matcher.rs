@@ -262,6 +262,18 @@ struct Pair {
     lever: Vector2<f64>,
 }
 
+impl Pair {
+    /// The residual's Jacobian over (x, y, ψ), d(T p)/d(x, y, ψ) = [I | perp(R p)] with
+    /// perp(v) = (−v_y, v_x), and its information under the Cauchy weight at `robust2` (the
+    /// squared scale on the Mahalanobis distance).
+    fn weighted(&self, robust2: f64) -> (nalgebra::Matrix2x3<f64>, Matrix2<f64>) {
+        let m2 = (self.residual.transpose() * self.info * self.residual)[0];
+        let weight = 1.0 / (1.0 + m2 / robust2);
+        let j = nalgebra::Matrix2x3::new(1.0, 0.0, -self.lever[1], 0.0, 1.0, self.lever[0]);
+        (j, self.info * weight)
+    }
+}
+
 /// Pairs each scan point (AGV frame, with its covariance) placed at `pose` with its nearest map
 /// cells into `pairs`, each with the information of their combined covariance (cell, point
 /// rotated into the map, `map_std_m`²). Returns (sum of squared residuals m², points paired).
@@ -313,26 +325,30 @@ pub fn scan_information(
     pose: Pose2,
     settings: &MatchSettings,
 ) -> Matrix3<f64> {
-    let points: Vec<(RadarPoint, Matrix2<f64>)> = scan
+    let points = usable_points(scan);
+    let mut pairs = Vec::new();
+    pair_with_cells(map, &points, pose, settings, &mut pairs);
+    let robust2 = settings.robust_sigma * settings.robust_sigma;
+    let h: Matrix3<f64> = pairs
         .iter()
+        .map(|pair| {
+            let (j, w_info) = pair.weighted(robust2);
+            j.transpose() * w_info * j
+        })
+        .sum();
+    h / settings.neighbours.max(1) as f64
+}
+
+/// The scan's points with finite coordinates and standard deviations, each with its covariance.
+fn usable_points(scan: &[RadarPoint]) -> Vec<(RadarPoint, Matrix2<f64>)> {
+    scan.iter()
         .filter(|p| {
             p.position_m.iter().all(|v| v.is_finite())
                 && p.range_std_m.is_finite()
                 && p.angle_std_rad.is_finite()
         })
         .map(|p| (*p, p.covariance_m2()))
-        .collect();
-    let mut pairs = Vec::new();
-    pair_with_cells(map, &points, pose, settings, &mut pairs);
-    let robust2 = settings.robust_sigma * settings.robust_sigma;
-    let mut h = Matrix3::zeros();
-    for pair in &pairs {
-        let m2 = (pair.residual.transpose() * pair.info * pair.residual)[0];
-        let weight = 1.0 / (1.0 + m2 / robust2);
-        let j = nalgebra::Matrix2x3::new(1.0, 0.0, -pair.lever[1], 0.0, 1.0, pair.lever[0]);
-        h += j.transpose() * (pair.info * weight) * j;
-    }
-    h / settings.neighbours.max(1) as f64
+        .collect()
 }
 
 /// Matches `scan` against `map` from the `initial` pose (the prediction) by Gauss–Newton on the
@@ -344,15 +360,7 @@ pub fn match_scan(
     initial: Pose2,
     settings: &MatchSettings,
 ) -> IcpResult {
-    let points: Vec<(RadarPoint, Matrix2<f64>)> = scan
-        .iter()
-        .filter(|p| {
-            p.position_m.iter().all(|v| v.is_finite())
-                && p.range_std_m.is_finite()
-                && p.angle_std_rad.is_finite()
-        })
-        .map(|p| (*p, p.covariance_m2()))
-        .collect();
+    let points = usable_points(scan);
     let unchanged = |status| IcpResult::unchanged(initial, status);
     if points.is_empty() {
         return unchanged(IcpStatus::EmptyScan);
@@ -380,7 +388,7 @@ pub fn match_scan(
             };
         }
         result.rms_m = (sum_m2 / pairs.len().max(1) as f64).sqrt();
-        // Gauss–Newton: d(T p)/d(x, y, ψ) = [I | perp(R p)], perp(v) = (−v_y, v_x).
+        // Gauss–Newton over (x, y, ψ) (Pair::weighted).
         let offset = Vector3::new(
             pose.x_m - initial.x_m,
             pose.y_m - initial.y_m,
@@ -396,10 +404,7 @@ pub fn match_scan(
         let mut h = prior_info * prior_weight;
         let mut g = prior_info * offset * prior_weight;
         for pair in &pairs {
-            let m2 = (pair.residual.transpose() * pair.info * pair.residual)[0];
-            let weight = 1.0 / (1.0 + m2 / robust2);
-            let j = nalgebra::Matrix2x3::new(1.0, 0.0, -pair.lever[1], 0.0, 1.0, pair.lever[0]);
-            let w_info = pair.info * weight;
+            let (j, w_info) = pair.weighted(robust2);
             h += j.transpose() * w_info * j;
             g += j.transpose() * w_info * pair.residual;
         }

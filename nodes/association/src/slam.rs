@@ -734,25 +734,55 @@ impl Association {
         for (record, pose) in self.records.iter_mut().zip(self.graph.nodes()) {
             record.pose = *pose;
         }
-        let uncertainty = &self.uncertainty_information;
-        match self
-            .graph
-            .marginal_covariances(&settings, |index, _| uncertainty[index])
-        {
-            Ok(covariances) => {
-                for (record, covariance) in self.records.iter_mut().zip(covariances) {
-                    record.covariance = covariance;
-                }
-            }
-            Err(reason) => {
-                tracing::warn!(%reason, "keyframe covariances kept from before the loop closure");
-            }
-        }
+        self.update_covariances(&settings);
         self.travelled_at_closure_m = Some(self.travelled_m);
         self.rebuild_map();
         self.revision += 1;
         self.loop_closures += 1;
         self.cooldown = lc.cooldown_keyframes;
+    }
+
+    /// Recomputes every keyframe's covariance at the current poses. With loop edges left out of
+    /// the covariance model (`covariance_loop_scale` = 0) the informative edges form the
+    /// sequential chain, whose marginals are the propagation along it (`leaf_covariance`, one
+    /// step per keyframe; the optimiser's odometry kernel being the identity, as
+    /// `OptimiserSettings` has it); otherwise the graph's sparse marginals.
+    fn update_covariances(&mut self, settings: &OptimiserSettings) {
+        if self.params.covariance_loop_scale > 0.0 {
+            let uncertainty = &self.uncertainty_information;
+            match self
+                .graph
+                .marginal_covariances(settings, |index, _| uncertainty[index])
+            {
+                Ok(covariances) => {
+                    for (record, covariance) in self.records.iter_mut().zip(covariances) {
+                        record.covariance = covariance;
+                    }
+                }
+                Err(reason) => {
+                    tracing::warn!(%reason, "keyframe covariances kept from before the loop closure");
+                }
+            }
+            return;
+        }
+        let sequential = self
+            .graph
+            .edges()
+            .iter()
+            .zip(&self.uncertainty_information)
+            .filter(|(edge, _)| edge.kind == EdgeKind::Odometry);
+        for (edge, information) in sequential {
+            let (from, to) = (&self.records[edge.from], &self.records[edge.to]);
+            if let Some(covariance) = leaf_covariance(
+                &from.pose,
+                &to.pose,
+                &edge.measurement,
+                &from.covariance,
+                information,
+            ) {
+                self.records[edge.to].covariance = covariance;
+            }
+        }
     }
 
     /// Rebuilds the point map and the cell map from the keyframes `records[first..]` at their
