@@ -9,12 +9,13 @@ use common::*;
 use std::path::Path;
 
 /// The parameters by which the pose oracle differs from the paper's runs.
-const ORACLE: [&str; 5] = [
+const ORACLE: [&str; 6] = [
     "radar.odom_translation_noise:=0.0",
     "radar.odom_rotation_noise_deg_per_m:=0.0",
     "radar.odom_scale_bias:=0.0",
     "radar.odom_rotation_bias_deg_per_m:=0.0",
     "association.scan_matching:=false",
+    "association.covariance_sequential_scale:=1e6",
 ];
 
 fn launch(file: &str, out: &Path, args: &[&str]) {

@@ -634,7 +634,29 @@ impl Params {
     pub fn validate(&self) -> Result<(), InvalidParam> {
         self.validate_matching()?;
         self.validate_keyframes_and_gates()?;
+        self.validate_covariance_model()?;
         self.loop_closure.validate()
+    }
+
+    /// The factors of the published keyframe covariances' model.
+    fn validate_covariance_model(&self) -> Result<(), InvalidParam> {
+        check_range(
+            "covariance_sequential_scale",
+            self.covariance_sequential_scale,
+            1e-6,
+            false,
+            1e6,
+            "1e-6 <= value <= 1e6",
+        )?;
+        check_range(
+            "covariance_loop_scale",
+            self.covariance_loop_scale,
+            0.0,
+            false,
+            1e6,
+            "0 <= value <= 1e6",
+        )?;
+        Ok(())
     }
 
     /// The scan matcher's and ICP's fields, in [`Self::validate`]'s order.
@@ -708,22 +730,6 @@ impl Params {
             true,
             180.0,
             "0 < value <= 180 (degrees)",
-        )?;
-        check_range(
-            "covariance_sequential_scale",
-            self.covariance_sequential_scale,
-            1e-6,
-            false,
-            1e6,
-            "1e-6 <= value <= 1e6",
-        )?;
-        check_range(
-            "covariance_loop_scale",
-            self.covariance_loop_scale,
-            0.0,
-            false,
-            1e6,
-            "0 <= value <= 1e6",
         )?;
         // Two distinct correspondences determine a planar rigid transform; fewer never can.
         check_within(
@@ -816,6 +822,8 @@ mod tests {
         type Mutation = fn(&mut Params);
         let cases: Vec<(&str, Mutation)> = vec![
             ("max_correspondence_m", |p| p.max_correspondence_m = 0.0),
+            ("covariance_sequential_scale", |p| p.covariance_sequential_scale = 0.0),
+            ("covariance_loop_scale", |p| p.covariance_loop_scale = -1.0),
             ("max_correspondence_m", |p| {
                 p.max_correspondence_m = f64::NAN
             }),

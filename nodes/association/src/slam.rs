@@ -391,17 +391,7 @@ impl Association {
         };
         let mut loop_match = None;
         if let Some(id) = keyframe_id {
-            let tracking_information = if self.params.scan_matching && !self.cells.is_empty() {
-                scan_information(
-                    &self.cells,
-                    &radar_points,
-                    pose,
-                    &self.params.match_settings(),
-                )
-            } else {
-                nalgebra::Matrix3::zeros()
-            };
-            self.add_keyframe(id, pose, scan, &tracking_information);
+            self.add_keyframe(id, pose, scan, &radar_points);
             if self.params.loop_closure.enabled {
                 if self.cooldown > 0 {
                     self.cooldown -= 1;
@@ -470,15 +460,26 @@ impl Association {
         lc.enabled && lc.local_map_m > 0.0 && self.travelled_at_closure_m.is_none()
     }
 
-    /// Adds keyframe `id` at `pose` to the maps and the pose graph; `tracking_information` is
-    /// what the scan match that placed it knows of its pose (map frame).
+    /// Adds keyframe `id` at `pose` to the maps and the pose graph; `radar_points` are its
+    /// detections as the scan match that placed it weighed them.
     fn add_keyframe(
         &mut self,
         id: u32,
         pose: Pose2,
         scan: Vec<[f64; 2]>,
-        tracking_information: &nalgebra::Matrix3<f64>,
+        radar_points: &[RadarPoint],
     ) {
+        // What that scan match knows of the pose (map frame), before the keyframe joins the map.
+        let tracking_information = if self.params.scan_matching && !self.cells.is_empty() {
+            scan_information(
+                &self.cells,
+                radar_points,
+                pose,
+                &self.params.match_settings(),
+            )
+        } else {
+            nalgebra::Matrix3::zeros()
+        };
         let points_m: Vec<[f64; 2]> = scan.iter().map(|&p| pose.transform_point(p)).collect();
         if self.local_tracking() {
             // Drop keyframes that fell out of the local window, then add the new one.
