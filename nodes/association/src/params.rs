@@ -822,7 +822,9 @@ mod tests {
         type Mutation = fn(&mut Params);
         let cases: Vec<(&str, Mutation)> = vec![
             ("max_correspondence_m", |p| p.max_correspondence_m = 0.0),
-            ("covariance_sequential_scale", |p| p.covariance_sequential_scale = 0.0),
+            ("covariance_sequential_scale", |p| {
+                p.covariance_sequential_scale = 0.0
+            }),
             ("covariance_loop_scale", |p| p.covariance_loop_scale = -1.0),
             ("max_correspondence_m", |p| {
                 p.max_correspondence_m = f64::NAN
