@@ -21,6 +21,7 @@ macro_rules! outln {
     }};
 }
 
+mod args;
 #[cfg(test)]
 mod cli_tests;
 mod cmd;
@@ -56,15 +57,15 @@ enum Command {
     Metric(cmd::metric::MetricArgs),
     /// DBSCAN on a CSV of points `x,y`, writing `x,y,label` (label -1: noise).
     Segment(cmd::segment::SegmentArgs),
-    /// Single-scatterer range and angle RMSE against SNR, beside the Cramér–Rao bounds and grid limits.
+    /// Single-scatterer range and angle RMSE against SNR, beside the Cramér–Rao bounds and grid limits: accuracy.csv and accuracy.png in --out.
     Accuracy(accuracy::AccuracyArgs),
-    /// Monte Carlo trials of a launch in parallel: per-step mean and spread of every metric.
+    /// Monte Carlo trials of a launch in parallel: trials.csv (raw), montecarlo.csv (per-step mean and spread of every metric) and study.json in --out.
     Montecarlo(montecarlo::MonteCarloArgs),
-    /// Merge `montecarlo --shard` folders into the result of one unsharded run.
+    /// Merge `montecarlo --shard` folders into the result of one unsharded run, in --out.
     Merge(montecarlo::MergeArgs),
-    /// The paper's figures (3, 4, 5, 6, 7) as PNG with CSV beside each.
+    /// The paper's figures (3, 4, 5, 6, 7) as PNG with CSV beside each, in --out.
     Reproduce(reproduce::ReproduceArgs),
-    /// Sweep the knobs that trade speed for accuracy: tradeoff.csv and a Pareto plot.
+    /// Sweep the knobs that trade speed for accuracy: tradeoff.csv and a Pareto plot (pareto.png) in --out.
     Tradeoff(tradeoff::TradeoffArgs),
     /// Write a random scene file (irregular rectangles and circles, a randomised loop) for scene:=FILE.
     Scene(scene::SceneArgs),

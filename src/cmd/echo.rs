@@ -2,7 +2,7 @@
 //! standard output, until --count messages, the topic's end-of-stream, or Ctrl-C.
 
 use super::{observer_options, report_drops};
-use crate::flags::TransportArgs;
+use crate::args::TransportArgs;
 use crate::flags::{self, Whole};
 use anyhow::{anyhow, Result};
 use clap::Args;

@@ -30,7 +30,7 @@ pub mod segment;
 pub mod topics;
 pub mod tradeoff;
 
-use crate::flags::TransportArgs;
+use crate::args::TransportArgs;
 use anyhow::Result;
 use nrslam_runtime::receive::{Inbox, InboxOptions, Overload};
 

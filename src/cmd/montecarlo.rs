@@ -46,9 +46,8 @@ pub struct MonteCarloArgs {
     /// Worker threads, 1 to 1024 (default: all cores). Results do not depend on it.
     #[arg(long, value_parser = THREADS.parser::<usize>(), allow_hyphen_values = true)]
     pub threads: Option<usize>,
-    /// Output folder: trials.csv (raw), montecarlo.csv (per-step mean and spread), study.json.
-    #[arg(long, value_name = "DIR")]
-    pub out: PathBuf,
+    #[command(flatten)]
+    pub out: crate::args::OutputDirArgs,
 }
 
 /// `nrslam merge`.
@@ -57,9 +56,8 @@ pub struct MergeArgs {
     /// Output folders of `nrslam montecarlo --shard` runs of the same study.
     #[arg(required = true)]
     pub shards: Vec<PathBuf>,
-    /// Folder for the merged result.
-    #[arg(long, value_name = "DIR")]
-    pub out: PathBuf,
+    #[command(flatten)]
+    pub out: crate::args::OutputDirArgs,
 }
 
 /// One trial's per-step values: `(time_s, [metric values])`.
@@ -164,8 +162,8 @@ pub fn montecarlo(args: MonteCarloArgs) -> Result<()> {
         "seed": args.seed,
         "trials_in_study": args.trials,
     });
-    write_study(&args.out, &header, &trials)?;
-    outln!("{} trials; wrote {}", trials.len(), args.out.display());
+    write_study(&args.out.dir, &header, &trials)?;
+    outln!("{} trials; wrote {}", trials.len(), args.out.dir.display());
     Ok(())
 }
 
@@ -285,7 +283,11 @@ pub fn merge(args: MergeArgs) -> Result<()> {
         }
     }
     let header = header.ok_or_else(|| anyhow!("no shard given"))?;
-    write_study(&args.out, &header, &all)?;
-    outln!("{} trials merged into {}", all.len(), args.out.display());
+    write_study(&args.out.dir, &header, &all)?;
+    outln!(
+        "{} trials merged into {}",
+        all.len(),
+        args.out.dir.display()
+    );
     Ok(())
 }

@@ -8,9 +8,9 @@
 //!   against time for 5G and the four ideal conditions (`fig6.csv`/`.png`, `fig7.csv`/`.png`;
 //!   raw trials in `montecarlo/<condition>/`).
 
+use crate::args::TransportArgs;
 use crate::cmd::launch::{self, LaunchArgs};
 use crate::cmd::montecarlo::{self, MonteCarloArgs};
-use crate::flags::TransportArgs;
 use crate::flags::{self, Whole};
 use crate::plot::{canvas, draw_axes, draw_legend, framed, line_key, plot_error};
 use anyhow::{anyhow, Context, Result};
@@ -22,9 +22,8 @@ use std::path::{Path, PathBuf};
 /// `nrslam reproduce`.
 #[derive(Args, Debug)]
 pub struct ReproduceArgs {
-    /// Output folder.
-    #[arg(long, value_name = "DIR")]
-    pub out: PathBuf,
+    #[command(flatten)]
+    pub out: crate::args::OutputDirArgs,
     /// Monte Carlo trials per condition for Figs. 6 and 7 (the paper: 500), 1 to 100000.
     #[arg(long, default_value_t = 500, value_parser = crate::cmd::montecarlo::TRIALS.parser::<u64>(), allow_hyphen_values = true)]
     pub trials: u64,
@@ -95,11 +94,10 @@ const CONDITIONS: [(&str, &str, [&str; 2], &str); 5] = [
 /// `nrslam reproduce`.
 pub fn reproduce(args: ReproduceArgs) -> Result<()> {
     args.validate()?;
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    args.out.create()?;
     let started = std::time::Instant::now();
     let mut timings = serde_json::Map::new();
-    fig4(&args.out)?;
+    fig4(&args.out.dir)?;
     for (name, file, assignments, legend) in CONDITIONS {
         let condition_started = std::time::Instant::now();
         eprintln!("{legend}: one run, then {} Monte Carlo trials", args.trials);
@@ -118,7 +116,7 @@ pub fn reproduce(args: ReproduceArgs) -> Result<()> {
             seed: args.seed,
             out: Some(out),
             mode: None,
-            pacing: flags::RateArgs::default(),
+            pacing: crate::args::RateArgs::default(),
             start_timeout_s: 30,
             record: None,
             record_topics: Vec::new(),
@@ -143,7 +141,9 @@ pub fn reproduce(args: ReproduceArgs) -> Result<()> {
             seed: args.seed,
             shard: None,
             threads: None,
-            out: args.out.join("montecarlo").join(name),
+            out: crate::args::OutputDirArgs {
+                dir: args.out.join("montecarlo").join(name),
+            },
         })?;
         timings.insert(
             name.to_owned(),
@@ -151,14 +151,14 @@ pub fn reproduce(args: ReproduceArgs) -> Result<()> {
         );
     }
     curves(
-        &args.out,
+        &args.out.dir,
         "etgospa_mean",
         "fig6",
         "ET-GOPSA (mean over trials)",
         "Fig. 6: mapping error against time",
     )?;
     curves(
-        &args.out,
+        &args.out.dir,
         "position_mse_m2",
         "fig7",
         "AGV position MSE (m²)",
@@ -180,7 +180,7 @@ pub fn reproduce(args: ReproduceArgs) -> Result<()> {
     .with_context(|| format!("cannot write {}", args.out.join("reproduce.json").display()))?;
     outln!(
         "wrote {} in {:.1} s",
-        args.out.display(),
+        args.out.dir.display(),
         started.elapsed().as_secs_f64()
     );
     Ok(())

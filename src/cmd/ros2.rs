@@ -1,7 +1,7 @@
 //! `nrslam ros2-bridge` (cargo feature `ros2`, needs a sourced ROS 2 to build): graph topics to
 //! ROS 2 and back, through `nrslam-ros2-bridge` (r2r). See docs/ros2.md.
 
-use crate::flags::TransportArgs;
+use crate::args::TransportArgs;
 use anyhow::{Context, Result};
 use clap::Args;
 use nrslam_runtime::transport::{self, SessionMode, TransportConfig};

@@ -1,6 +1,7 @@
 //! `nrslam run`: one node as its own process over zenoh.
 
-use crate::flags::{self, Real, TransportArgs};
+use crate::args::TransportArgs;
+use crate::flags::{self, Real};
 use crate::registry;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
@@ -44,7 +45,7 @@ pub struct RunArgs {
     #[arg(long, value_name = "SECONDS", default_value_t = 1.0, value_parser = STARTUP_DELAY_S.parser(), allow_hyphen_values = true)]
     pub startup_delay_s: f64,
     #[command(flatten)]
-    pub pacing: crate::flags::RateArgs,
+    pub pacing: crate::args::RateArgs,
     /// An input topic whose stream already ended (repeatable): the launcher passes these when it
     /// respawns a node, so it does not wait for ends it missed.
     #[arg(long, value_name = "TOPIC")]

@@ -3,7 +3,7 @@
 //! publishes during --duration-s and how many messages each carried.
 
 use super::{observer_options, report_drops};
-use crate::flags::TransportArgs;
+use crate::args::TransportArgs;
 use crate::flags::{self, Real};
 use anyhow::Result;
 use clap::Args;

@@ -20,7 +20,6 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use nrslam_ofdm::{bounds, OfdmParams};
 use plot::plot;
-use std::path::PathBuf;
 
 /// `nrslam accuracy`.
 #[derive(Args, Debug)]
@@ -52,9 +51,8 @@ pub struct AccuracyArgs {
     /// Antennas K (Table I: 32), 1 to 4096; N × K at most 2^28.
     #[arg(long, default_value_t = 32, value_parser = ANTENNAS.parser::<usize>(), allow_hyphen_values = true)]
     pub antennas: usize,
-    /// Output folder: accuracy.csv and accuracy.png.
-    #[arg(long, value_name = "DIR")]
-    pub out: PathBuf,
+    #[command(flatten)]
+    pub out: crate::args::OutputDirArgs,
 }
 
 /// `--trials`.
@@ -141,8 +139,7 @@ pub fn accuracy(args: AccuracyArgs) -> Result<()> {
     };
     base.validate()
         .map_err(|e| anyhow!("--subcarriers/--antennas: {e}"))?;
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    args.out.create()?;
     let bar = ProgressBar::new(snrs.len() as u64 * args.trials as u64);
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} trials  ETA {eta}")

@@ -5,7 +5,7 @@
 
 use super::selection::{endpoint, select, PlayTopic};
 use super::{byte_progress, interrupted, open_bag, print_losses};
-use crate::flags::TransportArgs;
+use crate::args::TransportArgs;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use nrslam_msgs::{topics, Clock, Message, Time};
@@ -26,7 +26,7 @@ pub struct PlayArgs {
     /// Bag folder (a split bag's files are played in metadata.yaml's order).
     pub dir: PathBuf,
     #[command(flatten)]
-    pub pacing: crate::flags::RateArgs,
+    pub pacing: crate::args::RateArgs,
     /// Play again from the start when the bag ends, until Ctrl-C (no end-of-stream is sent).
     #[arg(long = "loop")]
     pub repeat: bool,

@@ -2,7 +2,7 @@
 //! chunk compression and file splitting.
 
 use super::{catalogue_topics, interrupted, ChunkArgs};
-use crate::flags::TransportArgs;
+use crate::args::TransportArgs;
 use anyhow::{bail, Result};
 use clap::Args;
 use nrslam_runtime::bag::{BagWriter, Compression, StorageOptions, WriterOptions};

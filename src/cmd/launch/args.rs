@@ -1,6 +1,6 @@
 //! The command line of `nrslam launch` and its range checks.
 
-use crate::flags::TransportArgs;
+use crate::args::TransportArgs;
 use crate::flags::{self, Whole};
 use anyhow::Result;
 use clap::Args;
@@ -29,7 +29,7 @@ pub struct LaunchArgs {
     #[arg(long, value_name = "MODE")]
     pub mode: Option<Mode>,
     #[command(flatten)]
-    pub pacing: crate::flags::RateArgs,
+    pub pacing: crate::args::RateArgs,
     /// How long node processes may take to come up, in seconds, 1 to 604800 (a week)
     /// (processes mode).
     #[arg(long, value_name = "SECONDS", default_value_t = 30, value_parser = flags::TIMEOUT_S.parser::<u64>(), allow_hyphen_values = true)]

@@ -10,9 +10,8 @@ use std::path::PathBuf;
 /// `nrslam tradeoff`.
 #[derive(Args, Debug)]
 pub struct TradeoffArgs {
-    /// Output folder: tradeoff.csv and pareto.png.
-    #[arg(long, value_name = "DIR")]
-    pub out: PathBuf,
+    #[command(flatten)]
+    pub out: crate::args::OutputDirArgs,
     /// SLAM trials per setting, 1 to 1000 (one after another; each timed on its thread's CPU
     /// clock, which on an idle core is the wall-clock time).
     #[arg(long, default_value_t = 5, value_parser = TRIALS.parser::<usize>(), allow_hyphen_values = true)]

@@ -42,7 +42,7 @@ mod table;
 
 pub use args::TradeoffArgs;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 
 /// `nrslam tradeoff`.
 pub fn tradeoff(args: TradeoffArgs) -> Result<()> {
@@ -52,11 +52,10 @@ pub fn tradeoff(args: TradeoffArgs) -> Result<()> {
     let launches = run::load_launches(&args, &plan)?;
     let mut rows = run::sweep(&args, &knobs, &plan, &launches)?;
     table::mark_pareto(&mut rows);
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    args.out.create()?;
     table::write_csv(&args.out.join("tradeoff.csv"), &rows)?;
     plot::write_pareto_png(&args.out.join("pareto.png"), &rows)?;
     table::print_rows(&rows);
-    outln!("wrote {}", args.out.display());
+    outln!("wrote {}", args.out.dir.display());
     Ok(())
 }
