@@ -1,17 +1,14 @@
 //! `nrslam segment`: DBSCAN (`nrslam_segmenter::dbscan`) on a CSV of points `x,y`, writing every
 //! row back as `x,y,label` (label -1: noise), to --output or standard output.
 //!
-//! The input is read here, not by the evaluator's CSV reader (`nrslam_evaluator::csv_io`), which
-//! `nrslam metric` uses: the two accept different files. This reader matches the header names
-//! exactly (after trimming) and takes the first of a repeated column, and the csv crate refuses
-//! rows whose length differs from the header's; the evaluator's matches case-insensitively,
-//! refuses a repeated column and ignores extra fields. Both share the size limits
-//! ([`MAX_CSV_BYTES`], [`MAX_CSV_ROWS`]).
+//! The input is read by the evaluator's CSV reader (`nrslam_evaluator::csv_io::read_estimates`),
+//! as `nrslam metric` reads its estimates: columns found by name (case-insensitive, other columns
+//! ignored), errors naming the file, line and column, at most 1 GiB and 16777216 rows, streamed.
 
 use crate::flags::{self, Real, Whole};
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{anyhow, Context, Result};
 use clap::Args;
-use nrslam_evaluator::csv_io::{MAX_CSV_BYTES, MAX_CSV_ROWS};
+use nrslam_evaluator::csv_io::read_estimates;
 use std::path::{Path, PathBuf};
 
 /// `nrslam segment`.
@@ -79,64 +76,10 @@ pub fn segment(args: SegmentArgs) -> Result<()> {
     Ok(())
 }
 
-/// The points of a CSV file with columns `x` and `y`, in file order. Errors name the file, and
-/// the line and column of a bad value.
+/// The points of an `x,y` CSV, read as `nrslam metric` reads its estimates.
 fn read_points(path: &Path) -> Result<Vec<[f64; 2]>> {
-    // Streamed, and refused past the limits `nrslam metric` has, before reading it whole.
-    let file =
-        std::fs::File::open(path).with_context(|| format!("{}: cannot read", path.display()))?;
-    let size = file.metadata().map(|m| m.len()).unwrap_or(0);
-    if size > MAX_CSV_BYTES {
-        bail!(
-            "{}: {size} bytes is more than the limit of {MAX_CSV_BYTES} bytes",
-            path.display()
-        );
-    }
-    // (A pipe has no size: it is cut at the limit.)
-    let mut reader = csv::Reader::from_reader(std::io::Read::take(file, MAX_CSV_BYTES));
-    let headers = reader
-        .headers()
-        .with_context(|| format!("{}: no header row", path.display()))?
-        .clone();
-    let column = |name: &str| {
-        headers
-            .iter()
-            .position(|h| h.trim() == name)
-            .ok_or_else(|| {
-                anyhow!(
-                    "{}: no column {name:?} in header (expected x,y)",
-                    path.display()
-                )
-            })
-    };
-    let (x_column, y_column) = (column("x")?, column("y")?);
-    let mut points = Vec::new();
-    for (index, record) in reader.records().enumerate() {
-        let line = index + 2;
-        let record = record.with_context(|| format!("{}: line {line}", path.display()))?;
-        let value = |column: usize, name: &str| -> Result<f64> {
-            let text = record.get(column).unwrap_or("").trim();
-            let value: f64 = text.parse().map_err(|_| {
-                anyhow!(
-                    "{}: line {line}, column {name}: {text:?} is not a number",
-                    path.display()
-                )
-            })?;
-            if !value.is_finite() {
-                bail!(
-                    "{}: line {line}, column {name}: {text:?} is not finite",
-                    path.display()
-                );
-            }
-            Ok(value)
-        };
-        if points.len() as u64 >= MAX_CSV_ROWS {
-            bail!(
-                "{}: more than {MAX_CSV_ROWS} rows (the limit of `nrslam segment`)",
-                path.display()
-            );
-        }
-        points.push([value(x_column, "x")?, value(y_column, "y")?]);
-    }
-    Ok(points)
+    Ok(read_estimates(path)?
+        .into_iter()
+        .map(|p| [p.x_m, p.y_m])
+        .collect())
 }
