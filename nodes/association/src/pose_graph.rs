@@ -1839,6 +1839,21 @@ mod tests {
         assert!(middle < before, "{middle} m vs {before} m");
     }
 
+    /// `laps(side, n)` as a multi-lap graph (`lap` nodes a lap, `loops` loop edges, `seed`),
+    /// optimised with the default settings.
+    fn optimised_laps(
+        (side, n): (usize, usize),
+        lap: usize,
+        loops: usize,
+        seed: u64,
+    ) -> (Vec<Pose2>, PoseGraph, OptimiserSettings) {
+        let truth = laps(side, n);
+        let mut graph = multi_lap_graph(&truth, lap, loops, seed);
+        let settings = OptimiserSettings::default();
+        graph.optimise(&settings);
+        (truth, graph, settings)
+    }
+
     /// The dense reference: the diagonal blocks of the inverse of the whole information matrix.
     fn dense_marginals(graph: &PoseGraph, settings: &OptimiserSettings) -> Vec<Matrix3<f64>> {
         let layout = Layout::new(&graph.fixed, &graph.edges);
@@ -1859,10 +1874,7 @@ mod tests {
     #[test]
     fn marginals_match_the_dense_inverse_across_batches_and_loops() {
         // 3 laps of 40 poses (more blocks than one batch of solves) with loop edges between laps.
-        let truth = laps(10, 120);
-        let mut graph = multi_lap_graph(&truth, 40, 6, 5);
-        let settings = OptimiserSettings::default();
-        graph.optimise(&settings);
+        let (truth, graph, settings) = optimised_laps((10, 120), 40, 6, 5);
         let sparse = graph
             .marginal_covariances(&settings, |_, e| e.information)
             .unwrap();
@@ -1921,10 +1933,7 @@ mod tests {
 
     #[test]
     fn a_leaf_propagates_as_the_whole_graph_says() {
-        let truth = laps(8, 40);
-        let mut graph = multi_lap_graph(&truth, 32, 3, 9);
-        let settings = OptimiserSettings::default();
-        graph.optimise(&settings);
+        let (_, mut graph, settings) = optimised_laps((8, 40), 32, 3, 9);
         let before = graph
             .marginal_covariances(&settings, |_, e| e.information)
             .unwrap();
@@ -1952,10 +1961,7 @@ mod tests {
     #[test]
     fn without_loop_information_the_marginals_are_the_chain_propagated() {
         // What Association::update_covariances relies on when loops are left out of the model.
-        let truth = laps(10, 80);
-        let mut graph = multi_lap_graph(&truth, 40, 4, 2);
-        let settings = OptimiserSettings::default();
-        graph.optimise(&settings);
+        let (_, graph, settings) = optimised_laps((10, 80), 40, 4, 2);
         let chain_only = |_: usize, e: &Edge| match e.kind {
             EdgeKind::Odometry => e.information,
             EdgeKind::Loop => Matrix3::zeros(),
