@@ -21,7 +21,9 @@
 //!   deviations finite, range and deviations ≥ 0; `power_db` not NaN (±∞ are the ideal model's
 //!   1/r⁴ law at r = 0 or ∞, and nothing computes with it).
 //! - `KeyframePoses`: as many poses as ids; the three loop arrays may differ in length (the type
-//!   says a reader zips them and ignores any excess).
+//!   says a reader zips them and ignores any excess); every loop information and pose
+//!   covariance value finite (a reader uses `pose_covariances` only when it holds nine values per
+//!   pose, and checks the variances itself).
 //! - `Segments`: eps and points finite, one label per point, labels in −1..cluster_count.
 //! - `TargetSet`: outlines and samples finite.
 //! - `MapTargets`: shape "rectangle" or "circle"; centre, sizes, yaw, radius, residual, covariance

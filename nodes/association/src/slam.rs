@@ -391,7 +391,9 @@ impl Association {
         };
         let mut loop_match = None;
         if let Some(id) = keyframe_id {
-            self.add_keyframe(id, pose, scan, &radar_points);
+            // A rejected match left the keyframe at the prediction: it knows nothing of the pose.
+            let matched = icp.status.is_accepted().then_some(&radar_points[..]);
+            self.add_keyframe(id, pose, scan, matched);
             if self.params.loop_closure.enabled {
                 if self.cooldown > 0 {
                     self.cooldown -= 1;
@@ -460,25 +462,22 @@ impl Association {
         lc.enabled && lc.local_map_m > 0.0 && self.travelled_at_closure_m.is_none()
     }
 
-    /// Adds keyframe `id` at `pose` to the maps and the pose graph; `radar_points` are its
-    /// detections as the scan match that placed it weighed them.
+    /// Adds keyframe `id` at `pose` to the maps and the pose graph; `matched` are its
+    /// detections as the scan match that placed it weighed them (`None` when no accepted match
+    /// did).
     fn add_keyframe(
         &mut self,
         id: u32,
         pose: Pose2,
         scan: Vec<[f64; 2]>,
-        radar_points: &[RadarPoint],
+        matched: Option<&[RadarPoint]>,
     ) {
         // What that scan match knows of the pose (map frame), before the keyframe joins the map.
-        let tracking_information = if self.params.scan_matching && !self.cells.is_empty() {
-            scan_information(
-                &self.cells,
-                radar_points,
-                pose,
-                &self.params.match_settings(),
-            )
-        } else {
-            nalgebra::Matrix3::zeros()
+        let tracking_information = match matched {
+            Some(points) if !self.cells.is_empty() => {
+                scan_information(&self.cells, points, pose, &self.params.match_settings())
+            }
+            _ => nalgebra::Matrix3::zeros(),
         };
         let points_m: Vec<[f64; 2]> = scan.iter().map(|&p| pose.transform_point(p)).collect();
         if self.local_tracking() {
@@ -509,12 +508,12 @@ impl Association {
                 .max(lc.odometry_min_std_deg)
                 .to_radians();
             let edge = Edge::with_std(node - 1, node, relative, std_m, std_rad, EdgeKind::Odometry);
-            // The scan match's information is over the map frame; the edge's error is in the
-            // previous keyframe's frame.
-            let (sin, cos) = previous.pose.yaw_rad.sin_cos();
-            let to_previous = nalgebra::Matrix3::new(cos, sin, 0.0, -sin, cos, 0.0, 0.0, 0.0, 1.0);
+            // The scan match's information is over map-frame shifts δ of this keyframe; the
+            // edge's error moves by e = R_zᵀ R_iᵀ δ = R(ψ)ᵀ δ, ψ this keyframe's heading.
+            let (sin, cos) = pose.yaw_rad.sin_cos();
+            let to_error = nalgebra::Matrix3::new(cos, sin, 0.0, -sin, cos, 0.0, 0.0, 0.0, 1.0);
             let information = (edge.information
-                + to_previous * tracking_information * to_previous.transpose())
+                + to_error * tracking_information * to_error.transpose())
                 * self.params.covariance_sequential_scale;
             covariance = leaf_covariance(
                 &previous.pose,
@@ -524,8 +523,10 @@ impl Association {
                 &information,
             )
             .unwrap_or(previous.covariance);
-            self.uncertainty_information.push(information);
-            self.graph.add_edge(edge);
+            // One entry per edge the graph holds, so that edge indices stay aligned.
+            if self.graph.add_edge(edge) {
+                self.uncertainty_information.push(information);
+            }
         }
         self.records.push(KeyframeRecord {
             id,
@@ -712,15 +713,16 @@ impl Association {
         let lc = self.params.loop_closure.clone();
         for edge in edges {
             let information = loop_information(edge, &lc);
-            self.graph.add_edge(Edge::with_information(
+            if self.graph.add_edge(Edge::with_information(
                 edge.from,
                 edge.to,
                 edge.relative,
                 information,
                 EdgeKind::Loop,
-            ));
-            self.uncertainty_information
-                .push(information * self.params.covariance_loop_scale);
+            )) {
+                self.uncertainty_information
+                    .push(information * self.params.covariance_loop_scale);
+            }
             self.loop_edges.push(*edge);
         }
         self.pending.clear();
@@ -749,6 +751,10 @@ impl Association {
     /// step per keyframe; the optimiser's odometry kernel being the identity, as
     /// `OptimiserSettings` has it); otherwise the graph's sparse marginals.
     fn update_covariances(&mut self, settings: &OptimiserSettings) {
+        debug_assert_eq!(
+            settings.odometry_kernel,
+            OptimiserSettings::default().odometry_kernel
+        );
         if self.params.covariance_loop_scale > 0.0 {
             let uncertainty = &self.uncertainty_information;
             match self

@@ -97,13 +97,13 @@ impl ShapesNode {
         targets.sort_by_key(|t| t.id);
         for target in &mut targets {
             let shape = &mut target.shape;
-            let (center, yaw) = pose_covariance(
+            let pose = pose_covariance(
                 shape.center_m,
                 &self.viewpoints,
                 self.pose_support_m,
                 self.pose_covariance_share,
             );
-            add_pose_covariance(shape, center, yaw);
+            add_pose_covariance(shape, pose);
         }
         let stamp = segments.header.stamp;
         let message = MapTargets {
@@ -119,20 +119,23 @@ impl ShapesNode {
     }
 }
 
-/// Adds the pose errors' covariance over the centre (m²) and the yaw (rad², rectangles) to the
-/// shape's own; a shape without a full covariance is left as it is.
-fn add_pose_covariance(shape: &mut FittedShape, center: [[f64; 2]; 2], yaw_rad2: f64) {
+/// Adds the pose errors' covariance over (centre x m, centre y m, yaw rad) to the shape's own:
+/// the centre block, and for a rectangle the yaw variance and the centre–yaw cross terms. A
+/// shape without a full covariance is left as it is.
+fn add_pose_covariance(shape: &mut FittedShape, pose: [[f64; 3]; 3]) {
     let n = shape.parameter_count();
     if shape.covariance.len() != n * n {
         return;
     }
-    for (r, row) in center.iter().enumerate() {
-        for (c, value) in row.iter().enumerate() {
-            shape.covariance[r * n + c] += value;
+    // Where (centre x, centre y, yaw) sit among the shape's parameters.
+    let index: &[usize] = match shape.kind {
+        ShapeKind::Rectangle => &[0, 1, 4],
+        ShapeKind::Circle => &[0, 1],
+    };
+    for (r, &row) in index.iter().enumerate() {
+        for (c, &column) in index.iter().enumerate() {
+            shape.covariance[row * n + column] += pose[r][c];
         }
-    }
-    if shape.kind == ShapeKind::Rectangle {
-        shape.covariance[4 * n + 4] += yaw_rad2;
     }
 }
 

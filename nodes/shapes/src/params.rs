@@ -91,8 +91,9 @@ pub struct Params {
     pub max_missed_updates: u32,
     /// Keyframes within this distance of a shape's centre are the ones whose pose errors moved
     /// it: their published pose covariance is added to the shape's (module
-    /// [`pose_uncertainty`](crate::pose_uncertainty)), metres. Finite, 0..=1000 (0 adds
-    /// nothing). Default 20 (the paper's radar sees scatterers up to 20 m).
+    /// [`pose_uncertainty`](crate::pose_uncertainty)), metres. Finite, 0..=1000 (0: only a
+    /// keyframe exactly at the centre, i.e. in practice none). Default 20 (the paper's radar
+    /// sees scatterers up to 20 m).
     pub pose_support_m: f64,
     /// How much of the supporting keyframes' pose error a fitted shape keeps (module
     /// [`pose_uncertainty`](crate::pose_uncertainty)): 1 if their errors were one error, less
