@@ -45,7 +45,12 @@ pub fn pose_covariance(
         let lever = [center_m[0] - v.position_m[0], center_m[1] - v.position_m[1]];
         let usable = v.covariance.iter().flatten().all(|x| x.is_finite())
             && (0..3).all(|d| v.covariance[d][d] >= 0.0);
-        if !(lever[0].hypot(lever[1]) <= support_m) || !usable {
+        // A NaN distance (a NaN centre) is within no support.
+        let within = lever[0]
+            .hypot(lever[1])
+            .partial_cmp(&support_m)
+            .is_some_and(|o| o.is_le());
+        if !within || !usable {
             continue;
         }
         for axis in 0..2 {
