@@ -15,6 +15,9 @@
 //! re-matches each loop's query and submap built at the true poses, from the true relative pose
 //! (is a wrong loop the clouds' fault or the data's?), and `DUMP=DIR` writes those clouds as
 //! `DIR/cloud_OLD_NEW.csv` (`s` submap, `q` query at the truth, `m` query where it matched).
+//! It also prints the keyframes' NEES under their published covariance and their RMSE once the
+//! best rigid motion has aligned them to the truth; `ALIGNINFO=1` prints that motion and the
+//! first keyframes' errors.
 
 use nrslam_association::{detection_to_agv_m, Association, LoopMatch, Params, Pose2};
 
@@ -279,6 +282,10 @@ fn print_keyframe_errors(
         }
     }
     let kf_rmse = (kf_err.iter().map(|e| e * e).sum::<f64>() / kf_err.len() as f64).sqrt();
+    println!(
+        "final keyframe RMSE after the best rigid alignment to the truth {:.3} m",
+        aligned_rmse_m(slam, truths)
+    );
     let (nees, std_m, yaw_nees) = keyframe_nees(slam, truths);
     println!("keyframe position NEES {nees:.3} (2 if honest), mean std {std_m:.3} m, yaw NEES {yaw_nees:.3} (1 if honest)");
     println!(
@@ -306,4 +313,63 @@ fn keyframe_nees(slam: &Association, truths: &[Pose2]) -> (f64, f64, f64) {
         }
     }
     (nees / n, std_m / n, yaw / n)
+}
+
+/// The keyframe positions' RMSE against the truth once the best rigid motion (2-D Procrustes) has
+/// moved them onto it: what remains when a global offset and rotation of the map are forgiven.
+fn aligned_rmse_m(slam: &Association, truths: &[Pose2]) -> f64 {
+    let pairs: Vec<([f64; 2], [f64; 2])> = slam
+        .keyframe_records()
+        .iter()
+        .zip(truths)
+        .map(|(r, t)| ([r.pose.x_m, r.pose.y_m], [t.x_m, t.y_m]))
+        .collect();
+    let n = pairs.len().max(1) as f64;
+    let mean = |points: &mut dyn Iterator<Item = [f64; 2]>| {
+        let s = points.fold([0.0, 0.0], |a, p| [a[0] + p[0], a[1] + p[1]]);
+        [s[0] / n, s[1] / n]
+    };
+    let ma = mean(&mut pairs.iter().map(|p| p.0));
+    let mb = mean(&mut pairs.iter().map(|p| p.1));
+    let (mut sxx, mut sxy) = (0.0, 0.0);
+    for (a, b) in &pairs {
+        let (a, b) = ([a[0] - ma[0], a[1] - ma[1]], [b[0] - mb[0], b[1] - mb[1]]);
+        sxx += a[0] * b[0] + a[1] * b[1];
+        sxy += a[0] * b[1] - a[1] * b[0];
+    }
+    let angle = sxy.atan2(sxx);
+    let (sin, cos) = angle.sin_cos();
+    let sum2: f64 = pairs
+        .iter()
+        .map(|(a, b)| {
+            let a = [a[0] - ma[0], a[1] - ma[1]];
+            let r = [
+                cos * a[0] - sin * a[1] + mb[0],
+                sin * a[0] + cos * a[1] + mb[1],
+            ];
+            (r[0] - b[0]).powi(2) + (r[1] - b[1]).powi(2)
+        })
+        .sum();
+    if std::env::var("ALIGNINFO").is_ok() {
+        let t = [
+            mb[0] - (cos * ma[0] - sin * ma[1]),
+            mb[1] - (sin * ma[0] + cos * ma[1]),
+        ];
+        println!(
+            "alignment: rotation {:.3} deg, translation ({:.3}, {:.3}) m (about the map origin)",
+            angle.to_degrees(),
+            t[0],
+            t[1]
+        );
+        for (k, (r, tr)) in slam.keyframe_records().iter().zip(truths).enumerate() {
+            if k < 12 || k % 25 == 0 {
+                println!(
+                    "  kf {k}: pos err {:.3} m, yaw err {:.3} deg",
+                    r.pose.distance_m(tr),
+                    nrslam_association::wrap_angle_rad(r.pose.yaw_rad - tr.yaw_rad).to_degrees()
+                );
+            }
+        }
+    }
+    (sum2 / n).sqrt()
 }
