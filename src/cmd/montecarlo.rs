@@ -162,17 +162,17 @@ pub fn montecarlo(args: MonteCarloArgs) -> Result<()> {
         "seed": args.seed,
         "trials_in_study": args.trials,
     });
-    write_study(&args.out.dir, &header, &trials)?;
+    write_study(&args.out, &header, &trials)?;
     outln!("{} trials; wrote {}", trials.len(), args.out.dir.display());
     Ok(())
 }
 
 fn write_study(
-    out: &Path,
+    out: &crate::args::OutputDirArgs,
     header: &serde_json::Value,
     trials: &BTreeMap<u64, TrialRows>,
 ) -> Result<()> {
-    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let out = out.create()?;
     let path = out.join("trials.csv");
     let mut writer = csv::Writer::from_path(&path)
         .with_context(|| format!("cannot write {}", path.display()))?;
@@ -283,7 +283,7 @@ pub fn merge(args: MergeArgs) -> Result<()> {
         }
     }
     let header = header.ok_or_else(|| anyhow!("no shard given"))?;
-    write_study(&args.out.dir, &header, &all)?;
+    write_study(&args.out, &header, &all)?;
     outln!(
         "{} trials merged into {}",
         all.len(),
