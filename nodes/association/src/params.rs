@@ -156,8 +156,16 @@ pub struct LoopClosureParams {
     pub max_candidates: u32,
     /// Fewest points in the query and the submap.
     pub min_points: u32,
-    /// A query point is an inlier when a submap point lies within this, metres.
+    /// A query point is an inlier when a submap point lies within this, metres, or within
+    /// `inlier_scatter_ratio` times the query's scatter if that is more.
     pub inlier_distance_m: f64,
+    /// The inlier distance in units of the query's scatter: the median position error std of
+    /// its detections (√(σ_R² + (ρ σ_θ)²), from their reported std), averaged over its
+    /// keyframes. Detections of Δθ = 5° scatter by ~0.9 m at 10 m, so that a fixed distance
+    /// made for Δθ = 1° refuses every right loop. Where it widens the inlier distance, the
+    /// loop edge's std (`loop_std_m`) widens in proportion, and the slide test
+    /// (`confirm_min_information_per_m2`) with it. 0 keeps the fixed tolerances.
+    pub inlier_scatter_ratio: f64,
     /// Fewest inliers, as a fraction of the query points in the overlap (those within
     /// `overlap_distance_m` of a submap point after alignment), to accept a loop.
     pub min_inlier_ratio: f64,
@@ -269,6 +277,7 @@ impl Default for LoopClosureParams {
             max_candidates: 2,
             min_points: 30,
             inlier_distance_m: 0.5,
+            inlier_scatter_ratio: 2.0,
             min_inlier_ratio: 0.5,
             overlap_distance_m: 0.0,
             min_overlap_ratio: 0.3,
@@ -363,7 +372,7 @@ impl LoopClosureParams {
 
     /// (field, value, min, max) of the real-valued fields checked as plain closed ranges, in the
     /// order [`Self::validate`] checks them first.
-    fn real_ranges(&self) -> [(&'static str, f64, f64, f64); 23] {
+    fn real_ranges(&self) -> [(&'static str, f64, f64, f64); 24] {
         [
             (
                 "loop_closure.overlap_distance_m",
@@ -425,6 +434,12 @@ impl LoopClosureParams {
                 "loop_closure.inlier_distance_m",
                 self.inlier_distance_m,
                 0.001,
+                100.0,
+            ),
+            (
+                "loop_closure.inlier_scatter_ratio",
+                self.inlier_scatter_ratio,
+                0.0,
                 100.0,
             ),
             (
@@ -507,6 +522,18 @@ impl LoopClosureParams {
             ),
             ("loop_closure.max_iterations", self.max_iterations, 1, 1000),
         ]
+    }
+
+    /// How much a query whose detections scatter by `scatter_m` widens the loop's metric
+    /// tolerances (see `inlier_scatter_ratio`): its inlier distance and its edge's std grow by
+    /// this factor, 1 while `inlier_scatter_ratio` × scatter stays under `inlier_distance_m`.
+    pub fn scatter_scale(&self, scatter_m: f64) -> f64 {
+        let scale = self.inlier_scatter_ratio * scatter_m / self.inlier_distance_m;
+        if scale.is_finite() {
+            scale.max(1.0)
+        } else {
+            1.0
+        }
     }
 
     /// Search radius for a candidate `travelled_m` of travel ago, metres.
@@ -811,6 +838,30 @@ impl Params {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_inlier_distance_grows_with_the_scatter_only_past_the_fixed_one() {
+        let lc = LoopClosureParams::default();
+        // Δθ = 1° at 10 m scatters by 0.17 m: the fixed 0.5 m stands.
+        let one_degree_m = 10.0 * 1f64.to_radians();
+        assert_eq!(lc.inlier_distance_for_m(one_degree_m), lc.inlier_distance_m);
+        // Δθ = 5°: 0.87 m, twice that.
+        let five_degrees_m = 10.0 * 5f64.to_radians();
+        let scaled_m = lc.inlier_distance_for_m(five_degrees_m);
+        assert!((scaled_m - lc.inlier_scatter_ratio * five_degrees_m).abs() < 1e-12);
+        assert!(scaled_m > 3.0 * lc.inlier_distance_m);
+        let off = LoopClosureParams {
+            inlier_scatter_ratio: 0.0,
+            ..lc.clone()
+        };
+        assert_eq!(
+            off.inlier_distance_for_m(five_degrees_m),
+            lc.inlier_distance_m
+        );
+        for wild in [f64::NAN, f64::INFINITY] {
+            assert_eq!(lc.inlier_distance_for_m(wild), lc.inlier_distance_m);
+        }
+    }
 
     #[test]
     fn defaults_are_valid() {

@@ -206,6 +206,13 @@ pub struct RadarPoint {
 }
 
 impl RadarPoint {
+    /// Total position error std, metres: √(σ_R² + (ρ σ_θ)²), the trace of
+    /// [`RadarPoint::covariance_m2`] under a root.
+    pub fn position_std_m(&self) -> f64 {
+        let range_m = self.position_m[0].hypot(self.position_m[1]);
+        self.range_std_m.hypot(range_m * self.angle_std_rad)
+    }
+
     /// Covariance in the AGV frame, m²: `σ_R²` along the beam, `(ρ σ_θ)²` across it.
     fn covariance_m2(&self) -> Matrix2<f64> {
         let [x, y] = self.position_m;

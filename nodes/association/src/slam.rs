@@ -117,6 +117,9 @@ pub struct KeyframeRecord {
     pub pose: Pose2,
     /// Its detections, AGV frame, metres.
     pub scan_agv_m: Vec<[f64; 2]>,
+    /// Median position error std of its detections, metres (see
+    /// `loop_closure.inlier_scatter_ratio`); 0 for an empty scan.
+    pub scatter_m: f64,
     /// Distance travelled from the start to this keyframe, metres.
     pub travelled_m: f64,
     /// Uncertainty of `pose` over (x m, y m, yaw rad), map frame: the pose graph's marginal
@@ -134,6 +137,16 @@ impl KeyframeRecord {
     }
 }
 
+/// The median of the points' position error std, metres; 0 for no points.
+fn median_position_std_m(points: &[RadarPoint]) -> f64 {
+    let mut std_m: Vec<f64> = points.iter().map(RadarPoint::position_std_m).collect();
+    if std_m.is_empty() {
+        return 0.0;
+    }
+    let middle = std_m.len() / 2;
+    *std_m.select_nth_unstable_by(middle, f64::total_cmp).1
+}
+
 /// A loop edge: the measured pose of keyframe `to` in the frame of the older keyframe `from`
 /// (indices into [`Association::keyframe_records`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -147,6 +160,9 @@ pub struct LoopEdge {
     /// What the match pins down, direction by direction ([`LoopMatch::information`], in the
     /// frame of `from`); all zero when unknown (the edge is then isotropic).
     pub information: [[f64; 3]; 3],
+    /// The edge's std in units of `loop_std_m`: 1, or the query's
+    /// [`LoopClosureParams::scatter_scale`] where its detections scatter more.
+    pub std_scale: f64,
 }
 
 /// The association state: SLAM pose, last odometry, keyframe map, pose graph.
@@ -392,8 +408,8 @@ impl Association {
         let mut loop_match = None;
         if let Some(id) = keyframe_id {
             // A rejected match left the keyframe at the prediction: it knows nothing of the pose.
-            let matched = icp.status.is_accepted().then_some(&radar_points[..]);
-            self.add_keyframe(id, pose, scan, matched);
+            let matched = icp.status.is_accepted();
+            self.add_keyframe(id, pose, scan, &radar_points, matched);
             if self.params.loop_closure.enabled {
                 if self.cooldown > 0 {
                     self.cooldown -= 1;
@@ -470,14 +486,14 @@ impl Association {
         id: u32,
         pose: Pose2,
         scan: Vec<[f64; 2]>,
-        matched: Option<&[RadarPoint]>,
+        points: &[RadarPoint],
+        matched: bool,
     ) {
         // What that scan match knows of the pose (map frame), before the keyframe joins the map.
-        let tracking_information = match matched {
-            Some(points) if !self.cells.is_empty() => {
-                scan_information(&self.cells, points, pose, &self.params.match_settings())
-            }
-            _ => nalgebra::Matrix3::zeros(),
+        let tracking_information = if matched && !self.cells.is_empty() {
+            scan_information(&self.cells, points, pose, &self.params.match_settings())
+        } else {
+            nalgebra::Matrix3::zeros()
         };
         let points_m: Vec<[f64; 2]> = scan.iter().map(|&p| pose.transform_point(p)).collect();
         if self.local_tracking() {
@@ -532,6 +548,7 @@ impl Association {
             id,
             pose,
             scan_agv_m: scan,
+            scatter_m: median_position_std_m(points),
             travelled_m: self.travelled_m,
             covariance,
         });
@@ -584,6 +601,15 @@ impl Association {
         // over half the query's length instead of all of it.
         let anchor = (query_from + current) / 2;
         let query = self.cloud(query_from..=current, anchor);
+        let query_records = &self.records[query_from..=current];
+        let scatter_m =
+            query_records.iter().map(|r| r.scatter_m).sum::<f64>() / query_records.len() as f64;
+        let std_scale = lc.scatter_scale(scatter_m);
+        let lc = LoopClosureParams {
+            inlier_distance_m: lc.inlier_distance_m * std_scale,
+            confirm_min_information_per_m2: lc.confirm_min_information_per_m2 / std_scale.powi(2),
+            ..lc
+        };
         let anchor_pose = self.records[anchor].pose;
         // The loop's ICP refinement pairs points across a larger gap than tracking does: after a
         // lap the drift is metres, not centimetres.
@@ -627,6 +653,7 @@ impl Association {
                         to: anchor,
                         relative: found.relative,
                         information: found.information,
+                        std_scale,
                     };
                     let (confirmed, why) = if found.score >= lc.standalone_score {
                         (Some(Vec::new()), "score")
@@ -869,9 +896,10 @@ impl Association {
 /// the match's information the edge is isotropic (`loop_std_m`, `loop_std_deg`).
 fn loop_information(edge: &LoopEdge, lc: &LoopClosureParams) -> nalgebra::Matrix3<f64> {
     let strongest = symmetric_eigen_2x2(&translation_marginal(&edge.information)).0;
+    let loop_std_m = lc.loop_std_m * edge.std_scale.max(1.0);
     let isotropic = || {
         let (it, ir) = (
-            1.0 / lc.loop_std_m.powi(2),
+            1.0 / loop_std_m.powi(2),
             1.0 / lc.loop_std_deg.to_radians().powi(2),
         );
         nalgebra::Matrix3::from_diagonal(&nalgebra::Vector3::new(it, it, ir))
@@ -879,13 +907,13 @@ fn loop_information(edge: &LoopEdge, lc: &LoopClosureParams) -> nalgebra::Matrix
     if !(strongest.is_finite() && strongest > 0.0) {
         return isotropic();
     }
-    let scale = 1.0 / (lc.loop_std_m.powi(2) * strongest);
+    let scale = 1.0 / (loop_std_m.powi(2) * strongest);
     let from_frame = nalgebra::Matrix3::from_fn(|a, b| scale * edge.information[a][b]);
     // The error's translation is in the measurement's frame: e = R_zᵀ δ for a shift δ in the
     // frame of `from`.
     let (sin, cos) = edge.relative.yaw_rad.sin_cos();
     let rotate = nalgebra::Matrix3::new(cos, -sin, 0.0, sin, cos, 0.0, 0.0, 0.0, 1.0);
-    let floor_m = 1.0 / lc.loop_max_std_m.max(lc.loop_std_m).powi(2);
+    let floor_m = 1.0 / lc.loop_max_std_m.max(loop_std_m).powi(2);
     let floor_rad = 1.0 / 30f64.to_radians().powi(2);
     let information = rotate.transpose() * from_frame * rotate
         + nalgebra::Matrix3::from_diagonal(&nalgebra::Vector3::new(floor_m, floor_m, floor_rad));
@@ -914,6 +942,7 @@ mod tests {
             to: 1,
             relative: Pose2::new(3.0, 4.0, std::f64::consts::FRAC_PI_2),
             information,
+            std_scale: 1.0,
         };
         let omega = loop_information(&edge, &lc);
         let across = 1.0 / lc.loop_std_m.powi(2);
@@ -929,6 +958,80 @@ mod tests {
             &lc,
         );
         assert!((plain[(0, 0)] - across).abs() < 1e-9 && (plain[(1, 1)] - across).abs() < 1e-9);
+        // A query of scattered detections widens the edge's std in proportion.
+        let scattered = loop_information(
+            &LoopEdge {
+                std_scale: 3.0,
+                ..edge
+            },
+            &lc,
+        );
+        let across_std_m = 1.0 / scattered[(0, 0)].sqrt();
+        assert!(
+            (across_std_m - 3.0 * lc.loop_std_m).abs() < 0.05 * lc.loop_std_m,
+            "{scattered}"
+        );
+    }
+
+    #[test]
+    fn a_keyframes_scatter_is_the_median_of_its_detections_position_std() {
+        let point = |x_m: f64, range_std_m: f64, angle_std_deg: f64| RadarPoint {
+            position_m: [x_m, 0.0],
+            range_std_m,
+            angle_std_rad: angle_std_deg.to_radians(),
+        };
+        assert_eq!(median_position_std_m(&[]), 0.0);
+        // 10 m away at Δθ = 5°: ρ σ_θ = 0.873 m across the beam, with 0.1 m along it.
+        let far = point(10.0, 0.1, 5.0);
+        let expected_m = 0.1f64.hypot(10.0 * 5f64.to_radians());
+        assert!((far.position_std_m() - expected_m).abs() < 1e-12);
+        // One wild point does not move the median.
+        let scan = [
+            point(10.0, 0.1, 5.0),
+            point(10.0, 0.1, 5.0),
+            point(1e6, 1.0, 90.0),
+        ];
+        assert!((median_position_std_m(&scan) - expected_m).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_keyframe_records_the_scatter_of_the_std_it_was_given() {
+        let agv = Pose2::new(0.0, 0.0, 0.0);
+        let scan = scan_from(&agv);
+        let scatter_m = |std: Option<[f64; 2]>| {
+            let mut slam = Association::new(Params::default()).unwrap();
+            slam.on_odometry(agv).unwrap();
+            let std = std.map(|s| vec![s; scan.len()]);
+            slam.on_scan_with_std(&scan, std.as_deref()).unwrap();
+            slam.keyframe_records()[0].scatter_m
+        };
+        let points = |angle_std_deg: f64| -> Vec<RadarPoint> {
+            let angle_std_rad = angle_std_deg.to_radians();
+            let to_point = |p: &[f64; 2]| RadarPoint {
+                position_m: *p,
+                range_std_m: 0.05,
+                angle_std_rad,
+            };
+            scan.iter().map(to_point).collect()
+        };
+        for angle_std_deg in [1.0f64, 5.0] {
+            let given = scatter_m(Some([0.05, angle_std_deg.to_radians()]));
+            assert!((given - median_position_std_m(&points(angle_std_deg))).abs() < 1e-12);
+        }
+        assert!(
+            scatter_m(Some([0.05, 5f64.to_radians()]))
+                > 2.5 * scatter_m(Some([0.05, 1f64.to_radians()]))
+        );
+        // Without std every point has the floors.
+        let floors = Params::default();
+        let floor_points: Vec<RadarPoint> = points(floors.min_angle_std_deg)
+            .into_iter()
+            .map(|p| RadarPoint {
+                range_std_m: floors.min_range_std_m,
+                ..p
+            })
+            .collect();
+        assert!((scatter_m(None) - median_position_std_m(&floor_points)).abs() < 1e-12);
     }
 
     fn scan_from(agv: &Pose2) -> Vec<[f64; 2]> {
