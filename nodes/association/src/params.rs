@@ -840,26 +840,23 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_inlier_distance_grows_with_the_scatter_only_past_the_fixed_one() {
+    fn the_tolerances_widen_with_the_scatter_only_past_the_fixed_ones() {
         let lc = LoopClosureParams::default();
         // Δθ = 1° at 10 m scatters by 0.17 m: the fixed 0.5 m stands.
         let one_degree_m = 10.0 * 1f64.to_radians();
-        assert_eq!(lc.inlier_distance_for_m(one_degree_m), lc.inlier_distance_m);
-        // Δθ = 5°: 0.87 m, twice that.
+        assert_eq!(lc.scatter_scale(one_degree_m), 1.0);
+        // Δθ = 5°: 0.87 m; the inlier distance becomes twice that.
         let five_degrees_m = 10.0 * 5f64.to_radians();
-        let scaled_m = lc.inlier_distance_for_m(five_degrees_m);
+        let scaled_m = lc.scatter_scale(five_degrees_m) * lc.inlier_distance_m;
         assert!((scaled_m - lc.inlier_scatter_ratio * five_degrees_m).abs() < 1e-12);
         assert!(scaled_m > 3.0 * lc.inlier_distance_m);
         let off = LoopClosureParams {
             inlier_scatter_ratio: 0.0,
             ..lc.clone()
         };
-        assert_eq!(
-            off.inlier_distance_for_m(five_degrees_m),
-            lc.inlier_distance_m
-        );
-        for wild in [f64::NAN, f64::INFINITY] {
-            assert_eq!(lc.inlier_distance_for_m(wild), lc.inlier_distance_m);
+        assert_eq!(off.scatter_scale(five_degrees_m), 1.0);
+        for wild in [f64::NAN, f64::INFINITY, -1.0] {
+            assert_eq!(lc.scatter_scale(wild), 1.0);
         }
     }
 
