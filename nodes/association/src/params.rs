@@ -314,7 +314,9 @@ impl Default for LoopClosureParams {
 impl LoopClosureParams {
     /// Checks every field; the error names the first offending field (as `loop_closure.NAME`).
     pub fn validate(&self) -> Result<(), InvalidParam> {
-        let ranges = self.real_ranges().into_iter().chain(self.matching_ranges());
+        let ranges = (self.real_ranges().into_iter())
+            .chain(self.matching_ranges())
+            .chain(self.graph_ranges());
         for (field, value, min, max) in ranges {
             InvalidParam::check_range(field, value, min, max)?;
         }
@@ -372,7 +374,7 @@ impl LoopClosureParams {
 
     /// (field, value, min, max) of the real-valued fields checked as plain closed ranges, in the
     /// order [`Self::validate`] checks them first.
-    fn real_ranges(&self) -> [(&'static str, f64, f64, f64); 24] {
+    fn real_ranges(&self) -> [(&'static str, f64, f64, f64); 17] {
         [
             (
                 "loop_closure.overlap_distance_m",
@@ -461,6 +463,14 @@ impl LoopClosureParams {
                 0.0,
                 1e3,
             ),
+        ]
+    }
+
+    /// (field, value, min, max) of the count fields, checked last.
+    /// (field, value, min, max) of the pose graph's edge model, which [`Self::validate`] checks
+    /// after [`Self::matching_ranges`].
+    fn graph_ranges(&self) -> [(&'static str, f64, f64, f64); 7] {
+        [
             (
                 "loop_closure.odometry_std_per_m",
                 self.odometry_std_per_m,
@@ -496,7 +506,6 @@ impl LoopClosureParams {
         ]
     }
 
-    /// (field, value, min, max) of the count fields, checked last.
     fn count_ranges(&self) -> [(&'static str, u32, u32, u32); 7] {
         [
             (

@@ -601,15 +601,7 @@ impl Association {
         // over half the query's length instead of all of it.
         let anchor = (query_from + current) / 2;
         let query = self.cloud(query_from..=current, anchor);
-        let query_records = &self.records[query_from..=current];
-        let scatter_m =
-            query_records.iter().map(|r| r.scatter_m).sum::<f64>() / query_records.len() as f64;
-        let std_scale = lc.scatter_scale(scatter_m);
-        let lc = LoopClosureParams {
-            inlier_distance_m: lc.inlier_distance_m * std_scale,
-            confirm_min_information_per_m2: lc.confirm_min_information_per_m2 / std_scale.powi(2),
-            ..lc
-        };
+        let (lc, std_scale) = self.widened_for_scatter(lc, query_from..=current);
         let anchor_pose = self.records[anchor].pose;
         // The loop's ICP refinement pairs points across a larger gap than tracking does: after a
         // lap the drift is metres, not centimetres.
@@ -691,6 +683,25 @@ impl Association {
             }
         }
         None
+    }
+
+    /// `lc` with the inlier distance and the slide test widened for the scatter of the query made
+    /// of keyframes `query`, and the factor (`LoopClosureParams::scatter_scale`) its edge's std
+    /// takes.
+    fn widened_for_scatter(
+        &self,
+        lc: LoopClosureParams,
+        query: std::ops::RangeInclusive<usize>,
+    ) -> (LoopClosureParams, f64) {
+        let records = &self.records[query];
+        let scatter_m = records.iter().map(|r| r.scatter_m).sum::<f64>() / records.len() as f64;
+        let std_scale = lc.scatter_scale(scatter_m);
+        let widened = LoopClosureParams {
+            inlier_distance_m: lc.inlier_distance_m * std_scale,
+            confirm_min_information_per_m2: lc.confirm_min_information_per_m2 / std_scale.powi(2),
+            ..lc
+        };
+        (widened, std_scale)
     }
 
     /// The match agrees with the graph's current estimate of the same relative pose, and that
