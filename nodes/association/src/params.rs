@@ -163,8 +163,8 @@ pub struct LoopClosureParams {
     /// its detections (√(σ_R² + (ρ σ_θ)²), from their reported std), averaged over its
     /// keyframes. Detections of Δθ = 5° scatter by ~0.9 m at 10 m, so that a fixed distance
     /// made for Δθ = 1° refuses every right loop. Where it widens the inlier distance, the
-    /// loop edge's std (`loop_std_m`) widens in proportion, and the slide test
-    /// (`confirm_min_information_per_m2`) with it. 0 keeps the fixed tolerances.
+    /// overlap distance and the loop edge's std (`loop_std_m`) widen in proportion; the slide
+    /// test and the confirmation tolerances stay. 0 keeps the fixed tolerances.
     pub inlier_scatter_ratio: f64,
     /// Fewest inliers, as a fraction of the query points in the overlap (those within
     /// `overlap_distance_m` of a submap point after alignment), to accept a loop.
@@ -190,7 +190,9 @@ pub struct LoopClosureParams {
     pub odometry_min_std_m: f64,
     /// Floor of an odometry edge's heading std, degrees.
     pub odometry_min_std_deg: f64,
-    /// Std of a loop edge's translation along the direction its match pins down best, metres.
+    /// Std of a loop edge's translation along the direction its match pins down best, metres
+    /// (times the edge's `std_scale` where its query's detections scatter, see
+    /// `inlier_scatter_ratio`).
     pub loop_std_m: f64,
     /// Cap of a loop edge's translation std along the direction its match pins down worst,
     /// metres. That std is `loop_std_m` × √(best / worst information), so a match along one
@@ -466,7 +468,6 @@ impl LoopClosureParams {
         ]
     }
 
-    /// (field, value, min, max) of the count fields, checked last.
     /// (field, value, min, max) of the pose graph's edge model, which [`Self::validate`] checks
     /// after [`Self::matching_ranges`].
     fn graph_ranges(&self) -> [(&'static str, f64, f64, f64); 7] {
@@ -506,6 +507,7 @@ impl LoopClosureParams {
         ]
     }
 
+    /// (field, value, min, max) of the count fields, checked last.
     fn count_ranges(&self) -> [(&'static str, u32, u32, u32); 7] {
         [
             (
@@ -883,6 +885,9 @@ mod tests {
                 p.covariance_sequential_scale = 0.0
             }),
             ("covariance_loop_scale", |p| p.covariance_loop_scale = -1.0),
+            ("loop_closure.inlier_scatter_ratio", |p| {
+                p.loop_closure.inlier_scatter_ratio = f64::NAN
+            }),
             ("max_correspondence_m", |p| {
                 p.max_correspondence_m = f64::NAN
             }),

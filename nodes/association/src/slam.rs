@@ -137,7 +137,21 @@ impl KeyframeRecord {
     }
 }
 
-/// The median of the points' position error std, metres; 0 for no points.
+/// A match may have slid along one side: with the heading free, its edge pins the weakest
+/// translation direction down by less than `confirm_min_information_per_m2`. Judged on the
+/// match's own geometry (its edge at `std_scale` 1): the floor every edge gets
+/// (`loop_max_std_m`) would otherwise hide the slide of a widened edge.
+fn may_slide(edge: &LoopEdge, lc: &LoopClosureParams) -> bool {
+    let geometry = LoopEdge {
+        std_scale: 1.0,
+        ..*edge
+    };
+    weakest_translation_information(&loop_information(&geometry, lc).into())
+        < lc.confirm_min_information_per_m2
+}
+
+/// The median of the points' position error std (the upper of the two middle values for an
+/// even count), metres; 0 for no points.
 fn median_position_std_m(points: &[RadarPoint]) -> f64 {
     let mut std_m: Vec<f64> = points.iter().map(RadarPoint::position_std_m).collect();
     if std_m.is_empty() {
@@ -649,9 +663,7 @@ impl Association {
                     };
                     let (confirmed, why) = if found.score >= lc.standalone_score {
                         (Some(Vec::new()), "score")
-                    } else if weakest_translation_information(&loop_information(&edge, &lc).into())
-                        < lc.confirm_min_information_per_m2
-                    {
+                    } else if may_slide(&edge, &lc) {
                         // Neither agreement nor a pending match can vouch for a match that may
                         // have slid along a side: both pass it with the slide in it.
                         (None, "may slide")
@@ -685,20 +697,33 @@ impl Association {
         None
     }
 
-    /// `lc` with the inlier distance and the slide test widened for the scatter of the query made
-    /// of keyframes `query`, and the factor (`LoopClosureParams::scatter_scale`) its edge's std
-    /// takes.
+    /// `lc` with the inlier and overlap distances widened for the scatter of the query made of
+    /// keyframes `query`, and that factor (`LoopClosureParams::scatter_scale`), which its edge's
+    /// std takes too. The confirmation tolerances (`agreement_m`, `pair_m`) stay: a widened
+    /// match joins the graph only where it agrees as closely as any other.
     fn widened_for_scatter(
         &self,
         lc: LoopClosureParams,
         query: std::ops::RangeInclusive<usize>,
     ) -> (LoopClosureParams, f64) {
-        let records = &self.records[query];
-        let scatter_m = records.iter().map(|r| r.scatter_m).sum::<f64>() / records.len() as f64;
+        // Each keyframe's scatter weighs by its detections: an empty scan adds no query point.
+        let (weighted_m, detections) =
+            self.records[query]
+                .iter()
+                .fold((0.0, 0usize), |(sum_m, n), r| {
+                    let count = r.scan_agv_m.len();
+                    (sum_m + r.scatter_m * count as f64, n + count)
+                });
+        let scatter_m = if detections > 0 {
+            weighted_m / detections as f64
+        } else {
+            0.0
+        };
         let std_scale = lc.scatter_scale(scatter_m);
         let widened = LoopClosureParams {
             inlier_distance_m: lc.inlier_distance_m * std_scale,
-            confirm_min_information_per_m2: lc.confirm_min_information_per_m2 / std_scale.powi(2),
+            // The overlap is the inliers' superset: it widens with them.
+            overlap_distance_m: lc.overlap_distance_m * std_scale,
             ..lc
         };
         (widened, std_scale)
@@ -901,10 +926,10 @@ impl Association {
 
 /// The information of a loop edge over (x m, y m, yaw rad) in the frame of its measurement
 /// (as [`crate::pose_graph`] whitens the error): the match's own point-to-line information,
-/// scaled so that the direction it pins down best has the std `loop_std_m`, plus a floor of
-/// `loop_max_std_m` (and 30°) on every axis. A match along a straight edge then moves the graph
+/// scaled so that the direction it pins down best has the std `loop_std_m` × the edge's
+/// `std_scale`, plus a floor of `loop_max_std_m` (or that std if more, and 30°) on every axis. A match along a straight edge then moves the graph
 /// across the edge, where it is right, and hardly along it, where it can slide and turn. Without
-/// the match's information the edge is isotropic (`loop_std_m`, `loop_std_deg`).
+/// the match's information the edge is isotropic (`loop_std_m` × `std_scale`, `loop_std_deg`).
 fn loop_information(edge: &LoopEdge, lc: &LoopClosureParams) -> nalgebra::Matrix3<f64> {
     let strongest = symmetric_eigen_2x2(&translation_marginal(&edge.information)).0;
     let loop_std_m = lc.loop_std_m * edge.std_scale.max(1.0);
@@ -1004,6 +1029,61 @@ mod tests {
             point(1e6, 1.0, 90.0),
         ];
         assert!((median_position_std_m(&scan) - expected_m).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_scattered_query_widens_the_inlier_and_overlap_distances_not_the_confirmation() {
+        let mut slam = Association::new(Params::default()).unwrap();
+        let record = |scatter_m: f64, detections: usize| KeyframeRecord {
+            id: 0,
+            pose: Pose2::new(0.0, 0.0, 0.0),
+            scan_agv_m: vec![[10.0, 0.0]; detections],
+            scatter_m,
+            travelled_m: 0.0,
+            covariance: nalgebra::Matrix3::zeros(),
+        };
+        // An empty keyframe adds no query point, so its scatter of 0 must not dilute the rest.
+        slam.records = vec![record(0.1, 40), record(0.9, 40), record(0.0, 0)];
+        let lc = LoopClosureParams {
+            overlap_distance_m: 1.0,
+            ..LoopClosureParams::default()
+        };
+        let (widened, std_scale) = slam.widened_for_scatter(lc.clone(), 0..=2);
+        let expected_scale = lc.inlier_scatter_ratio * 0.5 / lc.inlier_distance_m;
+        assert!((std_scale - expected_scale).abs() < 1e-12, "{std_scale}");
+        assert!((widened.inlier_distance_m - lc.inlier_distance_m * std_scale).abs() < 1e-12);
+        assert!((widened.overlap_distance_m - lc.overlap_distance_m * std_scale).abs() < 1e-12);
+        assert_eq!(
+            widened.confirm_min_information_per_m2,
+            lc.confirm_min_information_per_m2
+        );
+        assert_eq!(widened.agreement_m, lc.agreement_m);
+        assert_eq!(widened.pair_m, lc.pair_m);
+        // Detections that scatter less than the fixed distance allows change nothing.
+        let (plain, one) = slam.widened_for_scatter(lc.clone(), 0..=0);
+        assert_eq!((plain, one), (lc, 1.0));
+    }
+
+    #[test]
+    fn a_widened_edge_that_may_slide_is_still_caught() {
+        let lc = LoopClosureParams::default();
+        // Pinned down across y only: the match may slide along x.
+        let mut sliding = [[0.0; 3]; 3];
+        sliding[1][1] = 0.5;
+        sliding[2][2] = 50.0;
+        let mut pinned = sliding;
+        pinned[0][0] = 0.5;
+        for std_scale in [1.0, 3.0, 10.0] {
+            let edge = |information| LoopEdge {
+                from: 0,
+                to: 1,
+                relative: Pose2::new(3.0, 4.0, 0.0),
+                information,
+                std_scale,
+            };
+            assert!(may_slide(&edge(sliding), &lc), "std_scale {std_scale}");
+            assert!(!may_slide(&edge(pinned), &lc), "std_scale {std_scale}");
+        }
     }
 
     #[test]
