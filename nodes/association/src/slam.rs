@@ -964,15 +964,20 @@ fn loop_information(edge: &LoopEdge, lc: &LoopClosureParams) -> nalgebra::Matrix
 mod tests {
     use super::*;
 
-    /// A 4 m box of points around the origin, every 0.2 m, seen from `agv`.
+    /// A match's information pinned down across y only: it may slide along x.
+    fn sliding_information() -> [[f64; 3]; 3] {
+        let mut information = [[0.0; 3]; 3];
+        information[1][1] = 0.5;
+        information[2][2] = 50.0;
+        information
+    }
+
     #[test]
     fn a_loop_edge_is_weak_only_where_its_match_can_slide() {
         let lc = LoopClosureParams::default();
         // A match along a straight edge in x (of the old keyframe's frame), measured from an
         // old keyframe turned by 90°: in the measurement's frame the free slide is along y.
-        let mut information = [[0.0; 3]; 3];
-        information[1][1] = 0.5;
-        information[2][2] = 50.0;
+        let information = sliding_information();
         let edge = LoopEdge {
             from: 0,
             to: 1,
@@ -1067,10 +1072,7 @@ mod tests {
     #[test]
     fn a_widened_edge_that_may_slide_is_still_caught() {
         let lc = LoopClosureParams::default();
-        // Pinned down across y only: the match may slide along x.
-        let mut sliding = [[0.0; 3]; 3];
-        sliding[1][1] = 0.5;
-        sliding[2][2] = 50.0;
+        let sliding = sliding_information();
         let mut pinned = sliding;
         pinned[0][0] = 0.5;
         for std_scale in [1.0, 3.0, 10.0] {
@@ -1126,6 +1128,7 @@ mod tests {
         assert!((scatter_m(None) - median_position_std_m(&floor_points)).abs() < 1e-12);
     }
 
+    /// A 4 m box of points around the origin, every 0.2 m, seen from `agv`.
     fn scan_from(agv: &Pose2) -> Vec<[f64; 2]> {
         let inverse = agv.inverse();
         (0..80)
