@@ -316,7 +316,9 @@ impl Default for LoopClosureParams {
 impl LoopClosureParams {
     /// Checks every field; the error names the first offending field (as `loop_closure.NAME`).
     pub fn validate(&self) -> Result<(), InvalidParam> {
-        let ranges = (self.real_ranges().into_iter())
+        let ranges = self
+            .real_ranges()
+            .into_iter()
             .chain(self.matching_ranges())
             .chain(self.graph_ranges());
         for (field, value, min, max) in ranges {

@@ -150,6 +150,12 @@ fn may_slide(edge: &LoopEdge, lc: &LoopClosureParams) -> bool {
         < lc.confirm_min_information_per_m2
 }
 
+/// R(ψ) acting on (x, y, yaw): the translation turned by `yaw_rad`, the heading untouched.
+fn planar_rotation(yaw_rad: f64) -> nalgebra::Matrix3<f64> {
+    let (sin, cos) = yaw_rad.sin_cos();
+    nalgebra::Matrix3::new(cos, -sin, 0.0, sin, cos, 0.0, 0.0, 0.0, 1.0)
+}
+
 /// The median of the points' position error std (the upper of the two middle values for an
 /// even count), metres; 0 for no points.
 fn median_position_std_m(points: &[RadarPoint]) -> f64 {
@@ -421,7 +427,6 @@ impl Association {
         };
         let mut loop_match = None;
         if let Some(id) = keyframe_id {
-            // A rejected match left the keyframe at the prediction: it knows nothing of the pose.
             let matched = icp.status.is_accepted();
             self.add_keyframe(id, pose, scan, &radar_points, matched);
             if self.params.loop_closure.enabled {
@@ -492,9 +497,9 @@ impl Association {
         lc.enabled && lc.local_map_m > 0.0 && self.travelled_at_closure_m.is_none()
     }
 
-    /// Adds keyframe `id` at `pose` to the maps and the pose graph; `matched` are its
-    /// detections as the scan match that placed it weighed them (`None` when no accepted match
-    /// did).
+    /// Adds keyframe `id` at `pose` to the maps and the pose graph. `points` are its detections
+    /// with their std, as scan matching weighed them; `matched` says whether an accepted match
+    /// placed it (a rejected one left it at the prediction, knowing nothing of the pose).
     fn add_keyframe(
         &mut self,
         id: u32,
@@ -540,8 +545,7 @@ impl Association {
             let edge = Edge::with_std(node - 1, node, relative, std_m, std_rad, EdgeKind::Odometry);
             // The scan match's information is over map-frame shifts δ of this keyframe; the
             // edge's error moves by e = R_zᵀ R_iᵀ δ = R(ψ)ᵀ δ, ψ this keyframe's heading.
-            let (sin, cos) = pose.yaw_rad.sin_cos();
-            let to_error = nalgebra::Matrix3::new(cos, sin, 0.0, -sin, cos, 0.0, 0.0, 0.0, 1.0);
+            let to_error = planar_rotation(pose.yaw_rad).transpose();
             let information = (edge.information
                 + to_error * tracking_information * to_error.transpose())
                 * self.params.covariance_sequential_scale;
@@ -927,9 +931,10 @@ impl Association {
 /// The information of a loop edge over (x m, y m, yaw rad) in the frame of its measurement
 /// (as [`crate::pose_graph`] whitens the error): the match's own point-to-line information,
 /// scaled so that the direction it pins down best has the std `loop_std_m` × the edge's
-/// `std_scale`, plus a floor of `loop_max_std_m` (or that std if more, and 30°) on every axis. A match along a straight edge then moves the graph
-/// across the edge, where it is right, and hardly along it, where it can slide and turn. Without
-/// the match's information the edge is isotropic (`loop_std_m` × `std_scale`, `loop_std_deg`).
+/// `std_scale`, plus a floor of `loop_max_std_m` (or that std if more, and 30°) on every axis.
+/// A match along a straight edge then moves the graph across the edge, where it is right, and
+/// hardly along it, where it can slide and turn. Without the match's information the edge is
+/// isotropic (`loop_std_m` × `std_scale`, `loop_std_deg`).
 fn loop_information(edge: &LoopEdge, lc: &LoopClosureParams) -> nalgebra::Matrix3<f64> {
     let strongest = symmetric_eigen_2x2(&translation_marginal(&edge.information)).0;
     let loop_std_m = lc.loop_std_m * edge.std_scale.max(1.0);
@@ -947,8 +952,7 @@ fn loop_information(edge: &LoopEdge, lc: &LoopClosureParams) -> nalgebra::Matrix
     let from_frame = nalgebra::Matrix3::from_fn(|a, b| scale * edge.information[a][b]);
     // The error's translation is in the measurement's frame: e = R_zᵀ δ for a shift δ in the
     // frame of `from`.
-    let (sin, cos) = edge.relative.yaw_rad.sin_cos();
-    let rotate = nalgebra::Matrix3::new(cos, -sin, 0.0, sin, cos, 0.0, 0.0, 0.0, 1.0);
+    let rotate = planar_rotation(edge.relative.yaw_rad);
     let floor_m = 1.0 / lc.loop_max_std_m.max(loop_std_m).powi(2);
     let floor_rad = 1.0 / 30f64.to_radians().powi(2);
     let information = rotate.transpose() * from_frame * rotate
