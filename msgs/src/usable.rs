@@ -283,13 +283,8 @@ impl CheckUsable for KeyframePoses {
         for p in &self.loop_relatives {
             pose(p, "loop_relatives.position", "loop_relatives.orientation")?;
         }
-        for &v in &self.loop_informations {
-            finite(v, "loop_informations")?;
-        }
-        for &v in &self.pose_covariances {
-            finite(v, "pose_covariances")?;
-        }
-        Ok(())
+        all_finite(&self.loop_informations, "loop_informations")?;
+        all_finite(&self.pose_covariances, "pose_covariances")
     }
 }
 

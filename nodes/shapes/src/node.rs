@@ -55,10 +55,11 @@ impl ShapesNode {
     fn on_keyframe_poses(&mut self, poses: &KeyframePoses) {
         // Nine values per keyframe, or none (a back end that does not say adds no uncertainty).
         let covariances = &poses.pose_covariances;
+        let known = covariances.len() == 9 * poses.poses.len();
         let covariance_of = |k: usize| {
             covariances
                 .get(9 * k..9 * k + 9)
-                .filter(|_| covariances.len() == 9 * poses.poses.len())
+                .filter(|_| known)
                 .map_or([[0.0; 3]; 3], |c| {
                     [[c[0], c[1], c[2]], [c[3], c[4], c[5]], [c[6], c[7], c[8]]]
                 })
