@@ -75,3 +75,91 @@ fn quick_reproduce_writes_every_figure() {
         y2[1]
     );
 }
+
+/// The last row's value of `column` in a CSV.
+fn last_value(csv: &str, column: &str) -> f64 {
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let index = header.iter().position(|h| *h == column).unwrap();
+    csv.lines()
+        .last()
+        .unwrap()
+        .split(',')
+        .nth(index)
+        .unwrap()
+        .parse()
+        .unwrap()
+}
+
+#[test]
+fn reproduce_with_the_oracle_maps_the_same_trials_at_the_true_poses() {
+    let dir = temp();
+    let out = dir.path();
+    let output = run(&[
+        "reproduce",
+        "--out",
+        out.to_str().unwrap(),
+        "--trials",
+        "2",
+        "--frames",
+        "6",
+        "--oracle",
+    ]);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let fig6 = read(&out.join("fig6.csv"));
+    assert_eq!(
+        fig6.lines().next().unwrap(),
+        "time_s,5g,5g_true_poses,r0_a1,r0_a1_true_poses,r0.1_a1,r0.1_a1_true_poses,\
+         r0_a5,r0_a5_true_poses,r0.1_a5,r0.1_a5_true_poses"
+    );
+    // Fig. 7 has no oracle: its position error is 0 by construction.
+    let fig7 = read(&out.join("fig7.csv"));
+    assert_eq!(
+        fig7.lines().next().unwrap(),
+        "time_s,5g,r0_a1,r0.1_a1,r0_a5,r0.1_a5"
+    );
+    let oracle = read(&out.join("oracle.csv"));
+    let mut lines = oracle.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "condition,final_etgospa,final_etgospa_true_poses,ratio"
+    );
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 5);
+    for row in &rows {
+        let condition = row[0];
+        let number = |i: usize| -> f64 { row[i].parse().unwrap() };
+        // The table is the figure's last step, and its ratio is SLAM over the oracle.
+        assert_eq!(number(1), last_value(&fig6, condition), "{condition}");
+        let true_poses = format!("{condition}_true_poses");
+        assert_eq!(number(2), last_value(&fig6, &true_poses), "{condition}");
+        assert!(
+            (number(3) - number(1) / number(2)).abs() < 1e-12,
+            "{condition}"
+        );
+        // The oracle's trials ran at the true poses; the SLAM trials did not.
+        let trials = |dir: &str| read(&out.join("montecarlo").join(dir).join("montecarlo.csv"));
+        let oracle_trials = trials(&format!("{condition}-true-poses"));
+        let slam_trials = trials(condition);
+        let max_mse = |csv: &str| -> f64 {
+            let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+            let index = header.iter().position(|h| *h == "position_mse_m2").unwrap();
+            csv.lines()
+                .skip(1)
+                .map(|l| l.split(',').nth(index).unwrap().parse::<f64>().unwrap())
+                .fold(0.0, f64::max)
+        };
+        assert_eq!(max_mse(&oracle_trials), 0.0, "{condition}");
+        assert!(max_mse(&slam_trials) > 0.0, "{condition}");
+    }
+    let timing: serde_json::Value =
+        serde_json::from_str(&read(&out.join("reproduce.json"))).expect("reproduce.json is JSON");
+    assert_eq!(timing["oracle"], true);
+    let oracle_times = timing["oracle_wall_time_per_condition_s"]
+        .as_object()
+        .unwrap();
+    assert_eq!(oracle_times.len(), 5);
+}
