@@ -200,7 +200,11 @@ fn rematch_clouds(slam: &Association, truths: &[Pose2], m: &LoopMatch) -> anyhow
         }
         pts
     };
-    let lc = slam.params().loop_closure.clone();
+    // The tolerances the back end matched this query with: widened for its detections' scatter.
+    let (lc, _) = slam.widened_for_scatter(
+        slam.params().loop_closure.clone(),
+        cur.saturating_sub(9)..=cur,
+    );
     let refine = Params {
         max_correspondence_m: lc.refine_correspondence_m,
         ..slam.params().clone()

@@ -705,7 +705,7 @@ impl Association {
     /// keyframes `query`, and that factor (`LoopClosureParams::scatter_scale`), which its edge's
     /// std takes too. The confirmation tolerances (`agreement_m`, `pair_m`) stay: a widened
     /// match joins the graph only where it agrees as closely as any other.
-    fn widened_for_scatter(
+    pub fn widened_for_scatter(
         &self,
         lc: LoopClosureParams,
         query: std::ops::RangeInclusive<usize>,
