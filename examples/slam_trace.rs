@@ -148,11 +148,20 @@ fn configure(args: &[String]) -> anyhow::Result<(nrslam_radar::Params, u64, Para
     Ok((radar, seed, params))
 }
 
+/// The first keyframe of the query `close_loop` builds at keyframe `current`, and the half-width
+/// of a candidate's submap, in keyframes (`query_keyframes`, `submap_keyframes`).
+fn loop_extent(slam: &Association, current: usize) -> (usize, usize) {
+    let lc = &slam.params().loop_closure;
+    let query_from = current.saturating_sub((lc.query_keyframes as usize).saturating_sub(1));
+    (query_from, lc.submap_keyframes as usize)
+}
+
 /// What `DISTORT` and `TRUECLOUD` ask for about the loop closure `m` (module docs).
 fn trace_loop(slam: &Association, truths: &[Pose2], m: &LoopMatch) -> anyhow::Result<()> {
     let j = m.candidate;
     let records = slam.keyframe_records();
     let cur = records.len() - 1;
+    let (query_from, w) = loop_extent(slam, cur);
     if std::env::var("DISTORT").is_ok() {
         // How far the query's and the submap's keyframes are from their true placement relative
         // to the keyframe they are expressed in.
@@ -170,8 +179,8 @@ fn trace_loop(slam: &Association, truths: &[Pose2], m: &LoopMatch) -> anyhow::Re
                 .collect::<Vec<_>>()
                 .join(" ")
         };
-        println!("  query  {}", spread(cur.saturating_sub(9), cur, m.query));
-        println!("  submap {}", spread(j.saturating_sub(10), j + 10, j));
+        println!("  query  {}", spread(query_from, cur, m.query));
+        println!("  submap {}", spread(j.saturating_sub(w), j + w, j));
     }
     if std::env::var("TRUECLOUD").is_ok() {
         rematch_clouds(slam, truths, m)?;
@@ -200,18 +209,16 @@ fn rematch_clouds(slam: &Association, truths: &[Pose2], m: &LoopMatch) -> anyhow
         }
         pts
     };
+    let (query_from, w) = loop_extent(slam, cur);
     // The tolerances the back end matched this query with: widened for its detections' scatter.
-    let (lc, _) = slam.widened_for_scatter(
-        slam.params().loop_closure.clone(),
-        cur.saturating_sub(9)..=cur,
-    );
+    let (lc, _) = slam.widened_for_scatter(slam.params().loop_closure.clone(), query_from..=cur);
     let refine = Params {
         max_correspondence_m: lc.refine_correspondence_m,
         ..slam.params().clone()
     };
     for truth in [true, false] {
-        let q = cloud(cur.saturating_sub(9), cur, m.query, truth);
-        let sm = cloud(j.saturating_sub(10), j + 10, j, truth);
+        let q = cloud(query_from, cur, m.query, truth);
+        let sm = cloud(j.saturating_sub(w), j + w, j, truth);
         let r = nrslam_association::match_loop(&q, &sm, true_rel, 2.0, &lc, &refine);
         if truth {
             if let Ok(dir) = std::env::var("DUMP") {

@@ -190,11 +190,39 @@ fn main() -> std::process::ExitCode {
     }
 }
 
-/// The error chain on one line: `context: cause: cause`.
+/// The error chain on one line: `context: cause: cause`. A cause whose text already ends its
+/// effect's (errors that print their source and also return it as `source()`) is said once.
 fn one_line(error: &anyhow::Error) -> String {
-    error
-        .chain()
-        .map(|e| e.to_string())
-        .collect::<Vec<_>>()
-        .join(": ")
+    let mut parts: Vec<String> = Vec::new();
+    for cause in error.chain().map(|e| e.to_string()) {
+        if !parts.last().is_some_and(|effect| effect.ends_with(&cause)) {
+            parts.push(cause);
+        }
+    }
+    parts.join(": ")
+}
+
+#[cfg(test)]
+mod error_line_tests {
+    use super::one_line;
+
+    /// An error that prints its source and returns it too, as several library errors do.
+    #[derive(Debug, thiserror::Error)]
+    #[error("launch/true-poses.toml: cannot read: {source}")]
+    struct Read {
+        source: std::io::Error,
+    }
+
+    #[test]
+    fn a_cause_its_effect_already_printed_is_said_once() {
+        let gone = std::io::Error::new(std::io::ErrorKind::NotFound, "no such file");
+        let error =
+            anyhow::Error::new(Read { source: gone }).context("5g: trials at the true poses");
+        assert_eq!(
+            one_line(&error),
+            "5g: trials at the true poses: launch/true-poses.toml: cannot read: no such file"
+        );
+        let distinct = anyhow::anyhow!("no such file").context("cannot read x");
+        assert_eq!(one_line(&distinct), "cannot read x: no such file");
+    }
 }

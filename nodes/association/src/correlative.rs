@@ -160,9 +160,9 @@ impl Level {
         let shift = half as usize;
         let width = self.width + shift;
         let height = self.height + shift;
-        // In the new level's indexing the previous level's cell x sits at column x + half, and
-        // cell x + half at column x + 2 half: each new cell is the maximum of the previous cell
-        // at the same column and the one half a block before it (0 where either is outside).
+        // New column c holds block x = c − offset, the maximum of the previous level's blocks x
+        // and x + half, stored there at columns c − half and c: new[c] = max(previous[c − half],
+        // previous[c]), 0 where either is outside. Likewise for rows.
         let mut along_x = vec![0u16; width * self.height];
         for (row, previous) in along_x
             .chunks_exact_mut(width)
@@ -1529,6 +1529,25 @@ mod tests {
             let slow =
                 exhaustive_search(grids.grid(), &scan, initial, &window, &options, min_score);
             prop_assert_eq!(fast, slow);
+        }
+
+        #[test]
+        fn a_nodes_sum_is_the_sum_of_its_cells_values_inside_and_outside_the_grid(
+            points in prop::collection::vec((-2.0..2.0f64, -2.0..2.0f64), 1..20),
+            cells in prop::collection::vec((-60..60i32, -60..60i32), 0..40),
+            depth in 0..4u32,
+            x0 in -30..30i64,
+            y0 in -30..30i64,
+        ) {
+            let points: Vec<[f64; 2]> = points.into_iter().map(|(x, y)| [x, y]).collect();
+            let cells: Vec<[i32; 2]> = cells.into_iter().map(|(x, y)| [x, y]).collect();
+            let grids = grids(&points, 0.1, 0.1, depth);
+            let level = grids.level(depth);
+            let expected: u64 = cells
+                .iter()
+                .map(|c| u64::from(level.get(i64::from(c[0]) + x0, i64::from(c[1]) + y0)))
+                .sum();
+            prop_assert_eq!(level.sum_at(&cells, x0, y0), expected);
         }
 
         #[test]

@@ -705,6 +705,10 @@ impl Association {
     /// keyframes `query`, and that factor (`LoopClosureParams::scatter_scale`), which its edge's
     /// std takes too. The confirmation tolerances (`agreement_m`, `pair_m`) stay: a widened
     /// match joins the graph only where it agrees as closely as any other.
+    ///
+    /// # Panics
+    ///
+    /// If `query` reaches past the last keyframe.
     pub fn widened_for_scatter(
         &self,
         lc: LoopClosureParams,

@@ -129,7 +129,8 @@ pub(super) struct OracleRow {
 }
 
 impl OracleRow {
-    /// SLAM over the oracle: what the back end costs (1 is the best any back end can do).
+    /// SLAM over the oracle: what the back end costs (near 1: little; over few trials a ratio
+    /// of means can fall below 1 by chance).
     pub fn ratio(&self) -> f64 {
         self.slam / self.true_poses
     }

@@ -10,7 +10,8 @@
 //! - With `--oracle`, every condition's trials again at the true AGV poses
 //!   (`launch/true-poses.toml`: the same seeds give the same detections), dashed in Fig. 6, and
 //!   `oracle.csv`: the final ET-GOPSA of each condition, its oracle's and their ratio, i.e. what
-//!   the SLAM back end costs over the best any back end could do with these detections.
+//!   the SLAM back end costs over mapping the same detections at the true poses (near 1: little;
+//!   a ratio of means can fall below 1 by chance over few trials).
 
 mod curves;
 mod fig4;
@@ -45,7 +46,8 @@ pub struct ReproduceArgs {
     /// Also run every condition's trials mapped at the true AGV poses (true-poses.toml in
     /// --launch-dir; same seeds, same detections) and write oracle.csv: each condition's final
     /// ET-GOPSA, its oracle's and their ratio (what the SLAM back end costs); Fig. 6 draws the
-    /// oracles dashed. Adds about three quarters of the trials' time.
+    /// oracles dashed. The oracle's trials take less time than the SLAM trials (no scan
+    /// matching, no loop search).
     #[arg(long)]
     pub oracle: bool,
     /// Folder holding paper-ideal.toml and paper-5g.toml (and true-poses.toml for --oracle).
@@ -64,7 +66,7 @@ fn trials_dir(out: &Path, condition: &str) -> PathBuf {
 /// Where a condition's trials at the true poses go (`--oracle`).
 fn oracle_dir(out: &Path, condition: &str) -> PathBuf {
     out.join("montecarlo")
-        .join(format!("{condition}-true-poses"))
+        .join(format!("{condition}_true_poses"))
 }
 
 /// `--frames` (also `nrslam tradeoff --frames`).
@@ -78,6 +80,15 @@ impl ReproduceArgs {
             crate::cmd::montecarlo::TRIALS.check(self.trials),
         )?;
         flags::check("--frames", FRAMES.check(self.frames))?;
+        // Checked before any trial runs: the oracle's trials come after each condition's.
+        let oracle = self.launch_dir.join(ORACLE_LAUNCH);
+        if self.oracle && !oracle.is_file() {
+            anyhow::bail!(
+                "--oracle: no {} (--launch-dir must hold {ORACLE_LAUNCH} beside the paper's \
+                 launch files)",
+                oracle.display()
+            );
+        }
         Ok(())
     }
 }
@@ -169,7 +180,8 @@ pub fn reproduce(args: ReproduceArgs) -> Result<()> {
             eprintln!("{legend}: the same trials at the true poses");
             // The same arguments: true-poses.toml takes every argument of the paper's two.
             let dir = oracle_dir(&args.out.dir, name);
-            trials(&args, ORACLE_LAUNCH, &assignments, dir)?;
+            trials(&args, ORACLE_LAUNCH, &assignments, dir)
+                .with_context(|| format!("{name}: trials at the true poses"))?;
             oracle_timings.insert(
                 name.to_owned(),
                 serde_json::json!(oracle_started.elapsed().as_secs_f64()),
@@ -181,7 +193,7 @@ pub fn reproduce(args: ReproduceArgs) -> Result<()> {
         "Fig. 6: mapping error against time",
     );
     curves(&args.out.dir, "etgospa_mean", "fig6", fig6, args.oracle)?;
-    // At the true poses the position error is 0: Fig. 7 has no oracle curves.
+    // At the true poses the position error is 0 (up to rounding): Fig. 7 has no oracle curves.
     let fig7 = (
         "AGV position MSE (m²)",
         "Fig. 7: MSE of the AGV location against time",
