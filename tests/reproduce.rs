@@ -4,11 +4,9 @@
 mod common;
 use common::*;
 
-#[test]
-fn quick_reproduce_writes_every_figure() {
-    let dir = temp();
-    let out = dir.path();
-    let output = run(&[
+/// `nrslam reproduce` of 2 trials of 6 frames into `out`, with `extra` flags; it must succeed.
+fn quick_reproduce(out: &std::path::Path, extra: &[&str]) {
+    let mut args = vec![
         "reproduce",
         "--out",
         out.to_str().unwrap(),
@@ -16,12 +14,21 @@ fn quick_reproduce_writes_every_figure() {
         "2",
         "--frames",
         "6",
-    ]);
+    ];
+    args.extend_from_slice(extra);
+    let output = run(&args);
     assert!(
         output.status.success(),
         "{}",
         String::from_utf8_lossy(&output.stderr)
     );
+}
+
+#[test]
+fn quick_reproduce_writes_every_figure() {
+    let dir = temp();
+    let out = dir.path();
+    quick_reproduce(out, &[]);
     for file in [
         "fig4.png",
         "fig4.csv",
@@ -97,21 +104,7 @@ fn first_value(csv: &str, column: &str) -> f64 {
 fn reproduce_with_the_oracle_maps_the_same_trials_at_the_true_poses() {
     let dir = temp();
     let out = dir.path();
-    let output = run(&[
-        "reproduce",
-        "--out",
-        out.to_str().unwrap(),
-        "--trials",
-        "2",
-        "--frames",
-        "6",
-        "--oracle",
-    ]);
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
-    );
+    quick_reproduce(out, &["--oracle"]);
     let fig6 = read(&out.join("fig6.csv"));
     assert_eq!(
         fig6.lines().next().unwrap(),
