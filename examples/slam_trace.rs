@@ -148,12 +148,11 @@ fn configure(args: &[String]) -> anyhow::Result<(nrslam_radar::Params, u64, Para
     Ok((radar, seed, params))
 }
 
-/// The first keyframe of the query `close_loop` builds at keyframe `current`, and the half-width
-/// of a candidate's submap, in keyframes (`query_keyframes`, `submap_keyframes`).
+/// The first keyframe of the query the back end matched at keyframe `current`, and the
+/// half-width of a candidate's submap, in keyframes (`submap_keyframes`).
 fn loop_extent(slam: &Association, current: usize) -> (usize, usize) {
     let lc = &slam.params().loop_closure;
-    let query_from = current.saturating_sub((lc.query_keyframes as usize).saturating_sub(1));
-    (query_from, lc.submap_keyframes as usize)
+    (lc.query_from(current), lc.submap_keyframes as usize)
 }
 
 /// What `DISTORT` and `TRUECLOUD` ask for about the loop closure `m` (module docs).

@@ -549,6 +549,12 @@ impl LoopClosureParams {
         }
     }
 
+    /// The first keyframe of the query a loop search at keyframe `current` matches: the last
+    /// `query_keyframes` keyframes, or all there are.
+    pub fn query_from(&self, current: usize) -> usize {
+        current.saturating_sub((self.query_keyframes as usize).saturating_sub(1))
+    }
+
     /// Search radius for a candidate `travelled_m` of travel ago, metres.
     pub fn search_radius_for_m(&self, travelled_m: f64) -> f64 {
         (self.search_radius_m + self.search_radius_per_m * travelled_m)

@@ -613,7 +613,7 @@ impl Association {
             })
             .collect();
         candidates.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        let query_from = current.saturating_sub(lc.query_keyframes as usize - 1);
+        let query_from = lc.query_from(current);
         // The query is expressed in its middle keyframe's frame, and the loop edge measures that
         // keyframe: the tracking error within the query (chiefly heading) then reaches the edge
         // over half the query's length instead of all of it.

@@ -10,7 +10,7 @@ use std::path::Path;
 
 /// One curve: its CSV column, legend, whether it is an oracle (drawn dashed in its condition's
 /// colour) and its (time s, value) points.
-struct Curve {
+pub(super) struct Curve {
     column: String,
     legend: String,
     oracle: bool,
@@ -20,14 +20,14 @@ struct Curve {
 
 /// Reads `column` of each condition's montecarlo.csv (and its oracle's when `oracle`) into
 /// `<name>.csv` (time_s, then one column per curve; an oracle's is `<condition>_true_poses`) and
-/// `<name>.png`.
+/// `<name>.png`; the curves, for [`oracle_table`].
 pub(super) fn curves(
     out: &Path,
     column: &str,
     name: &str,
     (y_label, caption): (&str, &str),
     oracle: bool,
-) -> Result<()> {
+) -> Result<Vec<Curve>> {
     let mut series = Vec::new();
     for (index, (condition, _, _, legend)) in CONDITIONS.iter().enumerate() {
         series.push(Curve {
@@ -39,7 +39,7 @@ pub(super) fn curves(
         });
         if oracle {
             series.push(Curve {
-                column: format!("{condition}_true_poses"),
+                column: oracle_column(condition),
                 legend: format!("{legend}, true poses (dashed)"),
                 oracle: true,
                 color_index: index,
@@ -58,7 +58,13 @@ pub(super) fn curves(
         writer.write_record(&row)?;
     }
     writer.flush()?;
-    plot(&out.join(format!("{name}.png")), &series, y_label, caption)
+    plot(&out.join(format!("{name}.png")), &series, y_label, caption)?;
+    Ok(series)
+}
+
+/// The CSV column of `condition`'s oracle.
+fn oracle_column(condition: &str) -> String {
+    format!("{condition}_true_poses")
 }
 
 /// (time s, `column`) of `dir`/montecarlo.csv.
@@ -136,22 +142,23 @@ impl OracleRow {
     }
 }
 
-/// `oracle.csv` (condition, final ET-GOPSA of SLAM and of the oracle, their ratio), from the last
-/// step of each condition's and its oracle's montecarlo.csv; the rows, for the terminal.
-pub(super) fn oracle_table(out: &Path) -> Result<Vec<OracleRow>> {
-    let last = |dir: &Path| -> Result<f64> {
-        let points = read_column(dir, "etgospa_mean")?;
-        match points.last() {
+/// `oracle.csv` (condition, final ET-GOPSA of SLAM and of the oracle, their ratio) in `out`,
+/// from the last step of each condition's curve and its oracle's in `fig6` (the curves
+/// [`curves`] drew with the oracles); the rows, for the terminal.
+pub(super) fn oracle_table(out: &Path, fig6: &[Curve]) -> Result<Vec<OracleRow>> {
+    let last = |column: &str| -> Result<f64> {
+        let curve = fig6.iter().find(|c| c.column == column);
+        match curve.and_then(|c| c.points.last()) {
             Some(&(_, value)) => Ok(value),
-            None => bail!("{}: no step in montecarlo.csv", dir.display()),
+            None => bail!("Fig. 6 has no step of {column}"),
         }
     };
     let mut rows = Vec::new();
     for (condition, _, _, _) in CONDITIONS {
         rows.push(OracleRow {
             condition,
-            slam: last(&trials_dir(out, condition))?,
-            true_poses: last(&oracle_dir(out, condition))?,
+            slam: last(condition)?,
+            true_poses: last(&oracle_column(condition))?,
         });
     }
     let path = out.join("oracle.csv");

@@ -192,7 +192,7 @@ pub fn reproduce(args: ReproduceArgs) -> Result<()> {
         "ET-GOPSA (mean over trials)",
         "Fig. 6: mapping error against time",
     );
-    curves(&args.out.dir, "etgospa_mean", "fig6", fig6, args.oracle)?;
+    let fig6 = curves(&args.out.dir, "etgospa_mean", "fig6", fig6, args.oracle)?;
     // At the true poses the position error is 0 (up to rounding): Fig. 7 has no oracle curves.
     let fig7 = (
         "AGV position MSE (m²)",
@@ -201,7 +201,7 @@ pub fn reproduce(args: ReproduceArgs) -> Result<()> {
     curves(&args.out.dir, "position_mse_m2", "fig7", fig7, false)?;
     if args.oracle {
         outln!("final ET-GOPSA (mean over trials): SLAM, at the true poses, ratio");
-        for row in oracle_table(&args.out.dir)? {
+        for row in oracle_table(&args.out.dir, &fig6)? {
             outln!(
                 "  {:<8} {:>8.2} {:>8.2} {:>6.2}",
                 row.condition,
