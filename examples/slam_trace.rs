@@ -12,8 +12,10 @@
 //! (`cell_neighbours`), `CORR` (`max_correspondence_m`), `ROBUST` (`robust_sigma`), `PRIOR_M`,
 //! `PRIOR_DEG` (the prior's floors) and `MAPSTD` (`map_std_m`); `ALL=1` prints every frame; `SCENE=FILE` replaces the hall; `DISTORT=1` prints
 //! how far each loop's query and submap keyframes are from their true placement; `TRUECLOUD=1`
-//! re-matches each loop's query and submap built at the true poses, from the true relative pose
-//! (is a wrong loop the clouds' fault or the data's?), and `DUMP=DIR` writes those clouds as
+//! re-matches each loop's query and submap, built at the true poses and at the estimated ones,
+//! from the true relative pose (2 m radius) and from the back end's own prediction and radius
+//! (is a wrong loop the clouds' fault, the data's, or the search's start?), and `DUMP=DIR`
+//! writes the true-pose clouds as
 //! `DIR/cloud_OLD_NEW.csv` (`s` submap, `q` query at the truth, `m` query where it matched).
 //! It also prints the keyframes' NEES under their published covariance and their RMSE once the
 //! best rigid motion has aligned them to the truth; `ALIGNINFO=1` prints that motion and the
@@ -54,6 +56,8 @@ fn main() -> anyhow::Result<()> {
             .iter()
             .map(|d| [d.range_std_m, d.angle_std_rad])
             .collect();
+        // The keyframe poses before this frame's closure moved them: a loop's prediction.
+        let before: Vec<Pose2> = slam.keyframe_records().iter().map(|r| r.pose).collect();
         let out = slam.on_scan_with_std(&scan, Some(&std))?;
         let t = frame.true_pose;
         let truth = Pose2::new(t.x_m, t.y_m, t.yaw_rad);
@@ -64,7 +68,7 @@ fn main() -> anyhow::Result<()> {
             truths.push(truth);
             online_at_keyframe.push(err);
             if let Some(m) = &out.loop_match {
-                trace_loop(&slam, &truths, m)?;
+                trace_loop(&slam, &truths, &before, m)?;
                 let true_rel = truths[m.candidate].between(&truths[m.query]);
                 println!(
                     "frame {:3} kf {:3} LOOP with kf {:3}: relative error {:.2} m {:.2}°, inliers {:.2}, score {:.2}/{:.2}",
@@ -156,7 +160,12 @@ fn loop_extent(slam: &Association, current: usize) -> (usize, usize) {
 }
 
 /// What `DISTORT` and `TRUECLOUD` ask for about the loop closure `m` (module docs).
-fn trace_loop(slam: &Association, truths: &[Pose2], m: &LoopMatch) -> anyhow::Result<()> {
+fn trace_loop(
+    slam: &Association,
+    truths: &[Pose2],
+    before: &[Pose2],
+    m: &LoopMatch,
+) -> anyhow::Result<()> {
     let j = m.candidate;
     let records = slam.keyframe_records();
     let cur = records.len() - 1;
@@ -182,14 +191,19 @@ fn trace_loop(slam: &Association, truths: &[Pose2], m: &LoopMatch) -> anyhow::Re
         println!("  submap {}", spread(j.saturating_sub(w), j + w, j));
     }
     if std::env::var("TRUECLOUD").is_ok() {
-        rematch_clouds(slam, truths, m)?;
+        rematch_clouds(slam, truths, before, m)?;
     }
     Ok(())
 }
 
 /// Re-matches the loop's query and submap built at the true poses and at the estimated ones,
 /// from the true relative pose; `DUMP=DIR` writes the true-pose clouds.
-fn rematch_clouds(slam: &Association, truths: &[Pose2], m: &LoopMatch) -> anyhow::Result<()> {
+fn rematch_clouds(
+    slam: &Association,
+    truths: &[Pose2],
+    before: &[Pose2],
+    m: &LoopMatch,
+) -> anyhow::Result<()> {
     let j = m.candidate;
     let true_rel = truths[j].between(&truths[m.query]);
     let records = slam.keyframe_records();
@@ -215,11 +229,20 @@ fn rematch_clouds(slam: &Association, truths: &[Pose2], m: &LoopMatch) -> anyhow
         max_correspondence_m: lc.refine_correspondence_m,
         ..slam.params().clone()
     };
-    for truth in [true, false] {
+    // The back end's own prediction and radius (this being a run's first closure; later ones
+    // search a smaller radius, from the travel since the last closure).
+    let predicted = before[j].between(&before[m.query]);
+    let radius_m = lc.search_radius_for_m(records[cur].travelled_m - records[j].travelled_m);
+    for (truth, from_prediction) in [(true, false), (false, false), (true, true), (false, true)] {
         let q = cloud(query_from, cur, m.query, truth);
         let sm = cloud(j.saturating_sub(w), j + w, j, truth);
-        let r = nrslam_association::match_loop(&q, &sm, true_rel, 2.0, &lc, &refine);
-        if truth {
+        let (start, radius) = if from_prediction {
+            (predicted, radius_m)
+        } else {
+            (true_rel, 2.0)
+        };
+        let r = nrslam_association::match_loop(&q, &sm, start, radius, &lc, &refine);
+        if truth && !from_prediction {
             if let Ok(dir) = std::env::var("DUMP") {
                 let found = r.as_ref().ok().map(|f| f.relative);
                 dump_clouds(
@@ -232,9 +255,14 @@ fn rematch_clouds(slam: &Association, truths: &[Pose2], m: &LoopMatch) -> anyhow
             }
         }
         let from = if truth { "truth" } else { "estimate" };
+        let start = if from_prediction {
+            "the back end's prediction"
+        } else {
+            "true prediction"
+        };
         match r {
             Ok(f) => println!(
-                "  clouds from {from}: from true prediction error {:.2} m {:.2}° score {:.2}",
+                "  clouds from {from}: from {start} error {:.2} m {:.2}° score {:.2}",
                 f.relative.distance_m(&true_rel),
                 f.relative.rotation_to_rad(&true_rel).to_degrees(),
                 f.score

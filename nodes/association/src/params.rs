@@ -203,12 +203,19 @@ pub struct LoopClosureParams {
     pub loop_std_deg: f64,
     /// Levenberg–Marquardt iterations per optimisation.
     pub max_iterations: u32,
-    /// Until the first loop closure, scan matching uses only the keyframes within this much
-    /// travel of the current one, metres, so that the chain of keyframes carries the drift
-    /// instead of being pulled piecemeal onto old, inconsistent parts of the map; the loop
-    /// closure then corrects the whole chain at once. After it the whole (corrected) map is
-    /// used. 0 uses the whole map throughout.
+    /// Scan matching uses only the keyframes within this much travel of the current one,
+    /// metres: local tracking, as Cartographer's local SLAM against its recent submaps. Drift
+    /// then stays in the chain of keyframes, where loop closure sees and spreads it, instead of
+    /// being pulled piecemeal onto old parts of the map; and a second lap measures the place
+    /// afresh instead of copying the first lap's errors into its own chain. After a closure the
+    /// local map is rebuilt at the corrected poses. 0 uses the whole map. With loop closure off
+    /// the whole map is always used: it is then the only correction there is.
     pub local_map_m: f64,
+    /// Local tracking (`local_map_m`) only while the last query's detections scatter by at
+    /// most this much, metres (`KeyframeRecord::scatter_m`, weighed by detections, as the loop
+    /// tolerances widen): farther-scattered detections (Δθ 5°: 0.9 m at 10 m) make loop edges
+    /// off by 0.5–2 m, and the whole map then corrects the pose better than they do.
+    pub local_map_max_scatter_m: f64,
     /// Raster of the correlative search, metres. 0: binary, a query point scores 1 within a
     /// cell of a submap point's cell and 0 elsewhere. > 0: a likelihood field of this blur σ, a
     /// query point scoring exp(−d²/2σ²) at distance d from the nearest submap point (0 beyond
@@ -294,7 +301,8 @@ impl Default for LoopClosureParams {
             loop_max_std_m: 3.0,
             loop_std_deg: 2.0,
             max_iterations: 20,
-            local_map_m: 0.0,
+            local_map_m: 60.0,
+            local_map_max_scatter_m: 0.5,
             search_sigma_m: 0.0,
             refine_correspondence_m: 1.0,
             fine_sigma_m: 0.1,
@@ -378,7 +386,7 @@ impl LoopClosureParams {
 
     /// (field, value, min, max) of the real-valued fields checked as plain closed ranges, in the
     /// order [`Self::validate`] checks them first.
-    fn real_ranges(&self) -> [(&'static str, f64, f64, f64); 17] {
+    fn real_ranges(&self) -> [(&'static str, f64, f64, f64); 18] {
         [
             (
                 "loop_closure.overlap_distance_m",
@@ -399,6 +407,12 @@ impl LoopClosureParams {
                 1e4,
             ),
             ("loop_closure.local_map_m", self.local_map_m, 0.0, 1e6),
+            (
+                "loop_closure.local_map_max_scatter_m",
+                self.local_map_max_scatter_m,
+                0.0,
+                1e6,
+            ),
             (
                 "loop_closure.min_separation_m",
                 self.min_separation_m,

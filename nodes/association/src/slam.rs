@@ -491,10 +491,18 @@ impl Association {
         stats
     }
 
-    /// True while scan matching uses the local map (see `loop_closure.local_map_m`).
+    /// True when scan matching uses the local map (see `loop_closure.local_map_m`): with loop
+    /// closure on, and while the last query's detections scatter by at most
+    /// `local_map_max_scatter_m`, precise enough for loop edges to correct the chain (see
+    /// there).
     fn local_tracking(&self) -> bool {
         let lc = &self.params.loop_closure;
-        lc.enabled && lc.local_map_m > 0.0 && self.travelled_at_closure_m.is_none()
+        if !lc.enabled || lc.local_map_m <= 0.0 {
+            return false;
+        }
+        self.records.len().checked_sub(1).is_none_or(|last| {
+            self.scatter_m(lc.query_from(last)..=last) <= lc.local_map_max_scatter_m
+        })
     }
 
     /// Adds keyframe `id` at `pose` to the maps and the pose graph. `points` are its detections
@@ -515,18 +523,20 @@ impl Association {
             nalgebra::Matrix3::zeros()
         };
         let points_m: Vec<[f64; 2]> = scan.iter().map(|&p| pose.transform_point(p)).collect();
-        if self.local_tracking() {
-            // Drop keyframes that fell out of the local window, then add the new one.
+        // Drop keyframes that fell out of the local window (or take every keyframe back when
+        // tracking turns global), then add the new one.
+        let first_kept = if self.local_tracking() {
             let window_m = self.params.loop_closure.local_map_m;
-            let first_kept = self
-                .records
+            self.records
                 .iter()
                 .position(|r| self.travelled_m - r.travelled_m <= window_m)
-                .unwrap_or(self.records.len());
-            if first_kept > 0 && self.local_from != first_kept {
-                self.local_from = first_kept;
-                self.rebuild_maps_from(first_kept);
-            }
+                .unwrap_or(self.records.len())
+        } else {
+            0
+        };
+        if self.local_from != first_kept {
+            self.local_from = first_kept;
+            self.rebuild_maps_from(first_kept);
         }
         self.map.extend(&points_m);
         self.cells.extend(&points_m);
@@ -714,20 +724,7 @@ impl Association {
         lc: LoopClosureParams,
         query: std::ops::RangeInclusive<usize>,
     ) -> (LoopClosureParams, f64) {
-        // Each keyframe's scatter weighs by its detections: an empty scan adds no query point.
-        let (weighted_m, detections) =
-            self.records[query]
-                .iter()
-                .fold((0.0, 0usize), |(sum_m, n), r| {
-                    let count = r.scan_agv_m.len();
-                    (sum_m + r.scatter_m * count as f64, n + count)
-                });
-        let scatter_m = if detections > 0 {
-            weighted_m / detections as f64
-        } else {
-            0.0
-        };
-        let std_scale = lc.scatter_scale(scatter_m);
+        let std_scale = lc.scatter_scale(self.scatter_m(query));
         let widened = LoopClosureParams {
             inlier_distance_m: lc.inlier_distance_m * std_scale,
             // The overlap is the inliers' superset: it widens with them.
@@ -735,6 +732,27 @@ impl Association {
             ..lc
         };
         (widened, std_scale)
+    }
+
+    /// The detections' scatter over `keyframes` (`KeyframeRecord::scatter_m`), each keyframe
+    /// weighed by its detections: an empty scan adds no point. 0 without detections.
+    ///
+    /// # Panics
+    ///
+    /// If `keyframes` reaches past the last keyframe.
+    fn scatter_m(&self, keyframes: std::ops::RangeInclusive<usize>) -> f64 {
+        let (weighted_m, detections) =
+            self.records[keyframes]
+                .iter()
+                .fold((0.0, 0usize), |(sum_m, n), r| {
+                    let count = r.scan_agv_m.len();
+                    (sum_m + r.scatter_m * count as f64, n + count)
+                });
+        if detections > 0 {
+            weighted_m / detections as f64
+        } else {
+            0.0
+        }
     }
 
     /// The match agrees with the graph's current estimate of the same relative pose, and that
@@ -876,8 +894,10 @@ impl Association {
         self.cells.extend(&points_m);
     }
 
+    /// Rebuilds the maps scan matching uses (the local map's keyframes, or all of them) at the
+    /// keyframes' current poses.
     fn rebuild_map(&mut self) {
-        self.rebuild_maps_from(0);
+        self.rebuild_maps_from(self.local_from);
         if let Some(last) = self.records.last() {
             let points: Vec<[f64; 2]> = last.points_in_map().collect();
             self.last_keyframe_map = self.params.statistics_grid();

@@ -386,6 +386,72 @@ fn keyframes_are_numbered_and_spaced() {
     assert!((20..200).contains(&expected_id), "{expected_id} keyframes");
 }
 
+/// Runs `frames` with `params`, every detection given `angle_std_deg` (and 3 cm in range);
+/// returns the points scan matching holds at the end, those of the keyframes within `window_m`
+/// of travel of the last one and of all keyframes, and the keyframes' largest scatter (m).
+fn map_after(
+    frames: &[Frame],
+    params: Params,
+    angle_std_deg: f64,
+    window_m: f64,
+) -> ([usize; 3], f64) {
+    let mut slam = Association::new(params).unwrap();
+    for frame in frames {
+        slam.on_odometry(frame.odom).unwrap();
+        let std = vec![[0.03, angle_std_deg.to_radians()]; frame.scan_agv_m.len()];
+        slam.on_scan_with_std(&frame.scan_agv_m, Some(&std))
+            .unwrap();
+    }
+    let records = slam.keyframe_records();
+    let last_m = records.last().unwrap().travelled_m;
+    let points = |window_m: f64| -> usize {
+        records
+            .iter()
+            .filter(|r| last_m - r.travelled_m <= window_m)
+            .map(|r| r.scan_agv_m.len())
+            .sum()
+    };
+    let scatter_m = records.iter().map(|r| r.scatter_m).fold(0.0, f64::max);
+    (
+        [slam.map().len(), points(window_m), points(f64::INFINITY)],
+        scatter_m,
+    )
+}
+
+#[test]
+fn local_tracking_matches_against_the_last_window_of_keyframes_only() {
+    // 400 frames × 0.1 m = 40 m of travel against an 8 m window.
+    let frames = simulate(&Scenario::new(400, drifting_noise(), None, 7));
+    let mut params = Params::default();
+    params.loop_closure.local_map_m = 8.0;
+    let threshold_m = 0.25;
+    params.loop_closure.local_map_max_scatter_m = threshold_m;
+    let ([held, window, all], scatter_m) = map_after(&frames, params.clone(), 0.5, 8.0);
+    assert!(scatter_m < threshold_m, "{scatter_m} m");
+    assert!(
+        window < all / 2,
+        "{window} of {all}: the window must drop keyframes"
+    );
+    assert_eq!(held, window);
+
+    // Without loop closure nothing would ever correct a local map's drift: the whole map.
+    params.loop_closure.enabled = false;
+    let ([held, _, all], _) = map_after(&frames, params.clone(), 0.5, 8.0);
+    assert_eq!(held, all);
+
+    // Nor when the detections scatter farther than `local_map_max_scatter_m`: their loop
+    // edges would be too loose to correct the chain.
+    params.loop_closure.enabled = true;
+    let ([held, _, all], scatter_m) = map_after(&frames, params.clone(), 5.0, 8.0);
+    assert!(scatter_m > threshold_m, "{scatter_m} m");
+    assert_eq!(held, all);
+
+    // 0 turns local tracking off.
+    params.loop_closure.local_map_m = 0.0;
+    let ([held, _, all], _) = map_after(&frames, params, 0.5, 8.0);
+    assert_eq!(held, all);
+}
+
 #[test]
 fn odometry_initialises_and_predicts() {
     let mut slam = Association::new(Params::default()).unwrap();
