@@ -54,6 +54,34 @@ impl PointGrid {
         }
     }
 
+    /// Takes out points added before (map frame, metres), each once, so that the grid answers
+    /// as if they had never been added: the back end drops the keyframes that leave its local
+    /// window this way instead of rebuilding the grid. A point that is not in the grid is
+    /// skipped.
+    pub fn retract(&mut self, points_m: &[[f64; 2]]) {
+        for point in points_m
+            .iter()
+            .filter(|p| p[0].is_finite() && p[1].is_finite())
+        {
+            if !self.usable_gate() {
+                self.len = self.len.saturating_sub(1);
+                continue;
+            }
+            let cell = self.cell_of(point);
+            let Some(points) = self.cells.get_mut(&cell) else {
+                continue;
+            };
+            if let Some(i) = points.iter().position(|p| p == point) {
+                // Order within a cell does not matter: the nearest distance is a minimum.
+                points.swap_remove(i);
+                self.len -= 1;
+                if points.is_empty() {
+                    self.cells.remove(&cell);
+                }
+            }
+        }
+    }
+
     /// The squared distance (m²) from `query_m` to the nearest map point, if one lies within
     /// the gate.
     pub fn nearest_within_gate_m2(&self, query_m: &[f64; 2]) -> Option<f64> {
@@ -118,6 +146,47 @@ mod tests {
                 }
             }
         }
+    }
+
+    proptest! {
+        #[test]
+        fn retracted_points_are_as_if_never_added(
+            kept in prop::collection::vec((-20.0f64..20.0, -20.0f64..20.0), 0..150),
+            dropped in prop::collection::vec((-20.0f64..20.0, -20.0f64..20.0), 0..150),
+            queries in prop::collection::vec((-25.0f64..25.0, -25.0f64..25.0), 1..50),
+            gate_m in 0.05f64..3.0,
+        ) {
+            let kept: Vec<[f64; 2]> = kept.into_iter().map(|(x, y)| [x, y]).collect();
+            let dropped: Vec<[f64; 2]> = dropped.into_iter().map(|(x, y)| [x, y]).collect();
+            let mut grid = PointGrid::new(gate_m);
+            grid.extend(&dropped);
+            grid.extend(&kept);
+            // A point added twice and retracted once stays once.
+            grid.extend(&kept[..kept.len().min(3)]);
+            grid.retract(&kept[..kept.len().min(3)]);
+            grid.retract(&dropped);
+            let mut reference = PointGrid::new(gate_m);
+            reference.extend(&kept);
+            prop_assert_eq!(grid.len(), reference.len());
+            for (x, y) in queries {
+                prop_assert_eq!(
+                    grid.nearest_within_gate_m2(&[x, y]),
+                    reference.nearest_within_gate_m2(&[x, y])
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn retracting_what_is_not_there_changes_nothing() {
+        let mut grid = PointGrid::new(0.5);
+        grid.extend(&[[1.0, 1.0], [2.0, 2.0]]);
+        grid.retract(&[[1.0, 1.01], [9.0, 9.0], [f64::NAN, 1.0]]);
+        assert_eq!(grid.len(), 2);
+        assert_eq!(grid.nearest_within_gate_m2(&[1.0, 1.0]), Some(0.0));
+        grid.retract(&[[1.0, 1.0]]);
+        assert_eq!(grid.len(), 1);
+        assert_eq!(grid.nearest_within_gate_m2(&[1.0, 1.0]), None);
     }
 
     #[test]

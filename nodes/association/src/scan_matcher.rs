@@ -123,6 +123,40 @@ impl DistributionMap {
         }
     }
 
+    /// Takes points added before (map frame, metres) out of their cells' sums, drops the cells
+    /// left empty and rebuilds the Gaussians and the tree: the map then equals one built without
+    /// them, up to rounding in the sums. The back end drops the keyframes that leave its local
+    /// window this way instead of rebuilding the map. Points are skipped as [`Self::extend`]
+    /// skips them, and so are points whose cell holds none.
+    pub fn retract(&mut self, points_m: &[[f64; 2]]) {
+        let before = self.points;
+        for p in points_m {
+            if !(p[0].is_finite() && p[1].is_finite() && p[0].abs() < 1e9 && p[1].abs() < 1e9) {
+                continue;
+            }
+            let key = (
+                (p[0] / self.cell_m).floor() as i64,
+                (p[1] / self.cell_m).floor() as i64,
+            );
+            let Some(sums) = self.sums.get_mut(&key) else {
+                continue;
+            };
+            sums.count -= 1;
+            sums.sum[0] -= p[0];
+            sums.sum[1] -= p[1];
+            sums.sum_sq[0] -= p[0] * p[0];
+            sums.sum_sq[1] -= p[0] * p[1];
+            sums.sum_sq[2] -= p[1] * p[1];
+            if sums.count == 0 {
+                self.sums.remove(&key);
+            }
+            self.points -= 1;
+        }
+        if self.points != before {
+            self.rebuild();
+        }
+    }
+
     fn rebuild(&mut self) {
         let floor2 = self.floor_m * self.floor_m;
         self.cells = self
@@ -683,6 +717,34 @@ mod tests {
         let a = match_scan(&map_of(&world), &scan, Pose2::IDENTITY, &settings());
         let b = match_scan(&map_of(&world), &scan, Pose2::IDENTITY, &settings());
         assert_eq!(a, b);
+    }
+
+    proptest! {
+        /// A map that took points in and out has the cells, means and covariances of one that
+        /// only ever held the rest, up to rounding in the cells' sums.
+        #[test]
+        fn retracted_points_leave_the_map_of_the_rest(
+            kept in prop::collection::vec((-30.0f64..30.0, -30.0f64..30.0), 0..200),
+            dropped in prop::collection::vec((-30.0f64..30.0, -30.0f64..30.0), 0..200),
+        ) {
+            let kept: Vec<[f64; 2]> = kept.into_iter().map(|(x, y)| [x, y]).collect();
+            let dropped: Vec<[f64; 2]> = dropped.into_iter().map(|(x, y)| [x, y]).collect();
+            let mut map = DistributionMap::new(2.0, 2, 0.05);
+            map.extend(&dropped);
+            map.extend(&kept);
+            map.retract(&dropped);
+            let mut reference = DistributionMap::new(2.0, 2, 0.05);
+            reference.extend(&kept);
+            prop_assert_eq!(map.point_count(), reference.point_count());
+            prop_assert_eq!(map.sums.len(), reference.sums.len());
+            prop_assert_eq!(map.len(), reference.len());
+            for (a, b) in map.cells.iter().zip(&reference.cells) {
+                for axis in 0..2 {
+                    prop_assert!((a.mean_m[axis] - b.mean_m[axis]).abs() < 1e-9);
+                }
+                prop_assert!((a.cov_m2 - b.cov_m2).abs().max() < 1e-6, "{} against {}", a.cov_m2, b.cov_m2);
+            }
+        }
     }
 
     proptest! {

@@ -534,7 +534,18 @@ impl Association {
         } else {
             0
         };
-        if self.local_from != first_kept {
+        if first_kept > self.local_from {
+            // The maps hold the kept keyframes at their current poses (a closure rebuilds them
+            // at the corrected ones): the keyframes that left the window come out as they went
+            // in, which costs a keyframe's points instead of the window's.
+            let leaving: Vec<[f64; 2]> = self.records[self.local_from..first_kept]
+                .iter()
+                .flat_map(KeyframeRecord::points_in_map)
+                .collect();
+            self.map.retract(&leaving);
+            self.cells.retract(&leaving);
+            self.local_from = first_kept;
+        } else if first_kept < self.local_from {
             self.local_from = first_kept;
             self.rebuild_maps_from(first_kept);
         }
