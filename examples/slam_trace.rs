@@ -56,8 +56,8 @@ fn main() -> anyhow::Result<()> {
             .iter()
             .map(|d| [d.range_std_m, d.angle_std_rad])
             .collect();
-        // The keyframe poses before this frame's closure moved them: a loop's prediction.
-        let before: Vec<Pose2> = slam.keyframe_records().iter().map(|r| r.pose).collect();
+        // The keyframe poses before this frame's closure moved them: what the loop search saw.
+        let mut before: Vec<Pose2> = slam.keyframe_records().iter().map(|r| r.pose).collect();
         let out = slam.on_scan_with_std(&scan, Some(&std))?;
         let t = frame.true_pose;
         let truth = Pose2::new(t.x_m, t.y_m, t.yaw_rad);
@@ -68,6 +68,12 @@ fn main() -> anyhow::Result<()> {
             truths.push(truth);
             online_at_keyframe.push(err);
             if let Some(m) = &out.loop_match {
+                // The new keyframe joined at the tracked pose (the prediction if tracking failed).
+                before.push(if out.icp.pose.is_finite() {
+                    out.icp.pose
+                } else {
+                    out.predicted
+                });
                 trace_loop(&slam, &truths, &before, m)?;
                 let true_rel = truths[m.candidate].between(&truths[m.query]);
                 println!(
@@ -211,7 +217,7 @@ fn rematch_clouds(
     let cloud = |from: usize, to: usize, frame: usize, truth: bool| {
         let mut pts = Vec::new();
         for k in from..=to.min(cur) {
-            let pose_of = |i: usize| if truth { truths[i] } else { records[i].pose };
+            let pose_of = |i: usize| if truth { truths[i] } else { before[i] };
             let rel = pose_of(frame).between(&pose_of(k));
             pts.extend(
                 records[k]

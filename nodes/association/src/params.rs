@@ -204,17 +204,20 @@ pub struct LoopClosureParams {
     /// Levenberg–Marquardt iterations per optimisation.
     pub max_iterations: u32,
     /// Scan matching uses only the keyframes within this much travel of the current one,
-    /// metres: local tracking, as Cartographer's local SLAM against its recent submaps. Drift
+    /// metres (0 to 1e6): local tracking, as Cartographer's local SLAM against its recent submaps. Drift
     /// then stays in the chain of keyframes, where loop closure sees and spreads it, instead of
     /// being pulled piecemeal onto old parts of the map; and a second lap measures the place
     /// afresh instead of copying the first lap's errors into its own chain. After a closure the
     /// local map is rebuilt at the corrected poses. 0 uses the whole map. With loop closure off
     /// the whole map is always used: it is then the only correction there is.
     pub local_map_m: f64,
-    /// Local tracking (`local_map_m`) only while the last query's detections scatter by at
-    /// most this much, metres (`KeyframeRecord::scatter_m`, weighed by detections, as the loop
-    /// tolerances widen): farther-scattered detections (Δθ 5°: 0.9 m at 10 m) make loop edges
-    /// off by 0.5–2 m, and the whole map then corrects the pose better than they do.
+    /// Local tracking (`local_map_m`) only while the detections scatter by at most this much,
+    /// metres (0 to 1e6): the scatter of the last `query_keyframes` keyframes before the one
+    /// being added, each keyframe's `KeyframeRecord::scatter_m` weighed by its detections (as
+    /// the loop tolerances are widened by it); a query without detections keeps the last
+    /// choice. Farther-scattered detections (Δθ 5°: 0.9 m at 10 m) make loop edges off by
+    /// 0.5–2 m, and the whole map then corrects the pose better than they do. 1e6 tracks
+    /// locally whatever the scatter; 0 only on noise-free detections.
     pub local_map_max_scatter_m: f64,
     /// Raster of the correlative search, metres. 0: binary, a query point scores 1 within a
     /// cell of a submap point's cell and 0 elsewhere. > 0: a likelihood field of this blur σ, a

@@ -57,7 +57,8 @@ impl PointGrid {
     /// Takes out points added before (map frame, metres), each once, so that the grid answers
     /// as if they had never been added: the back end drops the keyframes that leave its local
     /// window this way instead of rebuilding the grid. A point that is not in the grid is
-    /// skipped.
+    /// skipped; with an unusable gate (which stores no point) every finite point counts as
+    /// taken out.
     pub fn retract(&mut self, points_m: &[[f64; 2]]) {
         for point in points_m
             .iter()
@@ -104,12 +105,12 @@ impl PointGrid {
         best.filter(|&d2| d2 <= self.gate_m * self.gate_m)
     }
 
-    /// Number of (finite) points added.
+    /// Number of (finite) points held: added and not retracted.
     pub fn len(&self) -> usize {
         self.len
     }
 
-    /// No point added yet.
+    /// No point held.
     pub fn is_empty(&self) -> bool {
         self.len == 0
     }

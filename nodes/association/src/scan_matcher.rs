@@ -127,7 +127,8 @@ impl DistributionMap {
     /// left empty and rebuilds the Gaussians and the tree: the map then equals one built without
     /// them, up to rounding in the sums. The back end drops the keyframes that leave its local
     /// window this way instead of rebuilding the map. Points are skipped as [`Self::extend`]
-    /// skips them, and so are points whose cell holds none.
+    /// skips them, and so are points whose cell holds none. Only points that were added may be
+    /// retracted: any other point in an occupied cell would be taken from that cell's sums.
     pub fn retract(&mut self, points_m: &[[f64; 2]]) {
         let before = self.points;
         for p in points_m {
@@ -181,7 +182,7 @@ impl DistributionMap {
         self.tree = (!means.is_empty()).then(|| ImmutableKdTree::new_from_slice(&means));
     }
 
-    /// Points added so far.
+    /// Points held: added and not retracted.
     pub fn point_count(&self) -> usize {
         self.points
     }

@@ -212,8 +212,12 @@ pub struct Association {
     cooldown: u32,
     /// Distance travelled at the last accepted loop closure, metres.
     travelled_at_closure_m: Option<f64>,
-    /// First keyframe of the local map while tracking locally.
+    /// First keyframe of the maps scan matching uses (`map`, `cells`): they hold exactly the
+    /// keyframes `records[local_from..]`, at their current poses. A closure rebuilds them at the
+    /// corrected poses; keyframes leaving the local window are retracted as they went in.
     local_from: usize,
+    /// Whether the last keyframe chose local tracking (kept while a query has no detections).
+    tracking_locally: bool,
     /// Loop edges in the pose graph, in the order they were accepted.
     loop_edges: Vec<LoopEdge>,
     /// Verified matches that wait for a second one to confirm them.
@@ -251,6 +255,7 @@ impl Association {
             cooldown: 0,
             travelled_at_closure_m: None,
             local_from: 0,
+            tracking_locally: true,
             loop_edges: Vec::new(),
             pending: Vec::new(),
             uncertainty_information: Vec::new(),
@@ -500,9 +505,14 @@ impl Association {
         if !lc.enabled || lc.local_map_m <= 0.0 {
             return false;
         }
-        self.records.len().checked_sub(1).is_none_or(|last| {
-            self.scatter_m(lc.query_from(last)..=last) <= lc.local_map_max_scatter_m
-        })
+        let Some(last) = self.records.len().checked_sub(1) else {
+            return true;
+        };
+        // A query without detections says nothing of their scatter: the choice stands.
+        self.scatter_m(lc.query_from(last)..=last)
+            .map_or(self.tracking_locally, |scatter_m| {
+                scatter_m <= lc.local_map_max_scatter_m
+            })
     }
 
     /// Adds keyframe `id` at `pose` to the maps and the pose graph. `points` are its detections
@@ -525,7 +535,8 @@ impl Association {
         let points_m: Vec<[f64; 2]> = scan.iter().map(|&p| pose.transform_point(p)).collect();
         // Drop keyframes that fell out of the local window (or take every keyframe back when
         // tracking turns global), then add the new one.
-        let first_kept = if self.local_tracking() {
+        self.tracking_locally = self.local_tracking();
+        let first_kept = if self.tracking_locally {
             let window_m = self.params.loop_closure.local_map_m;
             self.records
                 .iter()
@@ -535,9 +546,10 @@ impl Association {
             0
         };
         if first_kept > self.local_from {
-            // The maps hold the kept keyframes at their current poses (a closure rebuilds them
-            // at the corrected ones): the keyframes that left the window come out as they went
-            // in, which costs a keyframe's points instead of the window's.
+            // The maps hold the kept keyframes at their current poses (`local_from`): those that
+            // left the window come out as they went in. That re-bins a keyframe's points, not
+            // the window's; the cells' Gaussians and tree are re-summarised as on every
+            // keyframe.
             let leaving: Vec<[f64; 2]> = self.records[self.local_from..first_kept]
                 .iter()
                 .flat_map(KeyframeRecord::points_in_map)
@@ -591,6 +603,21 @@ impl Association {
             travelled_m: self.travelled_m,
             covariance,
         });
+        debug_assert!(self.maps_hold_the_window(), "the tracking maps lost count");
+    }
+
+    /// The maps scan matching uses hold as many points as `records[local_from..]` (the
+    /// invariant `retract` relies on; cells' contents are the property tests' business).
+    fn maps_hold_the_window(&self) -> bool {
+        let points = || {
+            self.records[self.local_from..]
+                .iter()
+                .flat_map(KeyframeRecord::points_in_map)
+        };
+        let finite = |p: &[f64; 2]| p[0].is_finite() && p[1].is_finite();
+        let binned = |p: &[f64; 2]| finite(p) && p[0].abs() < 1e9 && p[1].abs() < 1e9;
+        self.map.len() == points().filter(finite).count()
+            && self.cells.point_count() == points().filter(binned).count()
     }
 
     /// Points of keyframes `range` in the frame of keyframe `frame`.
@@ -735,7 +762,7 @@ impl Association {
         lc: LoopClosureParams,
         query: std::ops::RangeInclusive<usize>,
     ) -> (LoopClosureParams, f64) {
-        let std_scale = lc.scatter_scale(self.scatter_m(query));
+        let std_scale = lc.scatter_scale(self.scatter_m(query).unwrap_or(0.0));
         let widened = LoopClosureParams {
             inlier_distance_m: lc.inlier_distance_m * std_scale,
             // The overlap is the inliers' superset: it widens with them.
@@ -746,12 +773,12 @@ impl Association {
     }
 
     /// The detections' scatter over `keyframes` (`KeyframeRecord::scatter_m`), each keyframe
-    /// weighed by its detections: an empty scan adds no point. 0 without detections.
+    /// weighed by its detections: an empty scan adds no point. `None` without detections.
     ///
     /// # Panics
     ///
     /// If `keyframes` reaches past the last keyframe.
-    fn scatter_m(&self, keyframes: std::ops::RangeInclusive<usize>) -> f64 {
+    fn scatter_m(&self, keyframes: std::ops::RangeInclusive<usize>) -> Option<f64> {
         let (weighted_m, detections) =
             self.records[keyframes]
                 .iter()
@@ -759,11 +786,7 @@ impl Association {
                     let count = r.scan_agv_m.len();
                     (sum_m + r.scatter_m * count as f64, n + count)
                 });
-        if detections > 0 {
-            weighted_m / detections as f64
-        } else {
-            0.0
-        }
+        (detections > 0).then(|| weighted_m / detections as f64)
     }
 
     /// The match agrees with the graph's current estimate of the same relative pose, and that
@@ -927,7 +950,8 @@ impl Association {
         self.slam_pose
     }
 
-    /// The keyframe map's points, as the association statistics read them.
+    /// The points of the keyframes scan matching uses (the local window's while tracking
+    /// locally, see `loop_closure.local_map_m`), as the association statistics read them.
     pub fn map(&self) -> &PointGrid {
         &self.map
     }

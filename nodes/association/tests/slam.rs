@@ -386,19 +386,21 @@ fn keyframes_are_numbered_and_spaced() {
     assert!((20..200).contains(&expected_id), "{expected_id} keyframes");
 }
 
-/// Runs `frames` with `params`, every detection given `angle_std_deg` (and 3 cm in range);
-/// returns the points scan matching holds at the end, those of the keyframes within `window_m`
-/// of travel of the last one and of all keyframes, and the keyframes' largest scatter (m).
+/// Runs `frames` with `params`, the detections of frame k given `angle_std_deg(k)` (and 3 cm
+/// in range); returns the points of the keyframes scan matching holds at the end (the back end
+/// checks in debug builds, at every keyframe, that its two maps hold the same), those of the
+/// keyframes within `local_map_m` of travel of the last one and of all keyframes, and the
+/// keyframes' largest scatter (m).
 fn map_after(
     frames: &[Frame],
     params: Params,
-    angle_std_deg: f64,
-    window_m: f64,
+    angle_std_deg: impl Fn(usize) -> f64,
 ) -> ([usize; 3], f64) {
+    let window_m = params.loop_closure.local_map_m;
     let mut slam = Association::new(params).unwrap();
-    for frame in frames {
+    for (k, frame) in frames.iter().enumerate() {
         slam.on_odometry(frame.odom).unwrap();
-        let std = vec![[0.03, angle_std_deg.to_radians()]; frame.scan_agv_m.len()];
+        let std = vec![[0.03, angle_std_deg(k).to_radians()]; frame.scan_agv_m.len()];
         slam.on_scan_with_std(&frame.scan_agv_m, Some(&std))
             .unwrap();
     }
@@ -420,13 +422,13 @@ fn map_after(
 
 #[test]
 fn local_tracking_matches_against_the_last_window_of_keyframes_only() {
-    // 400 frames × 0.1 m = 40 m of travel against an 8 m window.
+    // 400 frames × 0.1 m = 40 m of travel (loops close from 30 m) against an 8 m window.
     let frames = simulate(&Scenario::new(400, drifting_noise(), None, 7));
     let mut params = Params::default();
     params.loop_closure.local_map_m = 8.0;
     let threshold_m = 0.25;
     params.loop_closure.local_map_max_scatter_m = threshold_m;
-    let ([held, window, all], scatter_m) = map_after(&frames, params.clone(), 0.5, 8.0);
+    let ([held, window, all], scatter_m) = map_after(&frames, params.clone(), |_| 0.5);
     assert!(scatter_m < threshold_m, "{scatter_m} m");
     assert!(
         window < all / 2,
@@ -436,19 +438,31 @@ fn local_tracking_matches_against_the_last_window_of_keyframes_only() {
 
     // Without loop closure nothing would ever correct a local map's drift: the whole map.
     params.loop_closure.enabled = false;
-    let ([held, _, all], _) = map_after(&frames, params.clone(), 0.5, 8.0);
+    let ([held, _, all], _) = map_after(&frames, params.clone(), |_| 0.5);
     assert_eq!(held, all);
 
     // Nor when the detections scatter farther than `local_map_max_scatter_m`: their loop
     // edges would be too loose to correct the chain.
     params.loop_closure.enabled = true;
-    let ([held, _, all], scatter_m) = map_after(&frames, params.clone(), 5.0, 8.0);
+    let ([held, _, all], scatter_m) = map_after(&frames, params.clone(), |_| 5.0);
     assert!(scatter_m > threshold_m, "{scatter_m} m");
     assert_eq!(held, all);
 
+    // Scattered detections in the middle of the run: local, then the whole map (rebuilt), then
+    // local again (the keyframes out of the window retracted), as the last query says.
+    let ([held, window, _], scatter_m) = map_after(&frames, params.clone(), |k| {
+        if (130..260).contains(&k) {
+            5.0
+        } else {
+            0.5
+        }
+    });
+    assert!(scatter_m > threshold_m, "{scatter_m} m");
+    assert_eq!(held, window);
+
     // 0 turns local tracking off.
     params.loop_closure.local_map_m = 0.0;
-    let ([held, _, all], _) = map_after(&frames, params, 0.5, 8.0);
+    let ([held, _, all], _) = map_after(&frames, params, |_| 0.5);
     assert_eq!(held, all);
 }
 
