@@ -215,16 +215,11 @@ fn rematch_clouds(
     let records = slam.keyframe_records();
     let cur = records.len() - 1;
     let cloud = |from: usize, to: usize, frame: usize, truth: bool| {
+        let pose_of = |i: usize| if truth { truths[i] } else { before[i] };
         let mut pts = Vec::new();
-        for k in from..=to.min(cur) {
-            let pose_of = |i: usize| if truth { truths[i] } else { before[i] };
+        for (k, record) in records.iter().enumerate().take(to.min(cur) + 1).skip(from) {
             let rel = pose_of(frame).between(&pose_of(k));
-            pts.extend(
-                records[k]
-                    .scan_agv_m
-                    .iter()
-                    .map(|p| rel.transform_point(*p)),
-            );
+            pts.extend(record.scan_agv_m.iter().map(|p| rel.transform_point(*p)));
         }
         pts
     };

@@ -97,18 +97,32 @@ impl DistributionMap {
         }
     }
 
+    /// The points worth a cell, each with its cell's key: non-finite points, and points beyond
+    /// ±1e9 m (whose cell index would not be meaningful), are left out.
+    fn binned<'a>(
+        &self,
+        points_m: &'a [[f64; 2]],
+    ) -> impl Iterator<Item = (&'a [f64; 2], (i64, i64))> + use<'a> {
+        let cell_m = self.cell_m;
+        points_m
+            .iter()
+            .filter(|p| {
+                p[0].is_finite() && p[1].is_finite() && p[0].abs() < 1e9 && p[1].abs() < 1e9
+            })
+            .map(move |p| {
+                let key = (
+                    (p[0] / cell_m).floor() as i64,
+                    (p[1] / cell_m).floor() as i64,
+                );
+                (p, key)
+            })
+    }
+
     /// Adds map-frame points (metres) and rebuilds the cells' Gaussians and the tree. Non-finite
     /// points, and points beyond ±1e9 m (whose cell index would not be meaningful), are skipped.
     pub fn extend(&mut self, points_m: &[[f64; 2]]) {
         let before = self.points;
-        for p in points_m {
-            if !(p[0].is_finite() && p[1].is_finite() && p[0].abs() < 1e9 && p[1].abs() < 1e9) {
-                continue;
-            }
-            let key = (
-                (p[0] / self.cell_m).floor() as i64,
-                (p[1] / self.cell_m).floor() as i64,
-            );
+        for (p, key) in self.binned(points_m) {
             let sums = self.sums.entry(key).or_default();
             sums.count = sums.count.saturating_add(1);
             sums.sum[0] += p[0];
@@ -131,14 +145,7 @@ impl DistributionMap {
     /// retracted: any other point in an occupied cell would be taken from that cell's sums.
     pub fn retract(&mut self, points_m: &[[f64; 2]]) {
         let before = self.points;
-        for p in points_m {
-            if !(p[0].is_finite() && p[1].is_finite() && p[0].abs() < 1e9 && p[1].abs() < 1e9) {
-                continue;
-            }
-            let key = (
-                (p[0] / self.cell_m).floor() as i64,
-                (p[1] / self.cell_m).floor() as i64,
-            );
+        for (p, key) in self.binned(points_m) {
             let Some(sums) = self.sums.get_mut(&key) else {
                 continue;
             };
