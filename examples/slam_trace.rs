@@ -256,14 +256,14 @@ fn rematch_clouds(
             }
         }
         let from = if truth { "truth" } else { "estimate" };
-        let start = if from_prediction {
+        let started_at = if from_prediction {
             "the back end's prediction"
         } else {
             "true prediction"
         };
         match r {
             Ok(f) => println!(
-                "  clouds from {from}: from {start} error {:.2} m {:.2}° score {:.2}",
+                "  clouds from {from}: from {started_at} error {:.2} m {:.2}° score {:.2}",
                 f.relative.distance_m(&true_rel),
                 f.relative.rotation_to_rad(&true_rel).to_degrees(),
                 f.score

@@ -204,12 +204,13 @@ pub struct LoopClosureParams {
     /// Levenberg–Marquardt iterations per optimisation.
     pub max_iterations: u32,
     /// Scan matching uses only the keyframes within this much travel of the current one,
-    /// metres (0 to 1e6): local tracking, as Cartographer's local SLAM against its recent submaps. Drift
-    /// then stays in the chain of keyframes, where loop closure sees and spreads it, instead of
-    /// being pulled piecemeal onto old parts of the map; and a second lap measures the place
-    /// afresh instead of copying the first lap's errors into its own chain. After a closure the
-    /// local map is rebuilt at the corrected poses. 0 uses the whole map. With loop closure off
-    /// the whole map is always used: it is then the only correction there is.
+    /// metres (0 to 1e6): local tracking, as Cartographer's local SLAM against its recent
+    /// submaps. Drift then stays in the chain of keyframes, where loop closure sees and spreads
+    /// it, instead of being pulled piecemeal onto old parts of the map; and a second lap
+    /// measures the place afresh instead of copying the first lap's errors into its own chain.
+    /// After a closure the local map is rebuilt at the corrected poses. 0 uses the whole map.
+    /// With loop closure off the whole map is always used: it is then the only correction there
+    /// is.
     pub local_map_m: f64,
     /// Local tracking (`local_map_m`) only while the detections scatter by at most this much,
     /// metres (0 to 1e6): the scatter of the last `query_keyframes` keyframes before the one

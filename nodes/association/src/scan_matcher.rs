@@ -73,6 +73,12 @@ impl std::fmt::Debug for DistributionMap {
     }
 }
 
+/// A point a [`DistributionMap`] bins: finite and within ±1e9 m (beyond, its cell index would
+/// not be meaningful).
+pub(crate) fn binnable(p: &[f64; 2]) -> bool {
+    p[0].is_finite() && p[1].is_finite() && p[0].abs() < 1e9 && p[1].abs() < 1e9
+}
+
 impl DistributionMap {
     /// An empty map with cells of `cell_m` (> 0), Gaussians from cells of at least `min_points`
     /// (≥ 1) points, and covariance eigenvalues floored at `floor_m`² (a one-point cell, or the
@@ -97,55 +103,42 @@ impl DistributionMap {
         }
     }
 
-    /// The points worth a cell, each with its cell's key: non-finite points, and points beyond
-    /// ±1e9 m (whose cell index would not be meaningful), are left out.
+    /// The points worth a cell ([`binnable`]), each with its cell's key.
     fn binned<'a>(
         &self,
         points_m: &'a [[f64; 2]],
     ) -> impl Iterator<Item = (&'a [f64; 2], (i64, i64))> + use<'a> {
         let cell_m = self.cell_m;
-        points_m
-            .iter()
-            .filter(|p| {
-                p[0].is_finite() && p[1].is_finite() && p[0].abs() < 1e9 && p[1].abs() < 1e9
-            })
-            .map(move |p| {
-                let key = (
-                    (p[0] / cell_m).floor() as i64,
-                    (p[1] / cell_m).floor() as i64,
-                );
-                (p, key)
-            })
+        points_m.iter().filter(|p| binnable(p)).map(move |p| {
+            let key = (
+                (p[0] / cell_m).floor() as i64,
+                (p[1] / cell_m).floor() as i64,
+            );
+            (p, key)
+        })
     }
 
     /// Adds map-frame points (metres) and rebuilds the cells' Gaussians and the tree. Non-finite
     /// points, and points beyond ±1e9 m (whose cell index would not be meaningful), are skipped.
     pub fn extend(&mut self, points_m: &[[f64; 2]]) {
-        let before = self.points;
-        for (p, key) in self.binned(points_m) {
-            let sums = self.sums.entry(key).or_default();
-            sums.count = sums.count.saturating_add(1);
-            sums.sum[0] += p[0];
-            sums.sum[1] += p[1];
-            sums.sum_sq[0] += p[0] * p[0];
-            sums.sum_sq[1] += p[0] * p[1];
-            sums.sum_sq[2] += p[1] * p[1];
-            self.points += 1;
-        }
-        if self.points != before {
-            self.rebuild();
-        }
+        self.exchange(&[], points_m);
     }
 
     /// Takes points added before (map frame, metres) out of their cells' sums, drops the cells
     /// left empty and rebuilds the Gaussians and the tree: the map then equals one built without
-    /// them, up to rounding in the sums. The back end drops the keyframes that leave its local
-    /// window this way instead of rebuilding the map. Points are skipped as [`Self::extend`]
-    /// skips them, and so are points whose cell holds none. Only points that were added may be
-    /// retracted: any other point in an occupied cell would be taken from that cell's sums.
+    /// them, up to rounding in the sums. Points are skipped as [`Self::extend`] skips them, and
+    /// so are points whose cell holds none. Only points that were added may be retracted: any
+    /// other point in an occupied cell would be taken from that cell's sums.
     pub fn retract(&mut self, points_m: &[[f64; 2]]) {
-        let before = self.points;
-        for (p, key) in self.binned(points_m) {
+        self.exchange(points_m, &[]);
+    }
+
+    /// [`Self::retract`]s `leaving`, then [`Self::extend`]s with `entering`, and rebuilds the
+    /// Gaussians and the tree once: the back end's local window drops its oldest keyframes and
+    /// takes the new one this way on each keyframe instead of rebuilding the map.
+    pub fn exchange(&mut self, leaving_m: &[[f64; 2]], entering_m: &[[f64; 2]]) {
+        let mut changed = false;
+        for (p, key) in self.binned(leaving_m) {
             let Some(sums) = self.sums.get_mut(&key) else {
                 continue;
             };
@@ -159,8 +152,20 @@ impl DistributionMap {
                 self.sums.remove(&key);
             }
             self.points -= 1;
+            changed = true;
         }
-        if self.points != before {
+        for (p, key) in self.binned(entering_m) {
+            let sums = self.sums.entry(key).or_default();
+            sums.count = sums.count.saturating_add(1);
+            sums.sum[0] += p[0];
+            sums.sum[1] += p[1];
+            sums.sum_sq[0] += p[0] * p[0];
+            sums.sum_sq[1] += p[0] * p[1];
+            sums.sum_sq[2] += p[1] * p[1];
+            self.points += 1;
+            changed = true;
+        }
+        if changed {
             self.rebuild();
         }
     }

@@ -46,7 +46,7 @@ use crate::params::{LoopClosureParams, Params};
 use crate::point_grid::PointGrid;
 use crate::pose::Pose2;
 use crate::pose_graph::{leaf_covariance, Edge, EdgeKind, OptimiserSettings, PoseGraph};
-use crate::scan_matcher::{match_scan, scan_information, DistributionMap, RadarPoint};
+use crate::scan_matcher::{binnable, match_scan, scan_information, DistributionMap, RadarPoint};
 
 /// A detection at `range_m` and angle of arrival `angle_rad` (from the array boresight,
 /// counter-clockwise), for an array whose boresight is `boresight_rad` from the AGV heading, as a
@@ -545,24 +545,23 @@ impl Association {
         } else {
             0
         };
+        let mut leaving: Vec<[f64; 2]> = Vec::new();
         if first_kept > self.local_from {
             // The maps hold the kept keyframes at their current poses (`local_from`): those that
-            // left the window come out as they went in. That re-bins a keyframe's points, not
-            // the window's; the cells' Gaussians and tree are re-summarised as on every
-            // keyframe.
-            let leaving: Vec<[f64; 2]> = self.records[self.local_from..first_kept]
+            // left the window come out as they went in, which re-bins a keyframe's points, not
+            // the window's.
+            leaving = self.records[self.local_from..first_kept]
                 .iter()
                 .flat_map(KeyframeRecord::points_in_map)
                 .collect();
-            self.map.retract(&leaving);
-            self.cells.retract(&leaving);
             self.local_from = first_kept;
         } else if first_kept < self.local_from {
             self.local_from = first_kept;
             self.rebuild_maps_from(first_kept);
         }
+        self.map.retract(&leaving);
         self.map.extend(&points_m);
-        self.cells.extend(&points_m);
+        self.cells.exchange(&leaving, &points_m);
         self.last_keyframe_map = self.params.statistics_grid();
         self.last_keyframe_map.extend(&points_m);
         let node = self.graph.add_node(pose);
@@ -615,9 +614,8 @@ impl Association {
                 .flat_map(KeyframeRecord::points_in_map)
         };
         let finite = |p: &[f64; 2]| p[0].is_finite() && p[1].is_finite();
-        let binned = |p: &[f64; 2]| finite(p) && p[0].abs() < 1e9 && p[1].abs() < 1e9;
         self.map.len() == points().filter(finite).count()
-            && self.cells.point_count() == points().filter(binned).count()
+            && self.cells.point_count() == points().filter(binnable).count()
     }
 
     /// Points of keyframes `range` in the frame of keyframe `frame`.
