@@ -28,6 +28,9 @@
 //! - [`runner_up`]: the best motion at least some distance from a given one (the second peak
 //!   that loop closure's ambiguity test needs), by the same search with a disc of translations
 //!   excluded; it prunes against its own best, so it costs about as much as the first search.
+//! - [`plateau_centre`]: the mean of the motions scoring within a fraction of the best, for
+//!   scans whose points scatter so much that the best is one point of a flat (loop closure at
+//!   Δθ 5°).
 //! - [`exhaustive_search`]: the same lattice scored motion by motion, the reference that the
 //!   tests compare the branch and bound with and the benchmark's baseline.
 //!
@@ -620,22 +623,61 @@ pub fn exhaustive_search(
     min_score: f64,
 ) -> Result<Option<Match>, CorrelativeError> {
     let lattice = Lattice::new(grid, scan_points_m, initial, window, options, min_score)?;
-    let steps = lattice.linear_steps;
     let mut best: Option<Node> = None;
-    for rotation in 0..lattice.rotations() {
-        for x in -steps..=steps {
-            for y in -steps..=steps {
-                let Some(leaf) = lattice.node(&grid.level, rotation, x, y, 0) else {
-                    continue;
-                };
-                // Visited in key order: only a strictly higher score replaces the best.
-                if leaf.bound >= min_score && best.is_none_or(|b| leaf.bound > b.bound) {
-                    best = Some(leaf);
-                }
-            }
+    for leaf in lattice.leaves(&grid.level) {
+        // Visited in key order: only a strictly higher score replaces the best.
+        if leaf.bound >= min_score && best.is_none_or(|b| leaf.bound > b.bound) {
+            best = Some(leaf);
         }
     }
     Ok(best.map(|leaf| lattice.to_match(&leaf)))
+}
+
+/// The centre of the plateau of near-best motions: the mean pose of every motion of the lattice
+/// (scored as [`exhaustive_search`] scores them) whose score is at least `1 − fraction` of the
+/// best in the window, and how many there are. Where the scan's points scatter by more than the
+/// grid's cell the score is flat around the truth, and the arg-max lands anywhere on the flat,
+/// wherever ties and the prior put it; the centre of the flat is the estimate that does not
+/// depend on where the search started. Without a prior it is symmetric: a plateau that the window
+/// holds whole has the same centre from any start inside it. `Ok(None)` when no motion scores
+/// above 0. The rotation is averaged in steps from the initial heading (the window is at most π
+/// either side, so there is no wrap-around).
+pub fn plateau_centre(
+    grid: &ProbabilityGrid,
+    scan_points_m: &[[f64; 2]],
+    initial: Pose2,
+    window: &SearchWindow,
+    options: &SearchOptions,
+    fraction: f64,
+) -> Result<Option<(Pose2, usize)>, CorrelativeError> {
+    if !(0.0..=1.0).contains(&fraction) {
+        return Err(CorrelativeError::InvalidParameter {
+            name: "fraction",
+            value: fraction,
+        });
+    }
+    let lattice = Lattice::new(grid, scan_points_m, initial, window, options, 0.0)?;
+    let leaves: Vec<Node> = lattice.leaves(&grid.level).collect();
+    let best = leaves.iter().map(|leaf| leaf.bound).fold(0.0, f64::max);
+    if best <= 0.0 {
+        return Ok(None);
+    }
+    let floor = (1.0 - fraction) * best;
+    let (mut sum, mut count) = ([0.0; 3], 0usize);
+    for leaf in leaves.iter().filter(|leaf| leaf.bound >= floor) {
+        let found = lattice.to_match(leaf);
+        sum[0] += found.offset_cells[0] as f64;
+        sum[1] += found.offset_cells[1] as f64;
+        sum[2] += found.rotation_steps as f64;
+        count += 1;
+    }
+    let mean = sum.map(|s| s / count as f64);
+    let centre = Pose2::new(
+        initial.x_m + mean[0] * lattice.cell_m,
+        initial.y_m + mean[1] * lattice.cell_m,
+        initial.yaw_rad + mean[2] * lattice.angular_step_rad,
+    );
+    Ok(Some((centre, count)))
 }
 
 /// Writes into `values` (a grid `width` cells wide whose cell (0, 0) has its lower-left corner at
@@ -863,6 +905,17 @@ impl Lattice {
         self.exclude.is_some_and(|e| {
             let p = self.position_m(x, y);
             (p[0] - e.center_m[0]).hypot(p[1] - e.center_m[1]) < e.radius_m - slack_m
+        })
+    }
+
+    /// Every leaf (a single motion) in the window's disc and outside the exclusion, scored from
+    /// the base `level`, in key order: rotation, then x, then y.
+    fn leaves<'a>(&'a self, level: &'a Level) -> impl Iterator<Item = Node> + 'a {
+        let steps = self.linear_steps;
+        (0..self.rotations()).flat_map(move |rotation| {
+            (-steps..=steps).flat_map(move |x| {
+                (-steps..=steps).filter_map(move |y| self.node(level, rotation, x, y, 0))
+            })
         })
     }
 
@@ -1174,6 +1227,108 @@ mod tests {
             // Hess et al.'s step for this scan: the farthest point is ~17 m away.
             assert!(found.angular_step_rad < 0.02 && found.angular_step_rad > 0.004);
         }
+    }
+
+    /// A blob 2 m across, a point every 0.1 m, scattered as a metre-scatter radar's outlines
+    /// are, and a scan: a ring of radius 0.2 m. The ring lies on hit cells wherever it sits
+    /// inside the blob, so every translation of up to ~0.8 m scores the best.
+    fn blob_and_ring() -> (MultiResolutionGrid, Vec<[f64; 2]>) {
+        let mut blob = Vec::new();
+        for i in -10..=10 {
+            for j in -10..=10 {
+                blob.push([f64::from(i) * 0.1, f64::from(j) * 0.1]);
+            }
+        }
+        let ring: Vec<[f64; 2]> = (0..16)
+            .map(|k| {
+                let a = f64::from(k) * PI / 8.0;
+                [0.2 * a.cos(), 0.2 * a.sin()]
+            })
+            .collect();
+        let grids = crate::fixtures::build_grids(&blob, 0.25, Kernel::Hit { cells: 1 }, 3);
+        (grids, ring)
+    }
+
+    #[test]
+    fn the_plateau_centre_does_not_depend_on_where_the_search_starts() {
+        let (grids, ring) = blob_and_ring();
+        let (window, options) = stepped(2.5, 0.0, 1f64.to_radians());
+        for start in [
+            Pose2::new(0.5, 0.25, 0.0),
+            Pose2::new(-0.4, 0.3, 0.0),
+            Pose2::new(0.1, -0.6, 0.0),
+        ] {
+            // The arg-max is one point of the flat: ties go to the smallest offset, at its edge.
+            let best = exhaustive_search(grids.grid(), &ring, start, &window, &options, 0.0)
+                .unwrap()
+                .unwrap();
+            assert!(best.pose.x_m.hypot(best.pose.y_m) > 0.5, "{best:?}");
+            let (centre, motions) =
+                plateau_centre(grids.grid(), &ring, start, &window, &options, 0.03)
+                    .unwrap()
+                    .unwrap();
+            assert!(motions > 20, "{motions}");
+            // Within a cell: the lattice's steps from the start and the grid's cells need not
+            // line up, which skews the flat by up to a cell.
+            assert!(
+                centre.x_m.hypot(centre.y_m) < 0.25,
+                "from {start:?}: {centre:?}"
+            );
+            assert_eq!(centre.yaw_rad, start.yaw_rad);
+        }
+    }
+
+    #[test]
+    fn on_a_sharp_peak_the_plateau_centre_is_the_best_motion() {
+        let points = scene(0.1);
+        let truth = Pose2::new(1.3, 0.4, 0.25);
+        let scan: Vec<[f64; 2]> = seen_from(&truth, &points).into_iter().step_by(3).collect();
+        let initial = Pose2::new(truth.x_m + 0.5, truth.y_m - 0.5, truth.yaw_rad + 0.03);
+        // A likelihood field: the hit raster's scores tie between neighbours.
+        let grids = grids(&points, 0.25, 0.1, 3);
+        let (window, options) = stepped(1.5, 3f64.to_radians(), 1f64.to_radians());
+        let best = exhaustive_search(grids.grid(), &scan, initial, &window, &options, 0.0)
+            .unwrap()
+            .unwrap();
+        // Fraction 0 averages the motions tied with the best: here the best alone.
+        let (centre, motions) =
+            plateau_centre(grids.grid(), &scan, initial, &window, &options, 0.0)
+                .unwrap()
+                .unwrap();
+        assert_eq!(motions, 1);
+        assert!(centre.distance_m(&best.pose) < 1e-12, "{centre:?} {best:?}");
+        assert!(centre.distance_m(&truth) <= 0.25 * 2f64.sqrt() + 1e-9);
+        // A wider fraction takes in the neighbours, which lie around the peak, not to one side.
+        let (wider, motions) = plateau_centre(grids.grid(), &scan, initial, &window, &options, 0.3)
+            .unwrap()
+            .unwrap();
+        assert!(motions > 1);
+        assert!(wider.distance_m(&truth) < 0.3, "{wider:?}");
+    }
+
+    #[test]
+    fn a_plateau_fraction_outside_0_to_1_or_an_empty_window_is_handled() {
+        let (grids, ring) = blob_and_ring();
+        let (window, options) = stepped(1.0, 0.0, 0.1);
+        for fraction in [-0.1, 1.5, f64::NAN] {
+            assert!(matches!(
+                plateau_centre(
+                    grids.grid(),
+                    &ring,
+                    Pose2::default(),
+                    &window,
+                    &options,
+                    fraction
+                ),
+                Err(CorrelativeError::InvalidParameter { .. })
+            ));
+        }
+        // Far from the blob nothing scores: no centre, not a NaN one.
+        let away = Pose2::new(50.0, 50.0, 0.0);
+        assert_eq!(
+            plateau_centre(grids.grid(), &ring, away, &window, &options, 0.03).unwrap(),
+            None
+        );
     }
 
     #[test]

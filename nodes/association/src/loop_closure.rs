@@ -33,6 +33,11 @@
 //!    `fine_window_m` and `fine_window_deg` of the ICP's pose) settles the match where the most
 //!    query points lie on the submap's outlines. It is a maximum of a likelihood field, robust
 //!    to points with no counterpart as Cartographer's final scan-to-submap match is.
+//!    When the query's detections scatter by a metre (Δθ 5°), every score near the truth is
+//!    about the best and any single maximum is an accident of where the search began; the match
+//!    is then the centre of that plateau on the search's grid
+//!    ([`crate::correlative::plateau_centre`], `plateau_fraction`), which the caller switches on
+//!    by the query's scatter (`plateau_min_scatter_m`).
 //! 3. **Verification.** The loop is accepted only when enough query points have a submap point
 //!    within `inlier_distance_m` (`min_inlier_ratio`), and the search peak is unambiguous (the
 //!    runner-up scores at most `max_ambiguity` of the best): the hall's targets stand on a
@@ -42,7 +47,8 @@
 //! ties between equal scores by the smallest (rotation, x, y) step.
 
 use crate::correlative::{
-    runner_up, search_with, Exclusion, Kernel, MultiResolutionGrid, SearchOptions, SearchWindow,
+    plateau_centre, runner_up, search_with, Exclusion, Kernel, MultiResolutionGrid, SearchOptions,
+    SearchWindow,
 };
 use crate::icp::{align, IcpStatus, PointMap};
 use crate::params::{LoopClosureParams, Params};
@@ -243,6 +249,7 @@ pub fn match_loop(
     // loop search's time and moved no study figure beyond its noise (docs/slam.md).
     let relative = refine_match(&map, &sample, best.pose, &refine)?;
     let relative = fine_search(&submap_m, &sample, relative, loop_params);
+    let relative = plateau_centre_of(&grids, &sample, relative, loop_params);
     if steps_t > 0 && steps_r > 0 && outside(&relative) {
         return Err(LoopRejection::AtSearchEdge);
     }
@@ -354,6 +361,46 @@ fn fine_search(
         .ok()
         .flatten()
         .map_or(refined, |found| found.pose)
+}
+
+/// The centre of the plateau of near-best scores around `settled` on the search's grid
+/// (`LoopClosureParams::plateau_fraction`), without the prior: the prior pulls the arg-max of a
+/// flat score towards the prediction, whose drift is what the loop is there to measure.
+/// `settled` itself when the plateau estimate is off or finds nothing.
+fn plateau_centre_of(
+    grids: &MultiResolutionGrid,
+    sample: &[[f64; 2]],
+    settled: Pose2,
+    loop_params: &LoopClosureParams,
+) -> Pose2 {
+    if loop_params.plateau_fraction <= 0.0 {
+        return settled;
+    }
+    let window = SearchWindow {
+        linear_m: loop_params.plateau_window_m,
+        angular_rad: loop_params.plateau_window_deg.to_radians(),
+    };
+    let options = SearchOptions {
+        angular_step_rad: Some(loop_params.search_step_deg.to_radians()),
+        prior_sigma_m: None,
+        exclude: None,
+    };
+    let found = plateau_centre(
+        grids.grid(),
+        sample,
+        settled,
+        &window,
+        &options,
+        loop_params.plateau_fraction,
+    );
+    match found {
+        Ok(Some((centre, _))) => centre,
+        Ok(None) => settled,
+        Err(error) => {
+            tracing::warn!(%error, "loop closure: no plateau estimate, the fine search's pose stands");
+            settled
+        }
+    }
 }
 
 /// Refuses a candidate whose inlier ratio at the search's `best` motion of the query's `sample`

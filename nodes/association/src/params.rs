@@ -244,6 +244,23 @@ pub struct LoopClosureParams {
     /// Rotations the fine search tries either side of the ICP's heading, degrees. Finite,
     /// 0..=30.
     pub fine_window_deg: f64,
+    /// When the query's detections scatter by at least `plateau_min_scatter_m`, the match is
+    /// the centre of the plateau of near-best scores rather than its arg-max: every motion of
+    /// the search's lattice within `plateau_window_m` and `plateau_window_deg` of the fine
+    /// search's pose that scores at least 1 − `plateau_fraction` of the best, averaged. With
+    /// detections scattered by a metre (Δθ 5°) the score is flat over half a metre or more,
+    /// and its arg-max sits on the side nearest where the search started. 0: the arg-max
+    /// always. Finite, 0..=0.5.
+    pub plateau_fraction: f64,
+    /// See `plateau_fraction`: the detections' scatter from which the plateau's centre is the
+    /// match, metres (the same measure as `local_map_max_scatter_m`). Finite, 0..=1e6.
+    pub plateau_min_scatter_m: f64,
+    /// See `plateau_fraction`: the translations averaged, up to this far from the fine
+    /// search's pose, metres. Finite, 0..=20; the cost grows with its square.
+    pub plateau_window_m: f64,
+    /// See `plateau_fraction`: the rotations averaged, either side of the fine search's
+    /// heading, degrees (in `search_step_deg` steps). Finite, 0..=30.
+    pub plateau_window_deg: f64,
     /// A verified match is accepted at once when it agrees with the pose graph's current
     /// estimate of the same relative pose within this, metres (and `agreement_deg`): it
     /// confirms what the graph already holds. Otherwise it waits for a second match it agrees
@@ -313,6 +330,10 @@ impl Default for LoopClosureParams {
             fine_step_m: 0.05,
             fine_window_m: 0.3,
             fine_window_deg: 1.5,
+            plateau_fraction: 0.03,
+            plateau_min_scatter_m: 0.5,
+            plateau_window_m: 2.5,
+            plateau_window_deg: 3.0,
             agreement_m: 0.3,
             agreement_deg: 2.0,
             pair_m: 0.3,
@@ -390,7 +411,7 @@ impl LoopClosureParams {
 
     /// (field, value, min, max) of the real-valued fields checked as plain closed ranges, in the
     /// order [`Self::validate`] checks them first.
-    fn real_ranges(&self) -> [(&'static str, f64, f64, f64); 18] {
+    fn real_ranges(&self) -> [(&'static str, f64, f64, f64); 22] {
         [
             (
                 "loop_closure.overlap_distance_m",
@@ -411,6 +432,30 @@ impl LoopClosureParams {
                 1e4,
             ),
             ("loop_closure.local_map_m", self.local_map_m, 0.0, 1e6),
+            (
+                "loop_closure.plateau_fraction",
+                self.plateau_fraction,
+                0.0,
+                0.5,
+            ),
+            (
+                "loop_closure.plateau_min_scatter_m",
+                self.plateau_min_scatter_m,
+                0.0,
+                1e6,
+            ),
+            (
+                "loop_closure.plateau_window_m",
+                self.plateau_window_m,
+                0.0,
+                20.0,
+            ),
+            (
+                "loop_closure.plateau_window_deg",
+                self.plateau_window_deg,
+                0.0,
+                30.0,
+            ),
             (
                 "loop_closure.local_map_max_scatter_m",
                 self.local_map_max_scatter_m,
@@ -964,6 +1009,12 @@ mod tests {
             }),
             ("loop_closure.fine_window_deg", |p| {
                 p.loop_closure.fine_window_deg = 45.0
+            }),
+            ("loop_closure.plateau_fraction", |p| {
+                p.loop_closure.plateau_fraction = 0.9
+            }),
+            ("loop_closure.plateau_window_m", |p| {
+                p.loop_closure.plateau_window_m = f64::INFINITY
             }),
         ];
         for (field, mutate) in cases {

@@ -750,7 +750,10 @@ impl Association {
     /// `lc` with the inlier and overlap distances widened for the scatter of the query made of
     /// keyframes `query`, and that factor (`LoopClosureParams::scatter_scale`), which its edge's
     /// std takes too. The confirmation tolerances (`agreement_m`, `pair_m`) stay: a widened
-    /// match joins the graph only where it agrees as closely as any other.
+    /// match joins the graph only where it agrees as closely as any other. The plateau estimate
+    /// (`plateau_fraction`) is switched off for a query that scatters less than
+    /// `plateau_min_scatter_m`: there the best score is a sharp peak, and the plateau on the
+    /// search's 0.25 m lattice would only blur it.
     ///
     /// # Panics
     ///
@@ -760,11 +763,17 @@ impl Association {
         lc: LoopClosureParams,
         query: std::ops::RangeInclusive<usize>,
     ) -> (LoopClosureParams, f64) {
-        let std_scale = lc.scatter_scale(self.scatter_m(query).unwrap_or(0.0));
+        let scatter_m = self.scatter_m(query).unwrap_or(0.0);
+        let std_scale = lc.scatter_scale(scatter_m);
         let widened = LoopClosureParams {
             inlier_distance_m: lc.inlier_distance_m * std_scale,
             // The overlap is the inliers' superset: it widens with them.
             overlap_distance_m: lc.overlap_distance_m * std_scale,
+            plateau_fraction: if scatter_m >= lc.plateau_min_scatter_m {
+                lc.plateau_fraction
+            } else {
+                0.0
+            },
             ..lc
         };
         (widened, std_scale)
