@@ -1134,9 +1134,18 @@ mod tests {
         );
         assert_eq!(widened.agreement_m, lc.agreement_m);
         assert_eq!(widened.pair_m, lc.pair_m);
-        // Detections that scatter less than the fixed distance allows change nothing.
+        // A metre-scatter query's match is its plateau's centre.
+        assert_eq!(lc.plateau_min_scatter_m, 0.5);
+        assert_eq!(widened.plateau_fraction, lc.plateau_fraction);
+        assert!(widened.plateau_fraction > 0.0);
+        // Detections that scatter less than the fixed distance allows change nothing but the
+        // plateau, which they do not have.
         let (plain, one) = slam.widened_for_scatter(lc.clone(), 0..=0);
-        assert_eq!((plain, one), (lc, 1.0));
+        let without_plateau = LoopClosureParams {
+            plateau_fraction: 0.0,
+            ..lc
+        };
+        assert_eq!((plain, one), (without_plateau, 1.0));
     }
 
     #[test]
