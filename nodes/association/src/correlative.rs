@@ -67,6 +67,8 @@ const MAX_ROTATIONS: f64 = (1u64 << 16) as f64;
 const MAX_ROTATED_CELLS: f64 = (1u64 << 21) as f64;
 /// Largest number of root nodes (rotations × coarsest blocks).
 const MAX_ROOT_NODES: f64 = (1u64 << 22) as f64;
+/// Largest number of motions [`plateau_centre`] scores and keeps (48 MiB of them).
+const MAX_PLATEAU_MOTIONS: f64 = (1u64 << 20) as f64;
 /// The Gaussian kernel is cut off at this many σ (its value there is 0.011).
 const TRUNCATION_SIGMAS: f64 = 3.0;
 /// Grid values are fixed point in [0, `VALUE_SCALE`].
@@ -638,10 +640,12 @@ pub fn exhaustive_search(
 /// best in the window, and how many there are. Where the scan's points scatter by more than the
 /// grid's cell the score is flat around the truth, and the arg-max lands anywhere on the flat,
 /// wherever ties and the prior put it; the centre of the flat is the estimate that does not
-/// depend on where the search started. Without a prior it is symmetric: a plateau that the window
-/// holds whole has the same centre from any start inside it. `Ok(None)` when no motion scores
-/// above 0. The rotation is averaged in steps from the initial heading (the window is at most π
-/// either side, so there is no wrap-around).
+/// depend on where the search started (up to a cell: the lattice steps from the start). The
+/// rotation is averaged in steps from the initial heading, so the window may reach at most π/2
+/// either side. `Ok(None)` when no motion scores above 0. `fraction` lies in [0, 1). Near-best
+/// motions that form two separate peaks (a repetitive layout, both within the window) are
+/// averaged too, to a pose between them: the window must be smaller than the layout's pitch, or
+/// the ambiguity test must have refused such a match first.
 pub fn plateau_centre(
     grid: &ProbabilityGrid,
     scan_points_m: &[[f64; 2]],
@@ -650,13 +654,25 @@ pub fn plateau_centre(
     options: &SearchOptions,
     fraction: f64,
 ) -> Result<Option<(Pose2, usize)>, CorrelativeError> {
-    if !(0.0..=1.0).contains(&fraction) {
+    if !(0.0..1.0).contains(&fraction) {
         return Err(CorrelativeError::InvalidParameter {
             name: "fraction",
             value: fraction,
         });
     }
+    if window.angular_rad > std::f64::consts::FRAC_PI_2 {
+        return Err(CorrelativeError::InvalidParameter {
+            name: "window.angular_rad",
+            value: window.angular_rad,
+        });
+    }
     let lattice = Lattice::new(grid, scan_points_m, initial, window, options, 0.0)?;
+    let side = 2.0 * lattice.linear_steps as f64 + 1.0;
+    too_large(
+        "plateau motions",
+        lattice.rotations() as f64 * side * side,
+        MAX_PLATEAU_MOTIONS,
+    )?;
     let leaves: Vec<Node> = lattice.leaves(&grid.level).collect();
     let best = leaves.iter().map(|leaf| leaf.bound).fold(0.0, f64::max);
     if best <= 0.0 {
@@ -1297,6 +1313,10 @@ mod tests {
                 .unwrap();
         assert_eq!(motions, 1);
         assert!(centre.distance_m(&best.pose) < 1e-12, "{centre:?} {best:?}");
+        assert!(
+            centre.rotation_to_rad(&best.pose) < 1e-12,
+            "{centre:?} {best:?}"
+        );
         assert!(centre.distance_m(&truth) <= 0.25 * 2f64.sqrt() + 1e-9);
         // A wider fraction takes in the neighbours, which lie around the peak, not to one side.
         let (wider, motions) = plateau_centre(grids.grid(), &scan, initial, &window, &options, 0.3)

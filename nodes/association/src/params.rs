@@ -253,7 +253,8 @@ pub struct LoopClosureParams {
     /// always. Finite, 0..=0.5.
     pub plateau_fraction: f64,
     /// See `plateau_fraction`: the detections' scatter from which the plateau's centre is the
-    /// match, metres (the same measure as `local_map_max_scatter_m`). Finite, 0..=1e6.
+    /// match, metres (the same measure as `local_map_max_scatter_m`; a query at exactly both
+    /// limits tracks locally and takes the plateau's centre). 0: every query. Finite, 0..=1e6.
     pub plateau_min_scatter_m: f64,
     /// See `plateau_fraction`: the translations averaged, up to this far from the fine
     /// search's pose, metres. Finite, 0..=20; the cost grows with its square.
@@ -1015,6 +1016,12 @@ mod tests {
             }),
             ("loop_closure.plateau_window_m", |p| {
                 p.loop_closure.plateau_window_m = f64::INFINITY
+            }),
+            ("loop_closure.plateau_min_scatter_m", |p| {
+                p.loop_closure.plateau_min_scatter_m = -0.5
+            }),
+            ("loop_closure.plateau_window_deg", |p| {
+                p.loop_closure.plateau_window_deg = 60.0
             }),
         ];
         for (field, mutate) in cases {
