@@ -642,10 +642,10 @@ pub fn exhaustive_search(
 /// wherever ties and the prior put it; the centre of the flat is the estimate that does not
 /// depend on where the search started (up to a cell: the lattice steps from the start). The
 /// rotation is averaged in steps from the initial heading, so the window may reach at most π/2
-/// either side. `Ok(None)` when no motion scores above 0. `fraction` lies in [0, 1). Near-best
-/// motions that form two separate peaks (a repetitive layout, both within the window) are
-/// averaged too, to a pose between them: the window must be smaller than the layout's pitch, or
-/// the ambiguity test must have refused such a match first.
+/// either side. Only the near-best motions connected to the best (through neighbours in
+/// rotation, x or y) count: a second peak elsewhere in the window, as a repetitive layout has,
+/// would pull the mean between the two, where the scan fits neither. `Ok(None)` when no motion
+/// scores above 0. `fraction` lies in [0, 1).
 pub fn plateau_centre(
     grid: &ProbabilityGrid,
     scan_points_m: &[[f64; 2]],
@@ -674,18 +674,50 @@ pub fn plateau_centre(
         MAX_PLATEAU_MOTIONS,
     )?;
     let leaves: Vec<Node> = lattice.leaves(&grid.level).collect();
-    let best = leaves.iter().map(|leaf| leaf.bound).fold(0.0, f64::max);
-    if best <= 0.0 {
+    // Visited in key order: the first of equal scores is the best, as in `exhaustive_search`.
+    let Some(best) = leaves.iter().fold(None::<&Node>, |best, leaf| match best {
+        Some(b) if b.bound >= leaf.bound => Some(b),
+        _ => Some(leaf),
+    }) else {
+        return Ok(None);
+    };
+    if best.bound <= 0.0 {
         return Ok(None);
     }
-    let floor = (1.0 - fraction) * best;
-    let (mut sum, mut count) = ([0.0; 3], 0usize);
+    let floor = (1.0 - fraction) * best.bound;
+    // The near-best motions connected to the best one (each step to one of the 26 neighbours in
+    // rotation, x and y): a second peak elsewhere in the window is not part of its plateau.
+    let steps = lattice.linear_steps;
+    let side = (2 * steps + 1) as usize;
+    let index = |rotation: usize, x: i64, y: i64| {
+        (rotation * side + (x + steps) as usize) * side + (y + steps) as usize
+    };
+    let mut near_best = vec![false; lattice.rotations() * side * side];
     for leaf in leaves.iter().filter(|leaf| leaf.bound >= floor) {
-        let found = lattice.to_match(leaf);
-        sum[0] += found.offset_cells[0] as f64;
-        sum[1] += found.offset_cells[1] as f64;
-        sum[2] += found.rotation_steps as f64;
+        near_best[index(leaf.rotation, leaf.x0, leaf.y0)] = true;
+    }
+    let (mut sum, mut count) = ([0.0; 3], 0usize);
+    let mut queue = vec![(best.rotation, best.x0, best.y0)];
+    near_best[index(best.rotation, best.x0, best.y0)] = false;
+    while let Some((rotation, x, y)) = queue.pop() {
+        sum[0] += x as f64;
+        sum[1] += y as f64;
+        sum[2] += rotation as f64 - lattice.angular_steps as f64;
         count += 1;
+        for dr in -1i64..=1 {
+            for dx in -1i64..=1 {
+                for dy in -1i64..=1 {
+                    let (r, nx, ny) = (rotation as i64 + dr, x + dx, y + dy);
+                    let inside = (0..lattice.rotations() as i64).contains(&r)
+                        && (-steps..=steps).contains(&nx)
+                        && (-steps..=steps).contains(&ny);
+                    if inside && near_best[index(r as usize, nx, ny)] {
+                        near_best[index(r as usize, nx, ny)] = false;
+                        queue.push((r as usize, nx, ny));
+                    }
+                }
+            }
+        }
     }
     let mean = sum.map(|s| s / count as f64);
     let centre = Pose2::new(
@@ -1324,6 +1356,33 @@ mod tests {
             .unwrap();
         assert!(motions > 1);
         assert!(wider.distance_m(&truth) < 0.3, "{wider:?}");
+    }
+
+    #[test]
+    fn a_second_peak_is_not_part_of_the_plateau() {
+        let (_, ring) = blob_and_ring();
+        // The ring's own points at two places 3 m apart: two equal peaks, nothing between.
+        let twice: Vec<[f64; 2]> = ring
+            .iter()
+            .flat_map(|p| [[p[0] - 1.5, p[1]], [p[0] + 1.5, p[1]]])
+            .collect();
+        let grids = crate::fixtures::build_grids(&twice, 0.25, Kernel::Hit { cells: 1 }, 3);
+        let (window, options) = stepped(2.5, 0.0, 0.1);
+        let start = Pose2::new(0.1, 0.05, 0.0);
+        let best = exhaustive_search(grids.grid(), &ring, start, &window, &options, 0.0)
+            .unwrap()
+            .unwrap();
+        let (centre, _) = plateau_centre(grids.grid(), &ring, start, &window, &options, 0.03)
+            .unwrap()
+            .unwrap();
+        // The mean of both peaks would be near the start, where the ring fits neither.
+        assert!(centre.x_m.abs() > 1.0, "{centre:?}");
+        // The best's peak: the one the first of the tied motions lies on.
+        assert_eq!(centre.x_m.signum(), best.pose.x_m.signum(), "{best:?}");
+        assert!(
+            (centre.x_m.abs() - 1.5).hypot(centre.y_m) < 0.25,
+            "{centre:?}"
+        );
     }
 
     #[test]
