@@ -247,7 +247,8 @@ pub struct LoopClosureParams {
     /// When the query's detections scatter by at least `plateau_min_scatter_m`, the match is
     /// the centre of the plateau of near-best scores rather than its arg-max: every motion of
     /// the search's lattice within `plateau_window_m` and `plateau_window_deg` of the fine
-    /// search's pose that scores at least 1 − `plateau_fraction` of the best, averaged. With
+    /// search's pose that scores at least 1 − `plateau_fraction` of the best and connects to
+    /// it through such motions, averaged. With
     /// detections scattered by a metre (Δθ 5°) the score is flat over half a metre or more,
     /// and its arg-max sits on the side nearest where the search started. 0: the arg-max
     /// always. Finite, 0..=0.5.
