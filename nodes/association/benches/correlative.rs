@@ -14,7 +14,10 @@
 //! the grid and its maxima; `depth` is the branch and bound with 1 to 7 precomputed levels
 //! (`suggested_depth` picks 4 at 0.25 m and 5 at 0.1 m here); `fine_search/<step>` is loop
 //! closure's fine search after the ICP (field and maxima built, then searched), at the two
-//! `fine_step_m` values docs/slam.md compares.
+//! `fine_step_m` values docs/slam.md compares; `plateau/<window>` is the plateau's centre that
+//! loop closure takes at a metre of scatter (`plateau_window_m` 1.5, 2.5 and 3.5 m, ±3°), beside
+//! the best-plus-runner-up search every candidate runs: 0.24, 0.65 and 1.22 ms against 0.81 ms
+//! (the cost grows with the window's area; 2.5 m, the default, holds the Δθ 5° plateau whole).
 //!
 //! Measured on the 2-core machine, otherwise idle (criterion's means over two runs; its
 //! intervals were within ±10 %):
@@ -37,8 +40,8 @@ mod common;
 use common::{build_grids, scene};
 use criterion::{criterion_group, criterion_main, Criterion};
 use nrslam_association::correlative::{
-    exhaustive_search, runner_up, search_with, suggested_depth, CorrelativeError, Exclusion,
-    Kernel, Match, MultiResolutionGrid, SearchOptions, SearchWindow,
+    exhaustive_search, plateau_centre, runner_up, search_with, suggested_depth, CorrelativeError,
+    Exclusion, Kernel, Match, MultiResolutionGrid, SearchOptions, SearchWindow,
 };
 use nrslam_association::Pose2;
 use rand::SeedableRng;
@@ -272,6 +275,60 @@ fn fine_search(c: &mut Criterion, case: &Case) {
     group.finish();
 }
 
+/// Loop closure's plateau centre at a metre of scatter (`plateau_fraction` 0.03, ±3° in 1°
+/// steps on the hit raster of 0.25 m), at the three `plateau_window_m` values docs/slam.md
+/// compares, beside the best-plus-runner-up search that every loop candidate runs, in the same
+/// run.
+fn plateau(c: &mut Criterion, case: &Case) {
+    let hit = Kernel::Hit { cells: 1 };
+    let depth = suggested_depth(case.window.linear_m, 0.25);
+    let grids = build_grids(&case.submap, 0.25, hit, depth);
+    let options = SearchOptions {
+        prior_sigma_m: None,
+        ..loop_options()
+    };
+    let best = case.fast(&grids, &loop_options()).unwrap().unwrap();
+    let mut group = c.benchmark_group("plateau");
+    group.sample_size(20);
+    group.bench_function("search_best_and_runner_up", |b| {
+        b.iter(|| {
+            let best = case.fast(&grids, &loop_options()).unwrap().unwrap();
+            runner_up(
+                &grids,
+                &case.query,
+                case.initial,
+                &case.window,
+                &loop_options(),
+                Exclusion::around(&best, 2.0),
+                0.85 * best.score,
+            )
+        })
+    });
+    for window_m in [1.5, 2.5, 3.5] {
+        let window = SearchWindow {
+            linear_m: window_m,
+            angular_rad: 3f64.to_radians(),
+        };
+        let centre = || {
+            plateau_centre(
+                grids.grid(),
+                &case.query,
+                best.pose,
+                &window,
+                &options,
+                0.03,
+            )
+        };
+        let (pose, motions) = centre().unwrap().unwrap();
+        eprintln!(
+            "plateau/{window_m}: {motions} motions, centre {:.3} m from the best",
+            pose.distance_m(&best.pose)
+        );
+        group.bench_function(format!("{window_m}"), |b| b.iter(centre));
+    }
+    group.finish();
+}
+
 fn correlative(c: &mut Criterion) {
     let case = case();
     eprintln!(
@@ -284,6 +341,7 @@ fn correlative(c: &mut Criterion) {
     precompute(c, &case);
     depth(c, &case);
     fine_search(c, &case);
+    plateau(c, &case);
 }
 
 criterion_group!(benches, correlative);
