@@ -279,6 +279,15 @@ pub struct LoopClosureParams {
     pub pair_per_m: f64,
     /// See `pair_m`, degrees.
     pub pair_deg: f64,
+    /// A loop edge whose match scored below this leaves the pose graph once a later edge of the
+    /// same old place (old keyframes at most `submap_keyframes` apart) scoring at least
+    /// `superseding_score` joins it. A run's first revisit sees its old place only in part: its
+    /// match scores ~0.67 and, though within its own uncertainty, is often 0.5–1 m and 2–4°
+    /// off, where the loops a few keyframes later score 0.9–1 and are centimetres off
+    /// (docs/slam.md). 0: no edge leaves. Finite, 0..=1.
+    pub supersede_below_score: f64,
+    /// See `supersede_below_score`. Finite, 0..=1.
+    pub superseding_score: f64,
     /// A match whose correlative score is at least this is accepted alone (1 disables it: every
     /// loop that changes the graph needs a second one).
     pub standalone_score: f64,
@@ -342,6 +351,8 @@ impl Default for LoopClosureParams {
             pair_per_m: 0.02,
             pair_deg: 1.5,
             standalone_score: 0.95,
+            supersede_below_score: 0.75,
+            superseding_score: 0.85,
             confirm_min_information_per_m2: 1.0,
             pending_keyframes: 20,
         }
@@ -374,7 +385,7 @@ impl LoopClosureParams {
 
     /// (field, value, min, max) of the real fields of matching and confirmation, which
     /// [`Self::validate`] checks after [`Self::real_ranges`].
-    fn matching_ranges(&self) -> [(&'static str, f64, f64, f64); 12] {
+    fn matching_ranges(&self) -> [(&'static str, f64, f64, f64); 14] {
         [
             (
                 "loop_closure.search_sigma_m",
@@ -405,6 +416,18 @@ impl LoopClosureParams {
             (
                 "loop_closure.standalone_score",
                 self.standalone_score,
+                0.0,
+                1.0,
+            ),
+            (
+                "loop_closure.supersede_below_score",
+                self.supersede_below_score,
+                0.0,
+                1.0,
+            ),
+            (
+                "loop_closure.superseding_score",
+                self.superseding_score,
                 0.0,
                 1.0,
             ),
@@ -1014,6 +1037,9 @@ mod tests {
             }),
             ("loop_closure.plateau_fraction", |p| {
                 p.loop_closure.plateau_fraction = 0.9
+            }),
+            ("loop_closure.supersede_below_score", |p| {
+                p.loop_closure.supersede_below_score = 1.5
             }),
             ("loop_closure.plateau_window_m", |p| {
                 p.loop_closure.plateau_window_m = f64::INFINITY

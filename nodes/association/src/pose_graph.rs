@@ -823,6 +823,15 @@ impl PoseGraph {
         &self.edges
     }
 
+    /// Keeps only the edges for which `keep` holds, in their order; returns, per edge before,
+    /// whether it was kept.
+    pub fn retain_edges(&mut self, mut keep: impl FnMut(&Edge) -> bool) -> Vec<bool> {
+        let kept: Vec<bool> = self.edges.iter().map(&mut keep).collect();
+        let mut flags = kept.iter();
+        self.edges.retain(|_| flags.next().copied().unwrap_or(true));
+        kept
+    }
+
     /// Replaces node `index`'s pose (e.g. the front end's latest estimate).
     pub fn set_node(&mut self, index: usize, pose: Pose2) {
         if let Some(node) = self.nodes.get_mut(index) {
@@ -1142,6 +1151,28 @@ mod tests {
         );
         assert!(report.final_cost < report.initial_cost);
         assert_eq!(closed.nodes()[0], truth[0], "node 0 is fixed");
+    }
+
+    #[test]
+    fn retained_edges_keep_their_order_and_the_mask_says_which_left() {
+        let mut graph = PoseGraph::new();
+        for k in 0..4 {
+            graph.add_node(Pose2::new(f64::from(k), 0.0, 0.0));
+        }
+        for (from, to) in [(0, 1), (1, 2), (2, 3), (0, 3)] {
+            assert!(graph.add_edge(Edge::with_std(
+                from,
+                to,
+                Pose2::default(),
+                0.1,
+                0.01,
+                EdgeKind::Odometry
+            )));
+        }
+        let kept = graph.retain_edges(|e| e.to != 2);
+        assert_eq!(kept, vec![true, false, true, true]);
+        let left: Vec<(usize, usize)> = graph.edges().iter().map(|e| (e.from, e.to)).collect();
+        assert_eq!(left, vec![(0, 1), (2, 3), (0, 3)]);
     }
 
     #[test]

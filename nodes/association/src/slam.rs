@@ -137,6 +137,16 @@ impl KeyframeRecord {
     }
 }
 
+/// Whether loop edge `new` supersedes the earlier `old`: `old`'s match scored below
+/// `supersede_below_score`, `new`'s at least `superseding_score`, `new` revisits later and
+/// measures the same old place (their old keyframes at most `submap_keyframes` apart).
+fn supersedes(new: &LoopEdge, old: &LoopEdge, lc: &LoopClosureParams) -> bool {
+    old.score < lc.supersede_below_score
+        && new.score >= lc.superseding_score
+        && new.to > old.to
+        && new.from.abs_diff(old.from) <= lc.submap_keyframes as usize
+}
+
 /// A match may have slid along one side: with the heading free, its edge pins the weakest
 /// translation direction down by less than `confirm_min_information_per_m2`. Judged on the
 /// match's own geometry (its edge at `std_scale` 1): the floor every edge gets
@@ -183,6 +193,9 @@ pub struct LoopEdge {
     /// The edge's std in units of `loop_std_m`: 1, or the query's
     /// [`LoopClosureParams::scatter_scale`] where its detections scatter more.
     pub std_scale: f64,
+    /// The match's correlative score ([`LoopMatch::score`]): how much of the query lies on the
+    /// submap, which a partial revisit keeps low ([`LoopClosureParams::supersede_below_score`]).
+    pub score: f64,
 }
 
 /// The association state: SLAM pose, last odometry, keyframe map, pose graph.
@@ -710,6 +723,7 @@ impl Association {
                         relative: found.relative,
                         information: found.information,
                         std_scale,
+                        score: found.score,
                     };
                     let (confirmed, why) = if found.score >= lc.standalone_score {
                         (Some(Vec::new()), "score")
@@ -855,6 +869,7 @@ impl Association {
             }
             self.loop_edges.push(*edge);
         }
+        self.supersede_partial_loops(edges);
         self.pending.clear();
         let settings = OptimiserSettings {
             max_iterations: lc.max_iterations,
@@ -873,6 +888,33 @@ impl Association {
         self.revision += 1;
         self.loop_closures += 1;
         self.cooldown = lc.cooldown_keyframes;
+    }
+
+    /// Takes out of the graph, and out of [`Association::loop_edges`], the loop edges that the
+    /// newly `accepted` ones supersede ([`supersedes`]): a first revisit overlaps its old view
+    /// only in part, and its match, though inside its own uncertainty, can be decimetres and
+    /// degrees off (docs/slam.md); once a fuller view of the same old place is in the graph,
+    /// the partial one only pulls the graph away from it.
+    fn supersede_partial_loops(&mut self, accepted: &[LoopEdge]) {
+        let lc = &self.params.loop_closure;
+        let gone: Vec<(usize, usize)> = self
+            .loop_edges
+            .iter()
+            .filter(|old| accepted.iter().any(|new| supersedes(new, old, lc)))
+            .map(|old| (old.from, old.to))
+            .collect();
+        if gone.is_empty() {
+            return;
+        }
+        tracing::debug!(?gone, "loop edges superseded");
+        self.loop_edges.retain(|e| !gone.contains(&(e.from, e.to)));
+        let kept = self.graph.retain_edges(|edge| {
+            !(edge.kind == EdgeKind::Loop && gone.contains(&(edge.from, edge.to)))
+        });
+        // One entry per graph edge: the same edges leave.
+        let mut kept = kept.into_iter();
+        self.uncertainty_information
+            .retain(|_| kept.next().unwrap_or(true));
     }
 
     /// Recomputes every keyframe's covariance at the current poses. With loop edges left out of
@@ -1054,6 +1096,7 @@ mod tests {
             relative: Pose2::new(3.0, 4.0, std::f64::consts::FRAC_PI_2),
             information,
             std_scale: 1.0,
+            score: 0.9,
         };
         let omega = loop_information(&edge, &lc);
         let across = 1.0 / lc.loop_std_m.powi(2);
@@ -1149,6 +1192,92 @@ mod tests {
     }
 
     #[test]
+    fn a_partial_revisit_is_superseded_by_a_fuller_view_of_the_same_place_only() {
+        let lc = LoopClosureParams::default();
+        let edge = |from: usize, to: usize, score: f64| LoopEdge {
+            from,
+            to,
+            relative: Pose2::new(1.0, 0.0, 0.0),
+            information: [[0.0; 3]; 3],
+            std_scale: 1.0,
+            score,
+        };
+        let partial = edge(0, 98, 0.67);
+        assert!(supersedes(&edge(4, 107, 0.95), &partial, &lc));
+        // Not by a match that scores no better than a partial one,
+        assert!(!supersedes(&edge(4, 107, 0.8), &partial, &lc));
+        // nor by one of another old place, nor by an earlier one,
+        assert!(!supersedes(&edge(30, 107, 0.95), &partial, &lc));
+        assert!(!supersedes(&edge(4, 90, 0.95), &partial, &lc));
+        // and a full view is never superseded.
+        assert!(!supersedes(&edge(4, 107, 0.95), &edge(0, 98, 0.8), &lc));
+        let off = LoopClosureParams {
+            supersede_below_score: 0.0,
+            ..lc
+        };
+        assert!(!supersedes(&edge(4, 107, 0.95), &partial, &off));
+    }
+
+    #[test]
+    fn superseded_loop_edges_leave_the_graph_and_its_edge_information() {
+        let mut slam = Association::new(Params::default()).unwrap();
+        for k in 0..6 {
+            let pose = Pose2::new(f64::from(k), 0.0, 0.0);
+            slam.graph.add_node(pose);
+            slam.records.push(KeyframeRecord {
+                id: k as u32,
+                pose,
+                scan_agv_m: Vec::new(),
+                scatter_m: 0.0,
+                travelled_m: f64::from(k),
+                covariance: nalgebra::Matrix3::identity(),
+            });
+        }
+        for k in 1..6 {
+            let edge = Edge::with_std(
+                k - 1,
+                k,
+                Pose2::new(1.0, 0.0, 0.0),
+                0.1,
+                0.01,
+                EdgeKind::Odometry,
+            );
+            assert!(slam.graph.add_edge(edge));
+            slam.uncertainty_information
+                .push(nalgebra::Matrix3::identity() * k as f64);
+        }
+        let edge = |from: usize, to: usize, score: f64| LoopEdge {
+            from,
+            to,
+            relative: Pose2::new((to - from) as f64, 0.0, 0.0),
+            information: [[0.0; 3]; 3],
+            std_scale: 1.0,
+            score,
+        };
+        slam.apply_loop(&[edge(0, 3, 0.67)]);
+        assert_eq!(slam.loop_edges().len(), 1);
+        assert_eq!(slam.graph.edges().len(), 6);
+        slam.apply_loop(&[edge(1, 5, 0.95)]);
+        assert_eq!(slam.loop_edges(), &[edge(1, 5, 0.95)]);
+        let loops: Vec<(usize, usize)> = slam
+            .graph
+            .edges()
+            .iter()
+            .filter(|e| e.kind == EdgeKind::Loop)
+            .map(|e| (e.from, e.to))
+            .collect();
+        assert_eq!(loops, vec![(1, 5)]);
+        // The odometry edges keep their own information, in their order.
+        assert_eq!(slam.uncertainty_information.len(), slam.graph.edges().len());
+        for k in 0..5 {
+            assert_eq!(
+                slam.uncertainty_information[k],
+                nalgebra::Matrix3::identity() * (k + 1) as f64
+            );
+        }
+    }
+
+    #[test]
     fn a_widened_edge_that_may_slide_is_still_caught() {
         let lc = LoopClosureParams::default();
         let sliding = sliding_information();
@@ -1161,6 +1290,7 @@ mod tests {
                 relative: Pose2::new(3.0, 4.0, 0.0),
                 information,
                 std_scale,
+                score: 0.9,
             };
             assert!(may_slide(&edge(sliding), &lc), "std_scale {std_scale}");
             assert!(!may_slide(&edge(pinned), &lc), "std_scale {std_scale}");
