@@ -855,6 +855,8 @@ impl Association {
 
     fn apply_loop(&mut self, edges: &[LoopEdge]) {
         let lc = self.params.loop_closure.clone();
+        let earlier = self.loop_edges.len();
+        let mut in_graph = Vec::with_capacity(edges.len());
         for edge in edges {
             let information = loop_information(edge, &lc);
             if self.graph.add_edge(Edge::with_information(
@@ -866,10 +868,11 @@ impl Association {
             )) {
                 self.uncertainty_information
                     .push(information * self.params.covariance_loop_scale);
+                in_graph.push(*edge);
             }
             self.loop_edges.push(*edge);
         }
-        self.supersede_partial_loops(edges);
+        self.supersede_partial_loops(&in_graph, earlier);
         self.pending.clear();
         let settings = OptimiserSettings {
             max_iterations: lc.max_iterations,
@@ -890,17 +893,30 @@ impl Association {
         self.cooldown = lc.cooldown_keyframes;
     }
 
-    /// Takes out of the graph, and out of [`Association::loop_edges`], the loop edges that the
-    /// newly `accepted` ones supersede ([`supersedes`]): a first revisit overlaps its old view
-    /// only in part, and its match, though inside its own uncertainty, can be decimetres and
-    /// degrees off (docs/slam.md); once a fuller view of the same old place is in the graph,
-    /// the partial one only pulls the graph away from it.
-    fn supersede_partial_loops(&mut self, accepted: &[LoopEdge]) {
+    /// Takes out of the graph, and out of [`Association::loop_edges`], the edges among the first
+    /// `earlier` of them (accepted before this closure: a match's own confirmation stays with
+    /// it) that the `accepted` ones, now in the graph, supersede ([`supersedes`]), together with
+    /// the low-score edges of the same query (the partners that confirmed them). A first revisit
+    /// overlaps its old view only in part, and its match, though inside its own uncertainty, can
+    /// be decimetres and degrees off (docs/slam.md); once a fuller view of the same old place is
+    /// in the graph, the partial one only pulls the graph away from it. Loop edges are told apart
+    /// by (old, new) keyframe: one closure per keyframe, and the edges of one closure differ in
+    /// one or the other.
+    fn supersede_partial_loops(&mut self, accepted: &[LoopEdge], earlier: usize) {
         let lc = &self.params.loop_closure;
-        let gone: Vec<(usize, usize)> = self
-            .loop_edges
+        let before = &self.loop_edges[..earlier.min(self.loop_edges.len())];
+        let superseded: Vec<&LoopEdge> = before
             .iter()
             .filter(|old| accepted.iter().any(|new| supersedes(new, old, lc)))
+            .collect();
+        let gone: Vec<(usize, usize)> = before
+            .iter()
+            .filter(|old| {
+                superseded.iter().any(|s| {
+                    (s.from, s.to) == (old.from, old.to)
+                        || (s.to == old.to && old.score < lc.supersede_below_score)
+                })
+            })
             .map(|old| (old.from, old.to))
             .collect();
         if gone.is_empty() {
@@ -915,6 +931,7 @@ impl Association {
         let mut kept = kept.into_iter();
         self.uncertainty_information
             .retain(|_| kept.next().unwrap_or(true));
+        debug_assert_eq!(self.uncertainty_information.len(), self.graph.edges().len());
     }
 
     /// Recomputes every keyframe's covariance at the current poses. With loop edges left out of
@@ -1204,6 +1221,20 @@ mod tests {
         };
         let partial = edge(0, 98, 0.67);
         assert!(supersedes(&edge(4, 107, 0.95), &partial, &lc));
+        // At the limits: `superseding_score` supersedes, `supersede_below_score` is not
+        // superseded, `submap_keyframes` apart is the same place.
+        let w = lc.submap_keyframes as usize;
+        assert!(supersedes(
+            &edge(w, 107, lc.superseding_score),
+            &partial,
+            &lc
+        ));
+        assert!(!supersedes(&edge(w + 1, 107, 0.95), &partial, &lc));
+        assert!(!supersedes(
+            &edge(4, 107, 0.95),
+            &edge(0, 98, lc.supersede_below_score),
+            &lc
+        ));
         // Not by a match that scores no better than a partial one,
         assert!(!supersedes(&edge(4, 107, 0.8), &partial, &lc));
         // nor by one of another old place, nor by an earlier one,
@@ -1220,12 +1251,19 @@ mod tests {
 
     #[test]
     fn superseded_loop_edges_leave_the_graph_and_its_edge_information() {
-        let mut slam = Association::new(Params::default()).unwrap();
-        for k in 0..6 {
+        // Loop edges enter the covariance model, so that their entries are not all zero; old
+        // keyframes more than one apart are different places.
+        let mut params = Params {
+            covariance_loop_scale: 1.0,
+            ..Params::default()
+        };
+        params.loop_closure.submap_keyframes = 1;
+        let mut slam = Association::new(params).unwrap();
+        for k in 0..8 {
             let pose = Pose2::new(f64::from(k), 0.0, 0.0);
             slam.graph.add_node(pose);
             slam.records.push(KeyframeRecord {
-                id: k as u32,
+                id: k,
                 pose,
                 scan_agv_m: Vec::new(),
                 scatter_m: 0.0,
@@ -1233,7 +1271,7 @@ mod tests {
                 covariance: nalgebra::Matrix3::identity(),
             });
         }
-        for k in 1..6 {
+        for k in 1..8 {
             let edge = Edge::with_std(
                 k - 1,
                 k,
@@ -1254,11 +1292,15 @@ mod tests {
             std_scale: 1.0,
             score,
         };
-        slam.apply_loop(&[edge(0, 3, 0.67)]);
-        assert_eq!(slam.loop_edges().len(), 1);
-        assert_eq!(slam.graph.edges().len(), 6);
-        slam.apply_loop(&[edge(1, 5, 0.95)]);
-        assert_eq!(slam.loop_edges(), &[edge(1, 5, 0.95)]);
+        // A first closure: the same query against two old places, both seen in part.
+        slam.apply_loop(&[edge(0, 5, 0.67), edge(1, 5, 0.7)]);
+        // Elsewhere, a full match confirmed by a partial one: it keeps its confirmation.
+        slam.apply_loop(&[edge(3, 6, 0.6), edge(4, 6, 0.95)]);
+        assert_eq!(slam.loop_edges().len(), 4);
+        // A fuller view of old keyframe 0 supersedes the first closure, with its partner.
+        slam.apply_loop(&[edge(0, 7, 0.95)]);
+        let kept = [edge(3, 6, 0.6), edge(4, 6, 0.95), edge(0, 7, 0.95)];
+        assert_eq!(slam.loop_edges(), &kept);
         let loops: Vec<(usize, usize)> = slam
             .graph
             .edges()
@@ -1266,13 +1308,20 @@ mod tests {
             .filter(|e| e.kind == EdgeKind::Loop)
             .map(|e| (e.from, e.to))
             .collect();
-        assert_eq!(loops, vec![(1, 5)]);
-        // The odometry edges keep their own information, in their order.
-        assert_eq!(slam.uncertainty_information.len(), slam.graph.edges().len());
-        for k in 0..5 {
+        assert_eq!(loops, vec![(3, 6), (4, 6), (0, 7)]);
+        // Every edge left keeps its own entry, in its order.
+        assert_eq!(slam.uncertainty_information.len(), 7 + kept.len());
+        for k in 0..7 {
             assert_eq!(
                 slam.uncertainty_information[k],
                 nalgebra::Matrix3::identity() * (k + 1) as f64
+            );
+        }
+        let lc = slam.params.loop_closure.clone();
+        for (k, edge) in kept.iter().enumerate() {
+            assert_eq!(
+                slam.uncertainty_information[7 + k],
+                loop_information(edge, &lc) * slam.params.covariance_loop_scale
             );
         }
     }
