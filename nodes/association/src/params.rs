@@ -286,8 +286,8 @@ pub struct LoopClosureParams {
     /// off, where the loops a few keyframes later score 0.9–1 and are centimetres off
     /// (docs/slam.md). 0: no edge leaves. Finite, 0..=1.
     pub supersede_below_score: f64,
-    /// See `supersede_below_score`; meant to be at least that (an edge is superseded only by a
-    /// fuller view than its own). Finite, 0..=1.
+    /// See `supersede_below_score`; at least that (an edge is superseded only by a fuller view
+    /// than its own) unless superseding is off. Finite, 0..=1.
     pub superseding_score: f64,
     /// A match whose correlative score is at least this is accepted alone (1 disables it: every
     /// loop that changes the graph needs a second one).
@@ -380,6 +380,17 @@ impl LoopClosureParams {
                     format!("{min}..={max}"),
                 ));
             }
+        }
+        // An edge is superseded only by a fuller view than its own.
+        if self.supersede_below_score > 0.0 && self.superseding_score < self.supersede_below_score {
+            return Err(InvalidParam::new(
+                "loop_closure.superseding_score",
+                format!("is {}", self.superseding_score),
+                format!(
+                    "loop_closure.supersede_below_score ({})..=1",
+                    self.supersede_below_score
+                ),
+            ));
         }
         Ok(())
     }
@@ -1044,6 +1055,9 @@ mod tests {
             }),
             ("loop_closure.superseding_score", |p| {
                 p.loop_closure.superseding_score = -0.1
+            }),
+            ("loop_closure.superseding_score", |p| {
+                p.loop_closure.superseding_score = 0.5
             }),
             ("loop_closure.plateau_window_m", |p| {
                 p.loop_closure.plateau_window_m = f64::INFINITY
