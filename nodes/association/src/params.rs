@@ -220,6 +220,11 @@ pub struct LoopClosureParams {
     /// 0.5–2 m, and the whole map then corrects the pose better than they do. 1e6 tracks
     /// locally whatever the scatter; 0 only on noise-free detections.
     pub local_map_max_scatter_m: f64,
+    /// Hysteresis of `local_map_max_scatter_m`, as a fraction of it: local tracking stops only
+    /// above the limit times 1 + this, and resumes only below it times 1 − this. Each switch
+    /// rebuilds the tracking maps, so detections whose scatter hovers at the limit must not
+    /// switch at every keyframe. Finite, 0..=0.9.
+    pub local_map_scatter_band: f64,
     /// Raster of the correlative search, metres. 0: binary, a query point scores 1 within a
     /// cell of a submap point's cell and 0 elsewhere. > 0: a likelihood field of this blur σ, a
     /// query point scoring exp(−d²/2σ²) at distance d from the nearest submap point (0 beyond
@@ -336,6 +341,7 @@ impl Default for LoopClosureParams {
             max_iterations: 20,
             local_map_m: 60.0,
             local_map_max_scatter_m: 0.5,
+            local_map_scatter_band: 0.1,
             search_sigma_m: 0.0,
             refine_correspondence_m: 1.0,
             fine_sigma_m: 0.1,
@@ -448,7 +454,7 @@ impl LoopClosureParams {
 
     /// (field, value, min, max) of the real-valued fields checked as plain closed ranges, in the
     /// order [`Self::validate`] checks them first.
-    fn real_ranges(&self) -> [(&'static str, f64, f64, f64); 22] {
+    fn real_ranges(&self) -> [(&'static str, f64, f64, f64); 23] {
         [
             (
                 "loop_closure.overlap_distance_m",
@@ -498,6 +504,12 @@ impl LoopClosureParams {
                 self.local_map_max_scatter_m,
                 0.0,
                 1e6,
+            ),
+            (
+                "loop_closure.local_map_scatter_band",
+                self.local_map_scatter_band,
+                0.0,
+                0.9,
             ),
             (
                 "loop_closure.min_separation_m",

@@ -512,7 +512,7 @@ impl Association {
     /// True when scan matching uses the local map (see `loop_closure.local_map_m`): with loop
     /// closure on, and while the last query's detections scatter by at most
     /// `local_map_max_scatter_m`, precise enough for loop edges to correct the chain (see
-    /// there).
+    /// there), with the hysteresis of `local_map_scatter_band` around that limit.
     fn local_tracking(&self) -> bool {
         let lc = &self.params.loop_closure;
         if !lc.enabled || lc.local_map_m <= 0.0 {
@@ -524,7 +524,12 @@ impl Association {
         // A query without detections says nothing of their scatter: the choice stands.
         self.scatter_m(lc.query_from(last)..=last)
             .map_or(self.tracking_locally, |scatter_m| {
-                scatter_m <= lc.local_map_max_scatter_m
+                let band_m = lc.local_map_scatter_band * lc.local_map_max_scatter_m;
+                if self.tracking_locally {
+                    scatter_m <= lc.local_map_max_scatter_m + band_m
+                } else {
+                    scatter_m <= lc.local_map_max_scatter_m - band_m
+                }
             })
     }
 
@@ -1206,6 +1211,38 @@ mod tests {
             ..lc
         };
         assert_eq!((plain, one), (without_plateau, 1.0));
+    }
+
+    #[test]
+    fn local_tracking_does_not_switch_on_scatter_that_hovers_at_its_limit() {
+        let with_band = |band: f64| {
+            let mut params = Params::default();
+            params.loop_closure.local_map_scatter_band = band;
+            params.loop_closure.query_keyframes = 1;
+            Association::new(params).unwrap()
+        };
+        let record = |scatter_m: f64| KeyframeRecord {
+            id: 0,
+            pose: Pose2::default(),
+            scan_agv_m: vec![[10.0, 0.0]; 10],
+            scatter_m,
+            travelled_m: 0.0,
+            covariance: nalgebra::Matrix3::zeros(),
+        };
+        // The limit is 0.5 m: 0.52 and 0.48 m lie either side of it, inside a 10 % band.
+        let choices = |band: f64| {
+            let mut slam = with_band(band);
+            [0.52, 0.48, 0.52, 0.6, 0.48, 0.44]
+                .iter()
+                .map(|&scatter_m| {
+                    slam.records.push(record(scatter_m));
+                    slam.tracking_locally = slam.local_tracking();
+                    slam.tracking_locally
+                })
+                .collect::<Vec<bool>>()
+        };
+        assert_eq!(choices(0.1), [true, true, true, false, false, true]);
+        assert_eq!(choices(0.0), [false, true, false, false, true, true]);
     }
 
     #[test]
