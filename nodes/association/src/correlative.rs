@@ -67,7 +67,7 @@ const MAX_ROTATIONS: f64 = (1u64 << 16) as f64;
 const MAX_ROTATED_CELLS: f64 = (1u64 << 21) as f64;
 /// Largest number of root nodes (rotations × coarsest blocks).
 const MAX_ROOT_NODES: f64 = (1u64 << 22) as f64;
-/// Largest number of motions [`plateau_centre`] scores and keeps (48 MiB of them).
+/// Largest number of motions [`plateau_centre`] scores and keeps (8 MiB of scores).
 const MAX_PLATEAU_MOTIONS: f64 = (1u64 << 20) as f64;
 /// The Gaussian kernel is cut off at this many σ (its value there is 0.011).
 const TRUNCATION_SIGMAS: f64 = 3.0;
@@ -667,38 +667,43 @@ pub fn plateau_centre(
         });
     }
     let lattice = Lattice::new(grid, scan_points_m, initial, window, options, 0.0)?;
-    let side = 2.0 * lattice.linear_steps as f64 + 1.0;
-    too_large(
-        "plateau motions",
-        lattice.rotations() as f64 * side * side,
-        MAX_PLATEAU_MOTIONS,
-    )?;
-    let leaves: Vec<Node> = lattice.leaves(&grid.level).collect();
-    // Visited in key order: the first of equal scores is the best, as in `exhaustive_search`.
-    let Some(best) = leaves.iter().fold(None::<&Node>, |best, leaf| match best {
-        Some(b) if b.bound >= leaf.bound => Some(b),
-        _ => Some(leaf),
-    }) else {
-        return Ok(None);
-    };
-    if best.bound <= 0.0 {
-        return Ok(None);
-    }
-    let floor = (1.0 - fraction) * best.bound;
-    // The near-best motions connected to the best one (each step to one of the 26 neighbours in
-    // rotation, x and y): a second peak elsewhere in the window is not part of its plateau.
     let steps = lattice.linear_steps;
     let side = (2 * steps + 1) as usize;
+    too_large(
+        "plateau motions",
+        lattice.rotations() as f64 * (side as f64).powi(2),
+        MAX_PLATEAU_MOTIONS,
+    )?;
+    // Every motion's score, in key order (rotation, x, y); motions outside the window's disc
+    // never score.
     let index = |rotation: usize, x: i64, y: i64| {
         (rotation * side + (x + steps) as usize) * side + (y + steps) as usize
     };
-    let mut near_best = vec![false; lattice.rotations() * side * side];
-    for leaf in leaves.iter().filter(|leaf| leaf.bound >= floor) {
-        near_best[index(leaf.rotation, leaf.x0, leaf.y0)] = true;
+    let mut scores = vec![f64::NEG_INFINITY; lattice.rotations() * side * side];
+    for leaf in lattice.leaves(&grid.level) {
+        scores[index(leaf.rotation, leaf.x0, leaf.y0)] = leaf.bound;
     }
+    // The first of equal scores is the best, as in `exhaustive_search`.
+    let best = scores.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let Some(first) = scores
+        .iter()
+        .position(|&s| s == best)
+        .filter(|_| best > 0.0)
+    else {
+        return Ok(None);
+    };
+    let floor = (1.0 - fraction) * best;
+    // The near-best motions connected to the best one (each step to one of the 26 neighbours in
+    // rotation, x and y): a second peak elsewhere in the window is not part of its plateau. A
+    // motion counted is struck off.
+    let start = (
+        first / (side * side),
+        (first / side % side) as i64 - steps,
+        (first % side) as i64 - steps,
+    );
+    scores[first] = f64::NEG_INFINITY;
     let (mut sum, mut count) = ([0.0; 3], 0usize);
-    let mut queue = vec![(best.rotation, best.x0, best.y0)];
-    near_best[index(best.rotation, best.x0, best.y0)] = false;
+    let mut queue = vec![start];
     while let Some((rotation, x, y)) = queue.pop() {
         sum[0] += x as f64;
         sum[1] += y as f64;
@@ -711,8 +716,8 @@ pub fn plateau_centre(
                     let inside = (0..lattice.rotations() as i64).contains(&r)
                         && (-steps..=steps).contains(&nx)
                         && (-steps..=steps).contains(&ny);
-                    if inside && near_best[index(r as usize, nx, ny)] {
-                        near_best[index(r as usize, nx, ny)] = false;
+                    if inside && scores[index(r as usize, nx, ny)] >= floor {
+                        scores[index(r as usize, nx, ny)] = f64::NEG_INFINITY;
                         queue.push((r as usize, nx, ny));
                     }
                 }
