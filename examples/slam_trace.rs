@@ -17,7 +17,9 @@
 //! (is a wrong loop the clouds' fault, the data's, or the search's start?), and `DUMP=DIR`
 //! writes the true-pose clouds as
 //! `DIR/cloud_OLD_NEW.csv` (`s` submap, `q` query at the truth, `m` query where it matched).
-//! It also prints the keyframes' NEES under their published covariance and their RMSE once the
+//! `TRUTHS=FILE` writes each keyframe's true pose (`x_m y_m yaw_rad` per line, keyframe order),
+//! which `scripts/loop_match_errors.py` pairs with the debug log's accepted and pending loop
+//! matches (`NRSLAM_LOG=nrslam_association=debug`). It also prints the keyframes' NEES under their published covariance and their RMSE once the
 //! best rigid motion has aligned them to the truth; `ALIGNINFO=1` prints that motion and the
 //! first keyframes' errors.
 
@@ -104,6 +106,14 @@ fn main() -> anyhow::Result<()> {
         }
     }
     print_keyframe_errors(&slam, &truths, &online_at_keyframe, (sum2 / n).sqrt());
+    if let Ok(path) = std::env::var("TRUTHS") {
+        // Keyframe k's truth on line k: what the debug log's keyframe indices refer to.
+        let text: String = truths
+            .iter()
+            .map(|t| format!("{} {} {}\n", t.x_m, t.y_m, t.yaw_rad))
+            .collect();
+        std::fs::write(path, text)?;
+    }
     Ok(())
 }
 
