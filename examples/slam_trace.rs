@@ -19,8 +19,9 @@
 //! `DIR/cloud_OLD_NEW.csv` (`s` submap, `q` query at the truth, `m` query where it matched).
 //! `TRUTHS=FILE` writes each keyframe's true pose (`x_m y_m yaw_rad` per line, keyframe order),
 //! which `scripts/loop_match_errors.py` pairs with the debug log's accepted and pending loop
-//! matches (`NRSLAM_LOG=nrslam_association=debug`). It also prints the keyframes' NEES under their published covariance and their RMSE once the
-//! best rigid motion has aligned them to the truth; `ALIGNINFO=1` prints that motion and the
+//! matches (`NRSLAM_LOG=nrslam_association=debug`). It also prints the keyframes' NEES under
+//! their published covariance and their RMSE once the best rigid motion has aligned them to the
+//! truth; `ALIGNINFO=1` prints that motion and the
 //! first keyframes' errors.
 
 use nrslam_association::{detection_to_agv_m, Association, LoopMatch, Params, Pose2};

@@ -1,17 +1,21 @@
 #!/usr/bin/env python3
-"""Errors against the truth of every loop match the back end accepted or left pending.
+r"""Errors against the truth of every loop match the back end accepted or left pending.
 
 Pairs the association's debug log with the keyframe truths that `examples/slam_trace.rs` writes
 (`TRUTHS=FILE`). For one run of the hall at Δθ 5°, seed 22:
 
-    TRUTHS=/tmp/t22.truth NRSLAM_LOG=nrslam_association=debug \\
+    cargo build --release --example slam_trace
+    TRUTHS=/tmp/t22.truth NRSLAM_LOG=nrslam_association=debug \
         target/release/examples/slam_trace 0 5 22 true 2> /tmp/t22.log > /dev/null
     scripts/loop_match_errors.py /tmp/t22
 
-prints one line per match: pending or accepted, old → new keyframe, the translation error (m)
-and heading error (deg) of its relative pose, and those of the back end's prediction. With
-several runs, a summary follows: how many matches lie within 0.5 m of the truth, in runs that
-closed a loop and in runs that did not.
+Each argument is a path without extension (STEM.log and STEM.truth are read; a trailing .log or
+.truth is dropped). One line per match: pending or accepted; the old keyframe (the candidate) ->
+the query's anchor keyframe (the middle of the query, which the loop edge measures); the
+translation error (m) and heading error (deg) of its relative pose against the truth; the
+translation error (m) of the back end's prediction; its inlier ratio and correlative score.
+With several runs, a summary follows: how many matches lie within 0.5 m of the truth, in runs
+that closed a loop and in runs that closed none.
 """
 import math
 import re
@@ -37,9 +41,26 @@ def wrapped_deg(rad):
     return abs(math.degrees((rad + math.pi) % (2 * math.pi) - math.pi))
 
 
+def read_lines(path):
+    try:
+        with open(path, encoding="utf-8", errors="replace") as f:
+            return f.readlines()
+    except OSError as e:
+        sys.exit(f"cannot read {path}: {e.strerror}")
+
+
 def matches(stem):
-    truths = [tuple(map(float, line.split())) for line in open(stem + ".truth")]
-    for line in open(stem + ".log"):
+    truths = []
+    for number, line in enumerate(read_lines(stem + ".truth"), 1):
+        try:
+            x, y, yaw = map(float, line.split())
+        except ValueError:
+            sys.exit(f"{stem}.truth line {number}: expected 'x_m y_m yaw_rad'")
+        truths.append((x, y, yaw))
+    lines = read_lines(stem + ".log")
+    if not any("nrslam_association" in line for line in lines):
+        sys.exit(f"{stem}.log has no association debug lines: was NRSLAM_LOG=nrslam_association=debug set?")
+    for line in lines:
         m = MATCH.search(ANSI.sub("", line))
         if not m:
             continue
@@ -63,7 +84,15 @@ def matches(stem):
         }
 
 
+def strip_extension(path):
+    for ext in (".log", ".truth"):
+        if path.endswith(ext):
+            return path[: -len(ext)]
+    return path
+
+
 def main(stems):
+    stems = [strip_extension(s) for s in stems]
     runs = {}
     for stem in stems:
         runs[stem] = list(matches(stem))
