@@ -22,7 +22,8 @@
 //!    near the current estimate are tested as revisits ([`crate::loop_closure`]). A verified
 //!    revisit adds a loop edge, the graph is optimised, every keyframe moves to its corrected pose
 //!    and the keyframe map is rebuilt from the keyframes' scans; the current pose follows its
-//!    keyframe.
+//!    keyframe. Which revisits are searched and which matches join the graph is the submodule
+//!    `loops` (`slam/loops.rs`).
 //!
 //! Without loop closure (the paper's setting), errors that scan matching cannot see (the map's own
 //! error) accumulate: the paper's Fig. 7 shows the AGV position MSE growing with time.
@@ -34,19 +35,21 @@
 //! odometry and detections are checked for finiteness, and every estimator falls back to its
 //! input when its own result is not finite.
 
+mod loops;
+
 use nrslam_runtime::InvalidParam;
 
 use crate::icp::IcpResult;
 use crate::keyframe::KeyframeSelector;
-use crate::loop_closure::{
-    match_loop, symmetric_eigen_2x2, translation_marginal, weakest_translation_information,
-    LoopMatch,
-};
-use crate::params::{LoopClosureParams, Params};
+use crate::loop_closure::LoopMatch;
+use crate::params::Params;
 use crate::point_grid::PointGrid;
 use crate::pose::Pose2;
-use crate::pose_graph::{leaf_covariance, Edge, EdgeKind, OptimiserSettings, PoseGraph};
+use crate::pose_graph::{leaf_covariance, Edge, EdgeKind, PoseGraph};
 use crate::scan_matcher::{binnable, match_scan, scan_information, DistributionMap, RadarPoint};
+
+use loops::loop_information;
+pub use loops::LoopEdge;
 
 /// A detection at `range_m` and angle of arrival `angle_rad` (from the array boresight,
 /// counter-clockwise), for an array whose boresight is `boresight_rad` from the AGV heading, as a
@@ -137,29 +140,6 @@ impl KeyframeRecord {
     }
 }
 
-/// Whether loop edge `new` supersedes the earlier `old`: `old`'s match scored below
-/// `supersede_below_score`, `new`'s at least `superseding_score`, `new` revisits later and
-/// measures the same old place (their old keyframes at most `submap_keyframes` apart).
-fn supersedes(new: &LoopEdge, old: &LoopEdge, lc: &LoopClosureParams) -> bool {
-    old.score < lc.supersede_below_score
-        && new.score >= lc.superseding_score
-        && new.to > old.to
-        && new.from.abs_diff(old.from) <= lc.submap_keyframes as usize
-}
-
-/// A match may have slid along one side: with the heading free, its edge pins the weakest
-/// translation direction down by less than `confirm_min_information_per_m2`. Judged on the
-/// match's own geometry (its edge at `std_scale` 1): the floor every edge gets
-/// (`loop_max_std_m`) would otherwise hide the slide of a widened edge.
-fn may_slide(edge: &LoopEdge, lc: &LoopClosureParams) -> bool {
-    let geometry = LoopEdge {
-        std_scale: 1.0,
-        ..*edge
-    };
-    weakest_translation_information(&loop_information(&geometry, lc).into())
-        < lc.confirm_min_information_per_m2
-}
-
 /// R(ψ) acting on (x, y, yaw): the translation turned by `yaw_rad`, the heading untouched.
 fn planar_rotation(yaw_rad: f64) -> nalgebra::Matrix3<f64> {
     let (sin, cos) = yaw_rad.sin_cos();
@@ -175,27 +155,6 @@ fn median_position_std_m(points: &[RadarPoint]) -> f64 {
     }
     let middle = std_m.len() / 2;
     *std_m.select_nth_unstable_by(middle, f64::total_cmp).1
-}
-
-/// A loop edge: the measured pose of keyframe `to` in the frame of the older keyframe `from`
-/// (indices into [`Association::keyframe_records`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LoopEdge {
-    /// The older keyframe.
-    pub from: usize,
-    /// The newer keyframe (the revisit).
-    pub to: usize,
-    /// Pose of `to` in the frame of `from`.
-    pub relative: Pose2,
-    /// What the match pins down, direction by direction ([`LoopMatch::information`], in the
-    /// frame of `from`); all zero when unknown (the edge is then isotropic).
-    pub information: [[f64; 3]; 3],
-    /// The edge's std in units of `loop_std_m`: 1, or the query's
-    /// [`LoopClosureParams::scatter_scale`] where its detections scatter more.
-    pub std_scale: f64,
-    /// The match's correlative score ([`LoopMatch::score`]): how much of the query lies on the
-    /// submap, which a partial revisit keeps low ([`LoopClosureParams::supersede_below_score`]).
-    pub score: f64,
 }
 
 /// The association state: SLAM pose, last odometry, keyframe map, pose graph.
@@ -652,152 +611,6 @@ impl Association {
         points
     }
 
-    /// Tests old keyframes near the newest one as revisits; on a verified one, optimises the
-    /// graph and rebuilds the map. Returns the accepted match.
-    fn close_loop(&mut self) -> Option<LoopMatch> {
-        let lc = self.params.loop_closure.clone();
-        let current = self.records.len().checked_sub(1)?;
-        let keep = lc.pending_keyframes as usize;
-        self.pending.retain(|p| current - p.to <= keep);
-        let here = self.records[current].pose;
-        let travelled_now = self.records[current].travelled_m;
-        let mut candidates: Vec<(f64, usize, f64)> = self.records[..current]
-            .iter()
-            .enumerate()
-            .filter_map(|(j, r)| {
-                let travelled = travelled_now - r.travelled_m;
-                // Drift since the last closure, or since the candidate if that is less.
-                let drifting = self
-                    .travelled_at_closure_m
-                    .map_or(travelled, |at| travelled.min(travelled_now - at));
-                let radius = lc.search_radius_for_m(drifting);
-                let distance = r.pose.distance_m(&here);
-                (travelled >= lc.min_separation_m && distance <= radius + lc.candidate_distance_m)
-                    .then_some((distance, j, radius))
-            })
-            .collect();
-        candidates.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        let query_from = lc.query_from(current);
-        // The query is expressed in its middle keyframe's frame, and the loop edge measures that
-        // keyframe: the tracking error within the query (chiefly heading) then reaches the edge
-        // over half the query's length instead of all of it.
-        let anchor = (query_from + current) / 2;
-        let query = self.cloud(query_from..=current, anchor);
-        let (lc, std_scale) = self.widened_for_scatter(lc, query_from..=current);
-        let anchor_pose = self.records[anchor].pose;
-        // The loop's ICP refinement pairs points across a larger gap than tracking does: after a
-        // lap the drift is metres, not centimetres.
-        let refine_params = Params {
-            max_correspondence_m: lc.refine_correspondence_m,
-            ..self.params.clone()
-        };
-        let mut tried: Vec<usize> = Vec::new();
-        for &(_, j, radius_m) in &candidates {
-            if tried.len() >= lc.max_candidates as usize {
-                break;
-            }
-            // Neighbours of a tried candidate would test the same place again.
-            if tried
-                .iter()
-                .any(|&t| t.abs_diff(j) <= lc.submap_keyframes as usize)
-            {
-                continue;
-            }
-            tried.push(j);
-            let w = lc.submap_keyframes as usize;
-            let last_old = (j + w).min(current);
-            // The submap must stay in the old part of the trajectory.
-            let last_old = last_old.min(
-                self.records
-                    .iter()
-                    .rposition(|r| travelled_now - r.travelled_m >= lc.min_separation_m)
-                    .unwrap_or(j),
-            );
-            let submap = self.cloud(j.saturating_sub(w)..=last_old.max(j), j);
-            let predicted = self.records[j].pose.between(&anchor_pose);
-            match match_loop(&query, &submap, predicted, radius_m, &lc, &refine_params) {
-                Ok(found) => {
-                    let found = LoopMatch {
-                        candidate: j,
-                        query: anchor,
-                        ..found
-                    };
-                    let edge = LoopEdge {
-                        from: j,
-                        to: anchor,
-                        relative: found.relative,
-                        information: found.information,
-                        std_scale,
-                        score: found.score,
-                    };
-                    let (confirmed, why) = if found.score >= lc.standalone_score {
-                        (Some(Vec::new()), "score")
-                    } else if may_slide(&edge, &lc) {
-                        // Neither agreement nor a pending match can vouch for a match that may
-                        // have slid along a side: both pass it with the slide in it.
-                        (None, "may slide")
-                    } else if self.agrees_with_graph(&edge) {
-                        (Some(Vec::new()), "agrees with the graph")
-                    } else {
-                        let pair = self.pending.iter().rev().find(|p| self.confirm(p, &edge));
-                        (pair.map(|p| vec![*p]), "confirmed by a pending match")
-                    };
-                    if let Some(mut edges) = confirmed {
-                        tracing::debug!(
-                            candidate = j,
-                            anchor,
-                            ?found,
-                            ?predicted,
-                            why,
-                            "loop accepted"
-                        );
-                        edges.push(edge);
-                        self.apply_loop(&edges);
-                        return Some(found);
-                    }
-                    tracing::debug!(candidate = j, anchor, ?found, ?predicted, "loop pending");
-                    self.pending.push(edge);
-                }
-                Err(reason) => {
-                    tracing::debug!(candidate = j, current, ?reason, "loop rejected");
-                }
-            }
-        }
-        None
-    }
-
-    /// `lc` with the inlier and overlap distances widened for the scatter of the query made of
-    /// keyframes `query`, and that factor (`LoopClosureParams::scatter_scale`), which its edge's
-    /// std takes too. The confirmation tolerances (`agreement_m`, `pair_m`) stay: a widened
-    /// match joins the graph only where it agrees as closely as any other. The plateau estimate
-    /// (`plateau_fraction`) is switched off for a query that scatters less than
-    /// `plateau_min_scatter_m`: there the best score is a sharp peak, and the plateau on the
-    /// search's 0.25 m lattice would only blur it.
-    ///
-    /// # Panics
-    ///
-    /// If `query` reaches past the last keyframe.
-    pub fn widened_for_scatter(
-        &self,
-        lc: LoopClosureParams,
-        query: std::ops::RangeInclusive<usize>,
-    ) -> (LoopClosureParams, f64) {
-        let scatter_m = self.scatter_m(query).unwrap_or(0.0);
-        let std_scale = lc.scatter_scale(scatter_m);
-        let widened = LoopClosureParams {
-            inlier_distance_m: lc.inlier_distance_m * std_scale,
-            // The overlap is the inliers' superset: it widens with them.
-            overlap_distance_m: lc.overlap_distance_m * std_scale,
-            plateau_fraction: if scatter_m >= lc.plateau_min_scatter_m {
-                lc.plateau_fraction
-            } else {
-                0.0
-            },
-            ..lc
-        };
-        (widened, std_scale)
-    }
-
     /// The detections' scatter over `keyframes` (`KeyframeRecord::scatter_m`), each keyframe
     /// weighed by its detections: an empty scan adds no point. `None` without detections.
     ///
@@ -813,177 +626,6 @@ impl Association {
                     (sum_m + r.scatter_m * count as f64, n + count)
                 });
         (detections > 0).then(|| weighted_m / detections as f64)
-    }
-
-    /// The match agrees with the graph's current estimate of the same relative pose, and that
-    /// estimate is itself held by a recent loop (before it, the estimate is the drift the loop
-    /// is there to measure, and a match pulled towards it would confirm the drift).
-    fn agrees_with_graph(&self, edge: &LoopEdge) -> bool {
-        let lc = &self.params.loop_closure;
-        let anchored = self
-            .loop_edges
-            .last()
-            .is_some_and(|last| edge.to - last.to <= lc.pending_keyframes as usize);
-        if !anchored {
-            return false;
-        }
-        let estimate = self.records[edge.from]
-            .pose
-            .between(&self.records[edge.to].pose);
-        estimate.distance_m(&edge.relative) <= lc.agreement_m
-            && estimate.rotation_to_rad(&edge.relative) <= lc.agreement_deg.to_radians()
-    }
-
-    /// Two matches `a` and `b` confirm each other: the cycle old `a.from` → new `a.to` (match
-    /// `a`) → new `b.to` (tracked) → old `b.from` (match `b`, inverted) → old `a.from` (tracked)
-    /// closes within `pair_m` (+ `pair_per_m` per metre tracked) and `pair_deg`.
-    fn confirm(&self, a: &LoopEdge, b: &LoopEdge) -> bool {
-        let lc = &self.params.loop_closure;
-        // Queries that share keyframes share their points, and with them the same wrong fit:
-        // only disjoint ones are independent evidence. The exception, the same query against
-        // two old places a submap apart, is what lets a single lap close its loop: its revisit
-        // is its last few keyframes, too few for a second, disjoint query.
-        let same_query_elsewhere =
-            a.to == b.to && a.from.abs_diff(b.from) >= lc.submap_keyframes as usize;
-        if a.to.abs_diff(b.to) < lc.query_keyframes as usize && !same_query_elsewhere {
-            return false;
-        }
-        let pose = |i: usize| self.records[i].pose;
-        let old = pose(a.from).between(&pose(b.from));
-        let new = pose(a.to).between(&pose(b.to));
-        let via_a = a.relative.compose(&new);
-        let via_b = old.compose(&b.relative);
-        let tracked_m = old.x_m.hypot(old.y_m) + new.x_m.hypot(new.y_m);
-        via_a.distance_m(&via_b) <= lc.pair_m + lc.pair_per_m * tracked_m
-            && via_a.rotation_to_rad(&via_b) <= lc.pair_deg.to_radians()
-    }
-
-    fn apply_loop(&mut self, edges: &[LoopEdge]) {
-        let lc = self.params.loop_closure.clone();
-        let earlier = self.loop_edges.len();
-        let mut in_graph = Vec::with_capacity(edges.len());
-        for edge in edges {
-            let information = loop_information(edge, &lc);
-            if self.graph.add_edge(Edge::with_information(
-                edge.from,
-                edge.to,
-                edge.relative,
-                information,
-                EdgeKind::Loop,
-            )) {
-                self.uncertainty_information
-                    .push(information * self.params.covariance_loop_scale);
-                in_graph.push(*edge);
-            }
-            self.loop_edges.push(*edge);
-        }
-        self.supersede_partial_loops(&in_graph, earlier);
-        self.pending.clear();
-        let settings = OptimiserSettings {
-            max_iterations: lc.max_iterations,
-            ..OptimiserSettings::default()
-        };
-        self.graph.optimise(&settings);
-        if !self.graph.nodes().iter().all(Pose2::is_finite) {
-            return;
-        }
-        for (record, pose) in self.records.iter_mut().zip(self.graph.nodes()) {
-            record.pose = *pose;
-        }
-        self.update_covariances(&settings);
-        self.travelled_at_closure_m = Some(self.travelled_m);
-        self.rebuild_map();
-        self.revision += 1;
-        self.loop_closures += 1;
-        self.cooldown = lc.cooldown_keyframes;
-    }
-
-    /// Takes out of the graph, and out of [`Association::loop_edges`], the edges among the first
-    /// `earlier` of them (accepted before this closure: a match's own confirmation stays with
-    /// it) that the `accepted` ones, now in the graph, supersede ([`supersedes`]), together with
-    /// the low-score edges of the same query (the partners that confirmed them). A first revisit
-    /// overlaps its old view only in part, and its match, though inside its own uncertainty, can
-    /// be decimetres and degrees off (docs/slam.md); once a fuller view of the same old place is
-    /// in the graph, the partial one only pulls the graph away from it. Loop edges are told apart
-    /// by (old, new) keyframe: one closure per keyframe, and the edges of one closure differ in
-    /// one or the other.
-    fn supersede_partial_loops(&mut self, accepted: &[LoopEdge], earlier: usize) {
-        let lc = &self.params.loop_closure;
-        let before = &self.loop_edges[..earlier.min(self.loop_edges.len())];
-        let superseded: Vec<&LoopEdge> = before
-            .iter()
-            .filter(|old| accepted.iter().any(|new| supersedes(new, old, lc)))
-            .collect();
-        let gone: Vec<(usize, usize)> = before
-            .iter()
-            .filter(|old| {
-                superseded.iter().any(|s| {
-                    (s.from, s.to) == (old.from, old.to)
-                        || (s.to == old.to && old.score < lc.supersede_below_score)
-                })
-            })
-            .map(|old| (old.from, old.to))
-            .collect();
-        if gone.is_empty() {
-            return;
-        }
-        tracing::debug!(?gone, "loop edges superseded");
-        self.loop_edges.retain(|e| !gone.contains(&(e.from, e.to)));
-        let kept = self.graph.retain_edges(|edge| {
-            !(edge.kind == EdgeKind::Loop && gone.contains(&(edge.from, edge.to)))
-        });
-        // One entry per graph edge: the same edges leave.
-        let mut kept = kept.into_iter();
-        self.uncertainty_information
-            .retain(|_| kept.next().unwrap_or(true));
-        debug_assert_eq!(self.uncertainty_information.len(), self.graph.edges().len());
-    }
-
-    /// Recomputes every keyframe's covariance at the current poses. With loop edges left out of
-    /// the covariance model (`covariance_loop_scale` = 0) the informative edges form the
-    /// sequential chain, whose marginals are the propagation along it (`leaf_covariance`, one
-    /// step per keyframe; the optimiser's odometry kernel being the identity, as
-    /// `OptimiserSettings` has it); otherwise the graph's sparse marginals.
-    fn update_covariances(&mut self, settings: &OptimiserSettings) {
-        debug_assert_eq!(
-            settings.odometry_kernel,
-            OptimiserSettings::default().odometry_kernel
-        );
-        if self.params.covariance_loop_scale > 0.0 {
-            let uncertainty = &self.uncertainty_information;
-            match self
-                .graph
-                .marginal_covariances(settings, |index, _| uncertainty[index])
-            {
-                Ok(covariances) => {
-                    for (record, covariance) in self.records.iter_mut().zip(covariances) {
-                        record.covariance = covariance;
-                    }
-                }
-                Err(reason) => {
-                    tracing::warn!(%reason, "keyframe covariances kept from before the loop closure");
-                }
-            }
-            return;
-        }
-        let sequential = self
-            .graph
-            .edges()
-            .iter()
-            .zip(&self.uncertainty_information)
-            .filter(|(edge, _)| edge.kind == EdgeKind::Odometry);
-        for (edge, information) in sequential {
-            let (from, to) = (&self.records[edge.from], &self.records[edge.to]);
-            if let Some(covariance) = leaf_covariance(
-                &from.pose,
-                &to.pose,
-                &edge.measurement,
-                &from.covariance,
-                information,
-            ) {
-                self.records[edge.to].covariance = covariance;
-            }
-        }
     }
 
     /// Rebuilds the point map and the cell map from the keyframes `records[first..]` at their
@@ -1058,97 +700,9 @@ impl Association {
     }
 }
 
-/// The information of a loop edge over (x m, y m, yaw rad) in the frame of its measurement
-/// (as [`crate::pose_graph`] whitens the error): the match's own point-to-line information,
-/// scaled so that the direction it pins down best has the std `loop_std_m` × the edge's
-/// `std_scale`, plus a floor of `loop_max_std_m` (or that std if more, and 30°) on every axis.
-/// A match along a straight edge then moves the graph across the edge, where it is right, and
-/// hardly along it, where it can slide and turn. Without the match's information the edge is
-/// isotropic (`loop_std_m` × `std_scale`, `loop_std_deg`).
-fn loop_information(edge: &LoopEdge, lc: &LoopClosureParams) -> nalgebra::Matrix3<f64> {
-    let strongest = symmetric_eigen_2x2(&translation_marginal(&edge.information)).0;
-    let loop_std_m = lc.loop_std_m * edge.std_scale.max(1.0);
-    let isotropic = || {
-        let (it, ir) = (
-            1.0 / loop_std_m.powi(2),
-            1.0 / lc.loop_std_deg.to_radians().powi(2),
-        );
-        nalgebra::Matrix3::from_diagonal(&nalgebra::Vector3::new(it, it, ir))
-    };
-    if !(strongest.is_finite() && strongest > 0.0) {
-        return isotropic();
-    }
-    let scale = 1.0 / (loop_std_m.powi(2) * strongest);
-    let from_frame = nalgebra::Matrix3::from_fn(|a, b| scale * edge.information[a][b]);
-    // The error's translation is in the measurement's frame: e = R_zᵀ δ for a shift δ in the
-    // frame of `from`.
-    let rotate = planar_rotation(edge.relative.yaw_rad);
-    let floor_m = 1.0 / lc.loop_max_std_m.max(loop_std_m).powi(2);
-    let floor_rad = 1.0 / 30f64.to_radians().powi(2);
-    let information = rotate.transpose() * from_frame * rotate
-        + nalgebra::Matrix3::from_diagonal(&nalgebra::Vector3::new(floor_m, floor_m, floor_rad));
-    if information.iter().all(|v| v.is_finite()) {
-        0.5 * (information + information.transpose())
-    } else {
-        isotropic()
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// A match's information pinned down across y only: it may slide along x.
-    fn sliding_information() -> [[f64; 3]; 3] {
-        let mut information = [[0.0; 3]; 3];
-        information[1][1] = 0.5;
-        information[2][2] = 50.0;
-        information
-    }
-
-    #[test]
-    fn a_loop_edge_is_weak_only_where_its_match_can_slide() {
-        let lc = LoopClosureParams::default();
-        // A match along a straight edge in x (of the old keyframe's frame), measured from an
-        // old keyframe turned by 90°: in the measurement's frame the free slide is along y.
-        let information = sliding_information();
-        let edge = LoopEdge {
-            from: 0,
-            to: 1,
-            relative: Pose2::new(3.0, 4.0, std::f64::consts::FRAC_PI_2),
-            information,
-            std_scale: 1.0,
-            score: 0.9,
-        };
-        let omega = loop_information(&edge, &lc);
-        let across = 1.0 / lc.loop_std_m.powi(2);
-        assert!((omega[(0, 0)] - across).abs() < 0.05 * across, "{omega}");
-        let along_std_m = 1.0 / omega[(1, 1)].sqrt();
-        assert!(along_std_m > 0.9 * lc.loop_max_std_m, "{omega}");
-        // Without the match's information the edge is isotropic.
-        let plain = loop_information(
-            &LoopEdge {
-                information: [[0.0; 3]; 3],
-                ..edge
-            },
-            &lc,
-        );
-        assert!((plain[(0, 0)] - across).abs() < 1e-9 && (plain[(1, 1)] - across).abs() < 1e-9);
-        // A query of scattered detections widens the edge's std in proportion.
-        let scattered = loop_information(
-            &LoopEdge {
-                std_scale: 3.0,
-                ..edge
-            },
-            &lc,
-        );
-        // Its strongest direction, plus the floor every edge has.
-        let expected = 1.0 / (3.0 * lc.loop_std_m).powi(2) + 1.0 / lc.loop_max_std_m.powi(2);
-        assert!(
-            (scattered[(0, 0)] - expected).abs() < 1e-9 * expected,
-            "{scattered}"
-        );
-    }
 
     #[test]
     fn a_keyframes_scatter_is_the_median_of_its_detections_position_std() {
@@ -1169,48 +723,6 @@ mod tests {
             point(1e6, 1.0, 90.0),
         ];
         assert!((median_position_std_m(&scan) - expected_m).abs() < 1e-12);
-    }
-
-    #[test]
-    fn a_scattered_query_widens_the_inlier_and_overlap_distances_not_the_confirmation() {
-        let mut slam = Association::new(Params::default()).unwrap();
-        let record = |scatter_m: f64, detections: usize| KeyframeRecord {
-            id: 0,
-            pose: Pose2::new(0.0, 0.0, 0.0),
-            scan_agv_m: vec![[10.0, 0.0]; detections],
-            scatter_m,
-            travelled_m: 0.0,
-            covariance: nalgebra::Matrix3::zeros(),
-        };
-        // An empty keyframe adds no query point, so its scatter of 0 must not dilute the rest.
-        slam.records = vec![record(0.1, 40), record(0.9, 40), record(0.0, 0)];
-        let lc = LoopClosureParams {
-            overlap_distance_m: 1.0,
-            ..LoopClosureParams::default()
-        };
-        let (widened, std_scale) = slam.widened_for_scatter(lc.clone(), 0..=2);
-        let expected_scale = lc.inlier_scatter_ratio * 0.5 / lc.inlier_distance_m;
-        assert!((std_scale - expected_scale).abs() < 1e-12, "{std_scale}");
-        assert!((widened.inlier_distance_m - lc.inlier_distance_m * std_scale).abs() < 1e-12);
-        assert!((widened.overlap_distance_m - lc.overlap_distance_m * std_scale).abs() < 1e-12);
-        assert_eq!(
-            widened.confirm_min_information_per_m2,
-            lc.confirm_min_information_per_m2
-        );
-        assert_eq!(widened.agreement_m, lc.agreement_m);
-        assert_eq!(widened.pair_m, lc.pair_m);
-        // A metre-scatter query's match is its plateau's centre.
-        assert_eq!(lc.plateau_min_scatter_m, 0.5);
-        assert_eq!(widened.plateau_fraction, lc.plateau_fraction);
-        assert!(widened.plateau_fraction > 0.0);
-        // Detections that scatter less than the fixed distance allows change nothing but the
-        // plateau, which they do not have.
-        let (plain, one) = slam.widened_for_scatter(lc.clone(), 0..=0);
-        let without_plateau = LoopClosureParams {
-            plateau_fraction: 0.0,
-            ..lc
-        };
-        assert_eq!((plain, one), (without_plateau, 1.0));
     }
 
     #[test]
@@ -1243,144 +755,6 @@ mod tests {
         };
         assert_eq!(choices(0.1), [true, true, true, false, false, true]);
         assert_eq!(choices(0.0), [false, true, false, false, true, true]);
-    }
-
-    #[test]
-    fn a_partial_revisit_is_superseded_by_a_fuller_view_of_the_same_place_only() {
-        let lc = LoopClosureParams::default();
-        let edge = |from: usize, to: usize, score: f64| LoopEdge {
-            from,
-            to,
-            relative: Pose2::new(1.0, 0.0, 0.0),
-            information: [[0.0; 3]; 3],
-            std_scale: 1.0,
-            score,
-        };
-        let partial = edge(0, 98, 0.67);
-        assert!(supersedes(&edge(4, 107, 0.95), &partial, &lc));
-        // At the limits: `superseding_score` supersedes, `supersede_below_score` is not
-        // superseded, `submap_keyframes` apart is the same place.
-        let w = lc.submap_keyframes as usize;
-        assert!(supersedes(
-            &edge(w, 107, lc.superseding_score),
-            &partial,
-            &lc
-        ));
-        assert!(!supersedes(&edge(w + 1, 107, 0.95), &partial, &lc));
-        assert!(!supersedes(
-            &edge(4, 107, 0.95),
-            &edge(0, 98, lc.supersede_below_score),
-            &lc
-        ));
-        // Not by a match that scores no better than a partial one,
-        assert!(!supersedes(&edge(4, 107, 0.8), &partial, &lc));
-        // nor by one of another old place, nor by an earlier one,
-        assert!(!supersedes(&edge(30, 107, 0.95), &partial, &lc));
-        assert!(!supersedes(&edge(4, 90, 0.95), &partial, &lc));
-        // and a full view is never superseded.
-        assert!(!supersedes(&edge(4, 107, 0.95), &edge(0, 98, 0.8), &lc));
-        let off = LoopClosureParams {
-            supersede_below_score: 0.0,
-            ..lc
-        };
-        assert!(!supersedes(&edge(4, 107, 0.95), &partial, &off));
-    }
-
-    #[test]
-    fn superseded_loop_edges_leave_the_graph_and_its_edge_information() {
-        // Loop edges enter the covariance model, so that their entries are not all zero; old
-        // keyframes more than one apart are different places.
-        let mut params = Params {
-            covariance_loop_scale: 1.0,
-            ..Params::default()
-        };
-        params.loop_closure.submap_keyframes = 1;
-        let mut slam = Association::new(params).unwrap();
-        for k in 0..8 {
-            let pose = Pose2::new(f64::from(k), 0.0, 0.0);
-            slam.graph.add_node(pose);
-            slam.records.push(KeyframeRecord {
-                id: k,
-                pose,
-                scan_agv_m: Vec::new(),
-                scatter_m: 0.0,
-                travelled_m: f64::from(k),
-                covariance: nalgebra::Matrix3::identity(),
-            });
-        }
-        for k in 1..8 {
-            let edge = Edge::with_std(
-                k - 1,
-                k,
-                Pose2::new(1.0, 0.0, 0.0),
-                0.1,
-                0.01,
-                EdgeKind::Odometry,
-            );
-            assert!(slam.graph.add_edge(edge));
-            slam.uncertainty_information
-                .push(nalgebra::Matrix3::identity() * k as f64);
-        }
-        let edge = |from: usize, to: usize, score: f64| LoopEdge {
-            from,
-            to,
-            relative: Pose2::new((to - from) as f64, 0.0, 0.0),
-            information: [[0.0; 3]; 3],
-            std_scale: 1.0,
-            score,
-        };
-        // A first closure: the same query against two old places, both seen in part.
-        slam.apply_loop(&[edge(0, 5, 0.67), edge(1, 5, 0.7)]);
-        // Elsewhere, a full match confirmed by a partial one: it keeps its confirmation.
-        slam.apply_loop(&[edge(3, 6, 0.6), edge(4, 6, 0.95)]);
-        assert_eq!(slam.loop_edges().len(), 4);
-        // A fuller view of old keyframe 0 supersedes the first closure, with its partner.
-        slam.apply_loop(&[edge(0, 7, 0.95)]);
-        let kept = [edge(3, 6, 0.6), edge(4, 6, 0.95), edge(0, 7, 0.95)];
-        assert_eq!(slam.loop_edges(), &kept);
-        let loops: Vec<(usize, usize)> = slam
-            .graph
-            .edges()
-            .iter()
-            .filter(|e| e.kind == EdgeKind::Loop)
-            .map(|e| (e.from, e.to))
-            .collect();
-        assert_eq!(loops, vec![(3, 6), (4, 6), (0, 7)]);
-        // Every edge left keeps its own entry, in its order.
-        assert_eq!(slam.uncertainty_information.len(), 7 + kept.len());
-        for k in 0..7 {
-            assert_eq!(
-                slam.uncertainty_information[k],
-                nalgebra::Matrix3::identity() * (k + 1) as f64
-            );
-        }
-        let lc = slam.params.loop_closure.clone();
-        for (k, edge) in kept.iter().enumerate() {
-            assert_eq!(
-                slam.uncertainty_information[7 + k],
-                loop_information(edge, &lc) * slam.params.covariance_loop_scale
-            );
-        }
-    }
-
-    #[test]
-    fn a_widened_edge_that_may_slide_is_still_caught() {
-        let lc = LoopClosureParams::default();
-        let sliding = sliding_information();
-        let mut pinned = sliding;
-        pinned[0][0] = 0.5;
-        for std_scale in [1.0, 3.0, 10.0] {
-            let edge = |information| LoopEdge {
-                from: 0,
-                to: 1,
-                relative: Pose2::new(3.0, 4.0, 0.0),
-                information,
-                std_scale,
-                score: 0.9,
-            };
-            assert!(may_slide(&edge(sliding), &lc), "std_scale {std_scale}");
-            assert!(!may_slide(&edge(pinned), &lc), "std_scale {std_scale}");
-        }
     }
 
     #[test]
