@@ -305,6 +305,16 @@ pub struct LoopClosureParams {
     pub confirm_min_information_per_m2: f64,
     /// A match that waits for confirmation is dropped after this many keyframes.
     pub pending_keyframes: u32,
+    /// At every closure, each earlier closure not yet verified is tested against the rest of
+    /// the graph (optimised without it): its edges' χ² against that graph's estimate, under the
+    /// edge's and the graph's uncertainty. Above this (3 degrees of freedom; 16.27 is the
+    /// 99.9 % point) the closure leaves the graph: a wrong first closure of a repetitive place
+    /// that later closures of the places around it contradict. 0: no recheck. Finite,
+    /// 0..=1e6.
+    pub recheck_chi2: f64,
+    /// A rechecked closure that agrees while the rest of the graph pins its relative pose down
+    /// to this std (m, weakest axis) is verified and not tested again. Finite, > 0, ≤ 1e3.
+    pub verified_std_m: f64,
 }
 
 impl Default for LoopClosureParams {
@@ -362,6 +372,8 @@ impl Default for LoopClosureParams {
             superseding_score: 0.85,
             confirm_min_information_per_m2: 1.0,
             pending_keyframes: 20,
+            recheck_chi2: 16.27,
+            verified_std_m: 1.0,
         }
     }
 }
@@ -584,7 +596,7 @@ impl LoopClosureParams {
 
     /// (field, value, min, max) of the pose graph's edge model, which [`Self::validate`] checks
     /// after [`Self::matching_ranges`].
-    fn graph_ranges(&self) -> [(&'static str, f64, f64, f64); 7] {
+    fn graph_ranges(&self) -> [(&'static str, f64, f64, f64); 9] {
         [
             (
                 "loop_closure.odometry_std_per_m",
@@ -618,6 +630,13 @@ impl LoopClosureParams {
                 1e4,
             ),
             ("loop_closure.loop_std_deg", self.loop_std_deg, 1e-6, 90.0),
+            ("loop_closure.recheck_chi2", self.recheck_chi2, 0.0, 1e6),
+            (
+                "loop_closure.verified_std_m",
+                self.verified_std_m,
+                1e-6,
+                1e3,
+            ),
         ]
     }
 
@@ -1076,6 +1095,12 @@ mod tests {
             }),
             ("loop_closure.plateau_min_scatter_m", |p| {
                 p.loop_closure.plateau_min_scatter_m = -0.5
+            }),
+            ("loop_closure.recheck_chi2", |p| {
+                p.loop_closure.recheck_chi2 = f64::NAN
+            }),
+            ("loop_closure.verified_std_m", |p| {
+                p.loop_closure.verified_std_m = 0.0
             }),
             ("loop_closure.plateau_window_deg", |p| {
                 p.loop_closure.plateau_window_deg = 60.0

@@ -997,6 +997,51 @@ impl PoseGraph {
             .collect())
     }
 
+    /// How well a measurement `measurement` of node `to`'s pose in node `from`'s frame agrees
+    /// with this graph: its error against the graph's estimate of that relative pose, as χ²
+    /// under both uncertainties, the measurement's (`measurement_information`) and the
+    /// graph's. The graph's is the marginal covariance of `to` with `from` held fixed in place
+    /// of the graph's own fixed nodes (every edge is relative, so that is the uncertainty of
+    /// the relative pose), with edges carrying `information(index, edge)` as in
+    /// [`PoseGraph::marginal_covariances`]. Also returns the graph's own std of that relative
+    /// position along its weakest axis (m): a large one means the graph holds little
+    /// evidence on it to agree or disagree with.
+    ///
+    /// # Errors
+    /// What [`PoseGraph::marginal_covariances`] refuses, and [`OptimiseError::Singular`] when
+    /// the combined covariance cannot be inverted.
+    ///
+    /// # Panics
+    /// If `from` or `to` is not a node.
+    pub fn relative_consistency(
+        &self,
+        from: usize,
+        to: usize,
+        measurement: &Pose2,
+        measurement_information: &Matrix3<f64>,
+        settings: &OptimiserSettings,
+        information: impl Fn(usize, &Edge) -> Matrix3<f64>,
+    ) -> Result<(f64, f64), OptimiseError> {
+        let mut anchored = self.clone();
+        anchored.fixed.iter_mut().for_each(|fixed| *fixed = false);
+        anchored.fixed[from] = true;
+        let covariance_to = anchored.marginal_covariances(settings, information)?[to];
+        let (xi, xj) = (&self.nodes[from], &self.nodes[to]);
+        let err = edge_error(xi, xj, measurement);
+        let (_, b) = jacobians(xi, xj, measurement);
+        let graph = b * covariance_to * b.transpose();
+        let measurement_covariance = measurement_information
+            .try_inverse()
+            .ok_or(OptimiseError::Singular)?;
+        let combined = (graph + measurement_covariance)
+            .try_inverse()
+            .ok_or(OptimiseError::Singular)?;
+        let chi2 = (err.transpose() * combined * err)[0];
+        let position = graph.fixed_view::<2, 2>(0, 0).symmetric_eigenvalues();
+        let weakest_std_m = position.max().max(0.0).sqrt();
+        Ok((chi2, weakest_std_m))
+    }
+
     /// The Levenberg–Marquardt loop, on either linear solver.
     fn run<S: NormalEquations>(&mut self, settings: &OptimiserSettings) -> OptimiseReport {
         let layout = Layout::new(&self.fixed, &self.edges);
@@ -2020,5 +2065,82 @@ mod tests {
                 "node {k}"
             );
         }
+    }
+
+    /// Nodes 0, 1, 2 one metre apart on x, joined by exact odometry edges of std `std_m` (and
+    /// 0.01 rad), node `fixed` fixed.
+    fn three_in_a_row(std_m: f64, fixed: usize) -> PoseGraph {
+        let mut graph = PoseGraph::new();
+        for k in 0..3 {
+            graph.add_node(Pose2::new(f64::from(k), 0.0, 0.0));
+        }
+        for k in 1..3 {
+            let step = Pose2::new(1.0, 0.0, 0.0);
+            assert!(graph.add_edge(Edge::with_std(
+                k - 1,
+                k,
+                step,
+                std_m,
+                0.01,
+                EdgeKind::Odometry
+            )));
+        }
+        graph.set_fixed(0, false);
+        graph.set_fixed(fixed, true);
+        graph
+    }
+
+    #[test]
+    fn relative_consistency_weighs_the_error_by_both_uncertainties() {
+        let (chain_std_m, measured_std_m, off_m): (f64, f64, f64) = (0.2, 0.3, 1.5);
+        let measurement = Pose2::new(2.0 + off_m, 0.0, 0.0);
+        let information = Matrix3::from_diagonal(&Vector3::new(
+            measured_std_m.powi(-2),
+            measured_std_m.powi(-2),
+            1e4,
+        ));
+        let settings = OptimiserSettings::default();
+        // Along x the two steps add their variances; whichever node the graph holds fixed.
+        let expected_chi2 =
+            off_m * off_m / (2.0 * chain_std_m * chain_std_m + measured_std_m.powi(2));
+        for fixed in 0..3 {
+            let graph = three_in_a_row(chain_std_m, fixed);
+            let (chi2, graph_std_m) = graph
+                .relative_consistency(0, 2, &measurement, &information, &settings, |_, e| {
+                    e.information
+                })
+                .unwrap();
+            assert!(
+                (chi2 - expected_chi2).abs() < 1e-6 * expected_chi2,
+                "{chi2} vs {expected_chi2}"
+            );
+            // The weakest axis is across the row: two steps' position std plus the heading's lever.
+            assert!(
+                graph_std_m >= chain_std_m * 2f64.sqrt() - 1e-9,
+                "{graph_std_m}"
+            );
+            assert!(graph_std_m < 0.3, "{graph_std_m}");
+        }
+        // A measurement the graph holds is consistent.
+        let graph = three_in_a_row(chain_std_m, 0);
+        let (chi2, _) = graph
+            .relative_consistency(
+                0,
+                2,
+                &Pose2::new(2.0, 0.0, 0.0),
+                &information,
+                &settings,
+                |_, e| e.information,
+            )
+            .unwrap();
+        assert!(chi2 < 1e-12, "{chi2}");
+        // A loose chain can neither agree nor disagree much: the same error costs little.
+        let loose = three_in_a_row(20.0, 0);
+        let (chi2, graph_std_m) = loose
+            .relative_consistency(0, 2, &measurement, &information, &settings, |_, e| {
+                e.information
+            })
+            .unwrap();
+        assert!(chi2 < 0.01 && graph_std_m > 20.0, "{chi2} {graph_std_m}");
     }
 }

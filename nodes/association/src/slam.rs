@@ -194,6 +194,9 @@ pub struct Association {
     loop_edges: Vec<LoopEdge>,
     /// Verified matches that wait for a second one to confirm them.
     pending: Vec<LoopEdge>,
+    /// Closures (their loop edges by old and new keyframe) that the rest of the graph has not
+    /// yet confirmed ([`Association::recheck_closures`]).
+    unverified_closures: Vec<Vec<(usize, usize)>>,
     /// Per pose-graph edge, the information the keyframes' covariances take it to carry: a
     /// sequential edge's odometry model plus the scan match's own information, a loop edge's
     /// match information.
@@ -230,6 +233,7 @@ impl Association {
             tracking_locally: true,
             loop_edges: Vec::new(),
             pending: Vec::new(),
+            unverified_closures: Vec::new(),
             uncertainty_information: Vec::new(),
         })
     }

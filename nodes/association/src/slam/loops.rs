@@ -7,7 +7,9 @@
 //! pending match of an independent query confirms it; a match that may slide along one side
 //! waits. Joining adds its edges with the information the match pins down
 //! ([`loop_information`]), supersedes earlier partial revisits of the same place, optimises the
-//! graph, recomputes the keyframes' covariances and rebuilds the tracking maps. The paper's SLAM
+//! graph, removes earlier closures that the rest of the graph now contradicts
+//! (`recheck_chi2`), recomputes the keyframes' covariances and rebuilds the tracking maps. The
+//! paper's SLAM
 //! has no loop closure; docs/slam.md describes this back end and measures each rule.
 
 use super::{planar_rotation, Association};
@@ -318,6 +320,9 @@ impl Association {
         if !self.graph.nodes().iter().all(Pose2::is_finite) {
             return;
         }
+        self.recheck_closures(&settings);
+        self.unverified_closures
+            .push(in_graph.iter().map(|e| (e.from, e.to)).collect());
         for (record, pose) in self.records.iter_mut().zip(self.graph.nodes()) {
             record.pose = *pose;
         }
@@ -359,6 +364,12 @@ impl Association {
             return;
         }
         tracing::debug!(?gone, "loop edges superseded");
+        self.remove_loop_edges(&gone);
+    }
+
+    /// Takes the loop edges `gone` (by old and new keyframe) out of the graph and out of
+    /// [`Association::loop_edges`].
+    fn remove_loop_edges(&mut self, gone: &[(usize, usize)]) {
         self.loop_edges.retain(|e| !gone.contains(&(e.from, e.to)));
         let kept = self.graph.retain_edges(|edge| {
             !(edge.kind == EdgeKind::Loop && gone.contains(&(edge.from, edge.to)))
@@ -368,6 +379,95 @@ impl Association {
         self.uncertainty_information
             .retain(|_| kept.next().unwrap_or(true));
         debug_assert_eq!(self.uncertainty_information.len(), self.graph.edges().len());
+    }
+
+    /// Tests every closure not yet verified (the edges accepted together, by old and new
+    /// keyframe) against the rest of the graph: the graph is optimised without it, and each of
+    /// its edges is compared with that graph's estimate under both uncertainties
+    /// ([`PoseGraph::relative_consistency`], the sequential edges at their calibrated
+    /// information). A closure further off than `recheck_chi2` leaves the graph, which keeps the
+    /// poses optimised without it; one that agrees while the rest of the graph pins its relative
+    /// pose down to `verified_std_m` is verified and not tested again. A first closure has no
+    /// other evidence to be tested against; later closures of places near it supply it.
+    /// Returns whether a closure left.
+    fn recheck_closures(&mut self, settings: &OptimiserSettings) -> bool {
+        let threshold = self.params.loop_closure.recheck_chi2;
+        let verified_std_m = self.params.loop_closure.verified_std_m;
+        if threshold <= 0.0 {
+            return false;
+        }
+        let mut dropped = false;
+        let mut index = 0;
+        while index < self.unverified_closures.len() {
+            let closure = self.unverified_closures[index].clone();
+            let is_member = |edge: &Edge| {
+                edge.kind == EdgeKind::Loop && closure.contains(&(edge.from, edge.to))
+            };
+            let members: Vec<Edge> = self
+                .graph
+                .edges()
+                .iter()
+                .filter(|e| is_member(e))
+                .copied()
+                .collect();
+            if members.is_empty() {
+                self.unverified_closures.remove(index);
+                continue;
+            }
+            let mut without = self.graph.clone();
+            let kept = without.retain_edges(|edge| !is_member(edge));
+            let calibrated: Vec<nalgebra::Matrix3<f64>> = self
+                .uncertainty_information
+                .iter()
+                .zip(&kept)
+                .filter(|(_, keep)| **keep)
+                .map(|(information, _)| *information)
+                .collect();
+            without.optimise(settings);
+            let mut worst_chi2: f64 = 0.0;
+            let mut pinned = without.nodes().iter().all(Pose2::is_finite);
+            for edge in &members {
+                match without.relative_consistency(
+                    edge.from,
+                    edge.to,
+                    &edge.measurement,
+                    &edge.information,
+                    settings,
+                    |i, e| {
+                        if e.kind == EdgeKind::Loop {
+                            e.information
+                        } else {
+                            calibrated[i]
+                        }
+                    },
+                ) {
+                    Ok((chi2, std_m)) => {
+                        worst_chi2 = worst_chi2.max(chi2);
+                        pinned &= std_m <= verified_std_m;
+                    }
+                    Err(_) => pinned = false,
+                }
+            }
+            tracing::debug!(?closure, worst_chi2, pinned, "closure rechecked");
+            if worst_chi2 > threshold && without.nodes().iter().all(Pose2::is_finite) {
+                tracing::debug!(
+                    ?closure,
+                    worst_chi2,
+                    "closure refuted by the rest of the graph"
+                );
+                self.remove_loop_edges(&closure);
+                for (node, pose) in without.nodes().iter().enumerate() {
+                    self.graph.set_node(node, *pose);
+                }
+                self.unverified_closures.remove(index);
+                dropped = true;
+            } else if pinned {
+                self.unverified_closures.remove(index);
+            } else {
+                index += 1;
+            }
+        }
+        dropped
     }
 
     /// Recomputes every keyframe's covariance at the current poses. With loop edges left out of
@@ -633,6 +733,94 @@ mod tests {
                 loop_information(edge, &lc) * slam.params.covariance_loop_scale
             );
         }
+    }
+
+    /// Keyframes 0..13 one metre apart on x, joined by exact odometry edges whose calibrated
+    /// std is `chain_std_m` per step; the optimiser takes them ten times looser, as the real
+    /// graph takes its sequential edges looser than their calibration.
+    fn thirteen_in_a_row(chain_std_m: f64) -> Association {
+        let mut slam = Association::new(Params::default()).unwrap();
+        for k in 0..13 {
+            let pose = Pose2::new(f64::from(k), 0.0, 0.0);
+            slam.graph.add_node(pose);
+            slam.records.push(KeyframeRecord {
+                id: k,
+                pose,
+                scan_agv_m: Vec::new(),
+                scatter_m: 0.0,
+                travelled_m: f64::from(k),
+                covariance: nalgebra::Matrix3::identity(),
+            });
+        }
+        for k in 1..13 {
+            let step = Pose2::new(1.0, 0.0, 0.0);
+            let calibrated = Edge::with_std(k - 1, k, step, chain_std_m, 0.01, EdgeKind::Odometry);
+            slam.uncertainty_information.push(calibrated.information);
+            let loose = Edge::with_std(k - 1, k, step, 10.0 * chain_std_m, 0.1, EdgeKind::Odometry);
+            assert!(slam.graph.add_edge(loose));
+        }
+        slam
+    }
+
+    fn measured(from: usize, to: usize, x_m: f64) -> LoopEdge {
+        LoopEdge {
+            from,
+            to,
+            relative: Pose2::new(x_m, 0.0, 0.0),
+            information: [[0.0; 3]; 3],
+            std_scale: 1.0,
+            score: 0.9,
+        }
+    }
+
+    fn loops_in_graph(slam: &Association) -> Vec<(usize, usize)> {
+        let graph = slam
+            .graph
+            .edges()
+            .iter()
+            .filter(|e| e.kind == EdgeKind::Loop);
+        graph.map(|e| (e.from, e.to)).collect()
+    }
+
+    #[test]
+    fn a_closure_the_rest_of_the_graph_contradicts_leaves_at_the_next_closure() {
+        let mut slam = thirteen_in_a_row(0.1);
+        // Keyframe 10 measured 3 m farther from 0 than it is: the chain says otherwise, within
+        // a third of a metre.
+        slam.apply_loop(&[measured(0, 10, 13.0)]);
+        assert_eq!(loops_in_graph(&slam), vec![(0, 10)]);
+        assert!(
+            slam.records[10].pose.x_m > 10.5,
+            "the graph bends to it first"
+        );
+        slam.apply_loop(&[measured(2, 12, 10.0)]);
+        assert_eq!(loops_in_graph(&slam), vec![(2, 12)]);
+        assert_eq!(slam.loop_edges(), &[measured(2, 12, 10.0)]);
+        assert_eq!(slam.uncertainty_information.len(), slam.graph.edges().len());
+        let x_m = slam.records[10].pose.x_m;
+        assert!((x_m - 10.0).abs() < 0.05, "the poses without it: {x_m}");
+        // Switched off, the same closure stays.
+        let mut slam = thirteen_in_a_row(0.1);
+        slam.params.loop_closure.recheck_chi2 = 0.0;
+        slam.apply_loop(&[measured(0, 10, 13.0)]);
+        slam.apply_loop(&[measured(2, 12, 10.0)]);
+        assert_eq!(loops_in_graph(&slam), vec![(0, 10), (2, 12)]);
+    }
+
+    #[test]
+    fn a_closure_stays_where_the_graph_agrees_or_cannot_judge() {
+        // Agrees: verified, never tested again.
+        let mut slam = thirteen_in_a_row(0.1);
+        slam.apply_loop(&[measured(0, 10, 10.1)]);
+        slam.apply_loop(&[measured(2, 12, 10.0)]);
+        assert_eq!(loops_in_graph(&slam), vec![(0, 10), (2, 12)]);
+        assert_eq!(slam.unverified_closures, vec![vec![(2, 12)]]);
+        // A chain of 2 m per step knows too little to refute 3 m: the closure stays, unverified.
+        let mut slam = thirteen_in_a_row(2.0);
+        slam.apply_loop(&[measured(0, 10, 13.0)]);
+        slam.apply_loop(&[measured(2, 12, 10.0)]);
+        assert_eq!(loops_in_graph(&slam), vec![(0, 10), (2, 12)]);
+        assert_eq!(slam.unverified_closures, vec![vec![(0, 10)], vec![(2, 12)]]);
     }
 
     #[test]
