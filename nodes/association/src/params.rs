@@ -163,8 +163,9 @@ pub struct LoopClosureParams {
     /// its detections (√(σ_R² + (ρ σ_θ)²), from their reported std), averaged over its
     /// keyframes. Detections of Δθ = 5° scatter by ~0.9 m at 10 m, so that a fixed distance
     /// made for Δθ = 1° refuses every right loop. Where it widens the inlier distance, the
-    /// overlap distance and the loop edge's std (`loop_std_m`) widen in proportion; the slide
-    /// test and the confirmation tolerances stay. 0 keeps the fixed tolerances.
+    /// overlap distance and the loop edge's std (`loop_std_m`) widen in proportion, and so does
+    /// the tolerance within which two matches confirm each other (`pair_scatter_widening`); the
+    /// slide test and the agreement with the graph stay. 0 keeps the fixed tolerances.
     pub inlier_scatter_ratio: f64,
     /// Fewest inliers, as a fraction of the query points in the overlap (those within
     /// `overlap_distance_m` of a submap point after alignment), to accept a loop.
@@ -303,6 +304,12 @@ pub struct LoopClosureParams {
     /// scoring `standalone_score` joins without it. Those two paths are how a first revisit
     /// closes, and a first revisit along one side can slide along it. 0: no minimum.
     pub confirm_min_information_per_m2: f64,
+    /// Two matches confirm each other within `pair_m` and `pair_deg` times this factor × the
+    /// larger of their edges' std scale ([`Self::scatter_scale`]) where that exceeds 1: a match
+    /// of detections that scatter by a metre (Δθ 5°) is itself off by about that much, as its
+    /// widened edge says, and a fixed 0.3 m left 40 % of the hall's single laps at Δθ 5°
+    /// without a closure (docs/slam.md). 0: the tolerances stay. Finite, 0..=10.
+    pub pair_scatter_widening: f64,
     /// A match that waits for confirmation is dropped after this many keyframes.
     pub pending_keyframes: u32,
     /// At every closure, each earlier closure not yet verified is tested against the rest of
@@ -371,6 +378,7 @@ impl Default for LoopClosureParams {
             supersede_below_score: 0.75,
             superseding_score: 0.85,
             confirm_min_information_per_m2: 1.0,
+            pair_scatter_widening: 1.0,
             pending_keyframes: 20,
             recheck_chi2: 16.27,
             verified_std_m: 1.0,
@@ -596,7 +604,7 @@ impl LoopClosureParams {
 
     /// (field, value, min, max) of the pose graph's edge model, which [`Self::validate`] checks
     /// after [`Self::matching_ranges`].
-    fn graph_ranges(&self) -> [(&'static str, f64, f64, f64); 9] {
+    fn graph_ranges(&self) -> [(&'static str, f64, f64, f64); 10] {
         [
             (
                 "loop_closure.odometry_std_per_m",
@@ -631,6 +639,12 @@ impl LoopClosureParams {
             ),
             ("loop_closure.loop_std_deg", self.loop_std_deg, 1e-6, 90.0),
             ("loop_closure.recheck_chi2", self.recheck_chi2, 0.0, 1e6),
+            (
+                "loop_closure.pair_scatter_widening",
+                self.pair_scatter_widening,
+                0.0,
+                10.0,
+            ),
             (
                 "loop_closure.verified_std_m",
                 self.verified_std_m,
@@ -1101,6 +1115,9 @@ mod tests {
             }),
             ("loop_closure.verified_std_m", |p| {
                 p.loop_closure.verified_std_m = 0.0
+            }),
+            ("loop_closure.pair_scatter_widening", |p| {
+                p.loop_closure.pair_scatter_widening = 11.0
             }),
             ("loop_closure.plateau_window_deg", |p| {
                 p.loop_closure.plateau_window_deg = 60.0

@@ -218,8 +218,9 @@ impl Association {
 
     /// `lc` with the inlier and overlap distances widened for the scatter of the query made of
     /// keyframes `query`, and that factor (`LoopClosureParams::scatter_scale`), which its edge's
-    /// std takes too. The confirmation tolerances (`agreement_m`, `pair_m`) stay: a widened
-    /// match joins the graph only where it agrees as closely as any other. The plateau estimate
+    /// std takes too. The agreement with the graph (`agreement_m`) stays; two widened matches
+    /// confirm each other within a tolerance widened by the same factor (`confirm`,
+    /// `pair_scatter_widening`). The plateau estimate
     /// (`plateau_fraction`) is switched off for a query that scatters less than
     /// `plateau_min_scatter_m`: there the best score is a sharp peak, and the plateau on the
     /// search's 0.25 m lattice would only blur it.
@@ -269,7 +270,8 @@ impl Association {
 
     /// Two matches `a` and `b` confirm each other: the cycle old `a.from` → new `a.to` (match
     /// `a`) → new `b.to` (tracked) → old `b.from` (match `b`, inverted) → old `a.from` (tracked)
-    /// closes within `pair_m` (+ `pair_per_m` per metre tracked) and `pair_deg`.
+    /// closes within `pair_m` (+ `pair_per_m` per metre tracked) and `pair_deg`, both times
+    /// `pair_scatter_widening` × the larger edge's `std_scale` where that exceeds 1.
     fn confirm(&self, a: &LoopEdge, b: &LoopEdge) -> bool {
         let lc = &self.params.loop_closure;
         // Queries that share keyframes share their points, and with them the same wrong fit:
@@ -287,8 +289,10 @@ impl Association {
         let via_a = a.relative.compose(&new);
         let via_b = old.compose(&b.relative);
         let tracked_m = old.x_m.hypot(old.y_m) + new.x_m.hypot(new.y_m);
-        via_a.distance_m(&via_b) <= lc.pair_m + lc.pair_per_m * tracked_m
-            && via_a.rotation_to_rad(&via_b) <= lc.pair_deg.to_radians()
+        // Matches of scattered detections are as far off as their widened edges say.
+        let widening = (lc.pair_scatter_widening * a.std_scale.max(b.std_scale)).max(1.0);
+        via_a.distance_m(&via_b) <= widening * (lc.pair_m + lc.pair_per_m * tracked_m)
+            && via_a.rotation_to_rad(&via_b) <= widening * lc.pair_deg.to_radians()
     }
 
     fn apply_loop(&mut self, edges: &[LoopEdge]) {
@@ -576,7 +580,7 @@ mod tests {
     }
 
     #[test]
-    fn a_scattered_query_widens_the_inlier_and_overlap_distances_not_the_confirmation() {
+    fn a_scattered_query_widens_the_inlier_and_overlap_distances_not_the_agreement() {
         let mut slam = Association::new(Params::default()).unwrap();
         let record = |scatter_m: f64, detections: usize| KeyframeRecord {
             id: 0,
@@ -821,6 +825,38 @@ mod tests {
         slam.apply_loop(&[measured(2, 12, 10.0)]);
         assert_eq!(loops_in_graph(&slam), vec![(0, 10), (2, 12)]);
         assert_eq!(slam.unverified_closures, vec![vec![(0, 10)], vec![(2, 12)]]);
+    }
+
+    #[test]
+    fn scattered_matches_confirm_each_other_within_their_widened_tolerance() {
+        let mut slam = Association::new(Params::default()).unwrap();
+        for k in 0..=30 {
+            slam.records.push(KeyframeRecord {
+                id: k,
+                pose: Pose2::new(f64::from(k), 0.0, 0.0),
+                scan_agv_m: Vec::new(),
+                scatter_m: 0.0,
+                travelled_m: f64::from(k),
+                covariance: nalgebra::Matrix3::identity(),
+            });
+        }
+        // One query against two old places 15 keyframes apart; the second match is 0.8 m off
+        // along x, beyond 0.3 m + 0.02 m/m × 15 m = 0.6 m.
+        let edge = |from: usize, off_m: f64, std_scale: f64| LoopEdge {
+            from,
+            to: 30,
+            relative: Pose2::new((30 - from) as f64 + off_m, 0.0, 0.0),
+            information: [[0.0; 3]; 3],
+            std_scale,
+            score: 0.7,
+        };
+        assert!(slam.confirm(&edge(0, 0.0, 1.0), &edge(15, 0.3, 1.0)));
+        assert!(!slam.confirm(&edge(0, 0.0, 1.0), &edge(15, 0.8, 1.0)));
+        // Detections scattered enough to widen an edge three times widen the tolerance too.
+        assert!(slam.confirm(&edge(0, 0.0, 3.0), &edge(15, 0.8, 1.0)));
+        assert!(!slam.confirm(&edge(0, 0.0, 3.0), &edge(15, 1.9, 3.0)));
+        slam.params.loop_closure.pair_scatter_widening = 0.0;
+        assert!(!slam.confirm(&edge(0, 0.0, 3.0), &edge(15, 0.8, 3.0)));
     }
 
     #[test]
