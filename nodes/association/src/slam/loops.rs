@@ -527,6 +527,22 @@ mod tests {
     use super::*;
     use crate::slam::KeyframeRecord;
 
+    /// Keyframes `0..count` one metre apart on x, each a graph node, none linked yet.
+    fn keyframes_in_a_row(slam: &mut Association, count: u32) {
+        for k in 0..count {
+            let pose = Pose2::new(f64::from(k), 0.0, 0.0);
+            slam.graph.add_node(pose);
+            slam.records.push(KeyframeRecord {
+                id: k,
+                pose,
+                scan_agv_m: Vec::new(),
+                scatter_m: 0.0,
+                travelled_m: f64::from(k),
+                covariance: nalgebra::Matrix3::identity(),
+            });
+        }
+    }
+
     /// A match's information pinned down across y only: it may slide along x.
     fn sliding_information() -> [[f64; 3]; 3] {
         let mut information = [[0.0; 3]; 3];
@@ -672,18 +688,7 @@ mod tests {
         };
         params.loop_closure.submap_keyframes = 1;
         let mut slam = Association::new(params).unwrap();
-        for k in 0..8 {
-            let pose = Pose2::new(f64::from(k), 0.0, 0.0);
-            slam.graph.add_node(pose);
-            slam.records.push(KeyframeRecord {
-                id: k,
-                pose,
-                scan_agv_m: Vec::new(),
-                scatter_m: 0.0,
-                travelled_m: f64::from(k),
-                covariance: nalgebra::Matrix3::identity(),
-            });
-        }
+        keyframes_in_a_row(&mut slam, 8);
         for k in 1..8 {
             let edge = Edge::with_std(
                 k - 1,
@@ -744,18 +749,7 @@ mod tests {
     /// graph takes its sequential edges looser than their calibration.
     fn thirteen_in_a_row(chain_std_m: f64) -> Association {
         let mut slam = Association::new(Params::default()).unwrap();
-        for k in 0..13 {
-            let pose = Pose2::new(f64::from(k), 0.0, 0.0);
-            slam.graph.add_node(pose);
-            slam.records.push(KeyframeRecord {
-                id: k,
-                pose,
-                scan_agv_m: Vec::new(),
-                scatter_m: 0.0,
-                travelled_m: f64::from(k),
-                covariance: nalgebra::Matrix3::identity(),
-            });
-        }
+        keyframes_in_a_row(&mut slam, 13);
         for k in 1..13 {
             let step = Pose2::new(1.0, 0.0, 0.0);
             let calibrated = Edge::with_std(k - 1, k, step, chain_std_m, 0.01, EdgeKind::Odometry);
@@ -830,16 +824,7 @@ mod tests {
     #[test]
     fn scattered_matches_confirm_each_other_within_their_widened_tolerance() {
         let mut slam = Association::new(Params::default()).unwrap();
-        for k in 0..=30 {
-            slam.records.push(KeyframeRecord {
-                id: k,
-                pose: Pose2::new(f64::from(k), 0.0, 0.0),
-                scan_agv_m: Vec::new(),
-                scatter_m: 0.0,
-                travelled_m: f64::from(k),
-                covariance: nalgebra::Matrix3::identity(),
-            });
-        }
+        keyframes_in_a_row(&mut slam, 31);
         // One query against two old places 15 keyframes apart; the second match is 0.8 m off
         // along x, beyond 0.3 m + 0.02 m/m × 15 m = 0.6 m.
         let edge = |from: usize, off_m: f64, std_scale: f64| LoopEdge {
