@@ -2070,6 +2070,43 @@ mod tests {
     }
 
     #[test]
+    fn relative_consistency_of_a_turned_pair_is_the_two_informations_combined() {
+        // Two nodes, the older turned and fixed, one edge `g` with a full information. A second
+        // measurement `z` of the same relative pose with the same heading, off in x and y, is as
+        // far from the graph as the difference of the two measurements under both covariances.
+        let from = Pose2::new(2.0, -1.0, 0.7);
+        let g = Pose2::new(1.0, 0.5, 0.3);
+        let graph_information = Matrix3::new(40.0, 6.0, 2.0, 6.0, 25.0, -3.0, 2.0, -3.0, 90.0);
+        let mut graph = PoseGraph::new();
+        graph.add_node(from);
+        graph.add_node(from.compose(&g));
+        assert!(graph.add_edge(Edge::with_information(
+            0,
+            1,
+            g,
+            graph_information,
+            EdgeKind::Odometry
+        )));
+        let z = Pose2::new(1.3, 0.1, 0.3);
+        let z_information = Matrix3::new(30.0, -5.0, 0.0, -5.0, 12.0, 1.0, 0.0, 1.0, 70.0);
+        let d = z.inverse().compose(&g);
+        let e = Vector3::new(d.x_m, d.y_m, d.yaw_rad);
+        let combined = (graph_information.try_inverse().unwrap()
+            + z_information.try_inverse().unwrap())
+        .try_inverse()
+        .unwrap();
+        let expected = (e.transpose() * combined * e)[0];
+        let settings = OptimiserSettings::default();
+        let (chi2, _) = graph
+            .relative_consistency(0, 1, &z, &z_information, &settings, |_, e| e.information)
+            .unwrap();
+        assert!(
+            (chi2 - expected).abs() < 1e-9 * expected,
+            "{chi2} vs {expected}"
+        );
+    }
+
+    #[test]
     fn one_node_s_marginal_is_the_whole_graph_s_block() {
         let (_, graph, settings) = optimised_laps((8, 40), 32, 3, 9);
         let all = graph

@@ -19,7 +19,7 @@ use crate::loop_closure::{
 };
 use crate::params::{LoopClosureParams, Params};
 use crate::pose::Pose2;
-use crate::pose_graph::{leaf_covariance, Edge, EdgeKind, OptimiserSettings};
+use crate::pose_graph::{leaf_covariance, Edge, EdgeKind, OptimiserSettings, PoseGraph};
 
 /// Whether loop edge `new` supersedes the earlier `old`: `old`'s match scored below
 /// `supersede_below_score`, `new`'s at least `superseding_score`, `new` revisits later and
@@ -42,6 +42,24 @@ fn may_slide(edge: &LoopEdge, lc: &LoopClosureParams) -> bool {
     };
     weakest_translation_information(&loop_information(&geometry, lc).into())
         < lc.confirm_min_information_per_m2
+}
+
+/// Closures tested by each recheck at most, the newest; older unverified ones stay in the graph
+/// untested, so that a run whose closures the graph can never judge does not pay a growing
+/// re-optimisation per closure.
+const MAX_UNVERIFIED_CLOSURES: usize = 8;
+
+/// Calibrated information of the sequential edges, by (older, newer) keyframe.
+type Calibrated = std::collections::HashMap<(usize, usize), nalgebra::Matrix3<f64>>;
+
+/// A closure left out of the graph ([`Association::leave_out`]).
+struct LeftOut {
+    /// The graph without it, optimised.
+    graph: PoseGraph,
+    /// The largest χ² of its edges against that graph.
+    chi2: f64,
+    /// Whether that graph pins each of its edges' relative poses down to `verified_std_m`.
+    pinned: bool,
 }
 
 /// A loop edge: the measured pose of keyframe `to` in the frame of the older keyframe `from`
@@ -324,9 +342,9 @@ impl Association {
         if !self.graph.nodes().iter().all(Pose2::is_finite) {
             return;
         }
-        self.recheck_closures(&settings);
         self.unverified_closures
             .push(in_graph.iter().map(|e| (e.from, e.to)).collect());
+        self.recheck_closures(&settings);
         for (record, pose) in self.records.iter_mut().zip(self.graph.nodes()) {
             record.pose = *pose;
         }
@@ -385,93 +403,162 @@ impl Association {
         debug_assert_eq!(self.uncertainty_information.len(), self.graph.edges().len());
     }
 
-    /// Tests every closure not yet verified (the edges accepted together, by old and new
-    /// keyframe) against the rest of the graph: the graph is optimised without it, and each of
-    /// its edges is compared with that graph's estimate under both uncertainties
-    /// ([`PoseGraph::relative_consistency`], the sequential edges at their calibrated
-    /// information). A closure further off than `recheck_chi2` leaves the graph, which keeps the
-    /// poses optimised without it; one that agrees while the rest of the graph pins its relative
-    /// pose down to `verified_std_m` is verified and not tested again. A first closure has no
-    /// other evidence to be tested against; later closures of places near it supply it.
-    /// Returns whether a closure left.
+    /// Tests every earlier closure not yet verified (the edges accepted together, by old and
+    /// new keyframe) against the rest of the graph ([`Self::leave_out`]), the newest closure
+    /// (last in the list) included in that rest. When none is further off than `recheck_chi2`,
+    /// those the rest of the graph pins down to `verified_std_m` are verified and not tested
+    /// again. When some are, the newest becomes a suspect too, and a closure leaves the graph
+    /// (which keeps the poses optimised without it) only if it is the one culprit: without it
+    /// every other closure agrees, and no other failing closure could say the same. Two closures
+    /// that contradict only each other (a wrong one and a right one, nothing else yet) both stay
+    /// until a later closure takes a side. A closure is judged only against other loop closures:
+    /// the sequential chain alone, however long, neither refutes nor verifies it (a single lap
+    /// keeps its one closure). At most [`MAX_UNVERIFIED_CLOSURES`], the newest, are tested;
+    /// older ones stay in the graph as they are. Returns whether a closure left.
     fn recheck_closures(&mut self, settings: &OptimiserSettings) -> bool {
         let threshold = self.params.loop_closure.recheck_chi2;
-        let verified_std_m = self.params.loop_closure.verified_std_m;
         if threshold <= 0.0 {
             return false;
         }
+        let excess = self
+            .unverified_closures
+            .len()
+            .saturating_sub(MAX_UNVERIFIED_CLOSURES);
+        self.unverified_closures.drain(..excess);
+        // The information the keyframes' covariances give each sequential edge, by its
+        // keyframes: the optimiser's own is deliberately looser (`covariance_sequential_scale`).
+        let calibrated: Calibrated = self
+            .graph
+            .edges()
+            .iter()
+            .zip(&self.uncertainty_information)
+            .filter(|(edge, _)| edge.kind == EdgeKind::Odometry)
+            .map(|(edge, information)| ((edge.from, edge.to), *information))
+            .collect();
         let mut dropped = false;
-        let mut index = 0;
-        while index < self.unverified_closures.len() {
-            let closure = self.unverified_closures[index].clone();
-            let is_member = |edge: &Edge| {
-                edge.kind == EdgeKind::Loop && closure.contains(&(edge.from, edge.to))
+        loop {
+            let graph = self.graph.clone();
+            self.unverified_closures
+                .retain(|closure| Self::members(&graph, closure).next().is_some());
+            let Some(newest) = self.unverified_closures.len().checked_sub(1) else {
+                return dropped;
             };
-            let members: Vec<Edge> = self
-                .graph
-                .edges()
+            let mut verdicts: Vec<LeftOut> = self.unverified_closures[..newest]
                 .iter()
-                .filter(|e| is_member(e))
-                .copied()
+                .map(|closure| self.leave_out(&self.graph, closure, &calibrated, settings))
                 .collect();
-            if members.is_empty() {
-                self.unverified_closures.remove(index);
-                continue;
+            for (closure, verdict) in self.unverified_closures.iter().zip(&verdicts) {
+                let (chi2, pinned) = (verdict.chi2, verdict.pinned);
+                tracing::debug!(?closure, chi2, pinned, "closure rechecked");
             }
-            let mut without = self.graph.clone();
-            let kept = without.retain_edges(|edge| !is_member(edge));
-            let calibrated: Vec<nalgebra::Matrix3<f64>> = self
-                .uncertainty_information
-                .iter()
-                .zip(&kept)
-                .filter(|(_, keep)| **keep)
-                .map(|(information, _)| *information)
+            if verdicts.iter().all(|v| v.chi2 <= threshold) {
+                let mut pinned = verdicts.iter().map(|v| v.pinned);
+                self.unverified_closures
+                    .retain(|_| !pinned.next().unwrap_or(false));
+                return dropped;
+            }
+            let closure = &self.unverified_closures[newest];
+            verdicts.push(self.leave_out(&self.graph, closure, &calibrated, settings));
+            let failing = (0..verdicts.len()).filter(|&i| verdicts[i].chi2 > threshold);
+            // The culprit is the failing closure without which every other one agrees.
+            let culprits: Vec<usize> = failing
+                .filter(|&c| {
+                    let rest = &verdicts[c].graph;
+                    self.unverified_closures
+                        .iter()
+                        .enumerate()
+                        .filter(|&(d, _)| d != c)
+                        .all(|(_, other)| {
+                            self.leave_out(rest, other, &calibrated, settings).chi2 <= threshold
+                        })
+                })
                 .collect();
-            without.optimise(settings);
-            let mut worst_chi2: f64 = 0.0;
-            let mut pinned = without.nodes().iter().all(Pose2::is_finite);
-            for edge in &members {
-                match without.relative_consistency(
-                    edge.from,
-                    edge.to,
-                    &edge.measurement,
-                    &edge.information,
-                    settings,
-                    |i, e| {
-                        if e.kind == EdgeKind::Loop {
-                            e.information
-                        } else {
-                            calibrated[i]
-                        }
-                    },
-                ) {
-                    Ok((chi2, std_m)) => {
-                        worst_chi2 = worst_chi2.max(chi2);
-                        pinned &= std_m <= verified_std_m;
-                    }
-                    Err(_) => pinned = false,
-                }
-            }
-            tracing::debug!(?closure, worst_chi2, pinned, "closure rechecked");
-            if worst_chi2 > threshold && without.nodes().iter().all(Pose2::is_finite) {
+            let [culprit] = culprits[..] else {
                 tracing::debug!(
-                    ?closure,
-                    worst_chi2,
-                    "closure refuted by the rest of the graph"
+                    closures = ?self.unverified_closures,
+                    ?culprits,
+                    "closures contradict each other; waiting for another closure"
                 );
-                self.remove_loop_edges(&closure);
-                for (node, pose) in without.nodes().iter().enumerate() {
-                    self.graph.set_node(node, *pose);
+                return dropped;
+            };
+            let closure = self.unverified_closures.remove(culprit);
+            tracing::debug!(
+                ?closure,
+                chi2 = verdicts[culprit].chi2,
+                "closure refuted by the rest of the graph"
+            );
+            self.remove_loop_edges(&closure);
+            for (node, pose) in verdicts[culprit].graph.nodes().iter().enumerate() {
+                self.graph.set_node(node, *pose);
+            }
+            dropped = true;
+        }
+    }
+
+    /// The loop edges of `graph` that belong to `closure`.
+    fn members<'g>(
+        graph: &'g PoseGraph,
+        closure: &'g [(usize, usize)],
+    ) -> impl Iterator<Item = &'g Edge> + 'g {
+        graph
+            .edges()
+            .iter()
+            .filter(|edge| edge.kind == EdgeKind::Loop && closure.contains(&(edge.from, edge.to)))
+    }
+
+    /// `graph` without `closure`'s edges, optimised, and how those edges fare against it: the
+    /// largest χ² among them ([`PoseGraph::relative_consistency`], the sequential edges at their
+    /// calibrated information, the loop edges at their own), and whether that graph pins every
+    /// one of their relative poses down to `verified_std_m`. A graph with no other loop edge, or
+    /// one that cannot be judged (optimisation or covariance failing), refutes nothing and pins
+    /// nothing.
+    fn leave_out(
+        &self,
+        graph: &PoseGraph,
+        closure: &[(usize, usize)],
+        calibrated: &Calibrated,
+        settings: &OptimiserSettings,
+    ) -> LeftOut {
+        let members: Vec<Edge> = Self::members(graph, closure).copied().collect();
+        let mut without = graph.clone();
+        let is_member =
+            |edge: &Edge| edge.kind == EdgeKind::Loop && closure.contains(&(edge.from, edge.to));
+        without.retain_edges(|edge| !is_member(edge));
+        without.optimise(settings);
+        // Only other loop closures can judge a closure: without them its relative pose is the
+        // chain's dead reckoning, whose drift the closure is there to measure.
+        let judged = without.edges().iter().any(|e| e.kind == EdgeKind::Loop);
+        let mut verdict = LeftOut {
+            chi2: 0.0,
+            pinned: judged && without.nodes().iter().all(Pose2::is_finite),
+            graph: without,
+        };
+        if !verdict.pinned {
+            return verdict;
+        }
+        for edge in &members {
+            match verdict.graph.relative_consistency(
+                edge.from,
+                edge.to,
+                &edge.measurement,
+                &edge.information,
+                settings,
+                |_, e| match e.kind {
+                    EdgeKind::Loop => e.information,
+                    EdgeKind::Odometry => calibrated
+                        .get(&(e.from, e.to))
+                        .copied()
+                        .unwrap_or(e.information),
+                },
+            ) {
+                Ok((chi2, std_m)) => {
+                    verdict.chi2 = verdict.chi2.max(chi2);
+                    verdict.pinned &= std_m <= self.params.loop_closure.verified_std_m;
                 }
-                self.unverified_closures.remove(index);
-                dropped = true;
-            } else if pinned {
-                self.unverified_closures.remove(index);
-            } else {
-                index += 1;
+                Err(_) => verdict.pinned = false,
             }
         }
-        dropped
+        verdict
     }
 
     /// Recomputes every keyframe's covariance at the current poses. With loop edges left out of
@@ -781,39 +868,62 @@ mod tests {
     }
 
     #[test]
-    fn a_closure_the_rest_of_the_graph_contradicts_leaves_at_the_next_closure() {
-        let mut slam = thirteen_in_a_row(0.1);
-        // Keyframe 10 measured 3 m farther from 0 than it is: the chain says otherwise, within
-        // a third of a metre.
-        slam.apply_loop(&[measured(0, 10, 13.0)]);
+    fn a_closure_later_closures_contradict_leaves_the_graph() {
+        // A chain of 0.4 m per step cannot judge a closure ten steps long (1.3 m), so keyframe
+        // 10 measured 4 m farther from 0 than it is joins, unverified.
+        let mut slam = thirteen_in_a_row(0.4);
+        slam.apply_loop(&[measured(0, 10, 14.0)]);
         assert_eq!(loops_in_graph(&slam), vec![(0, 10)]);
-        assert!(
-            slam.records[10].pose.x_m > 10.5,
-            "the graph bends to it first"
-        );
+        assert!(slam.records[10].pose.x_m > 11.0, "the graph bends to it");
+        // Two right closures nearby pin the same stretch down: the wrong one leaves, and the
+        // poses are those optimised without it.
         slam.apply_loop(&[measured(2, 12, 10.0)]);
-        assert_eq!(loops_in_graph(&slam), vec![(2, 12)]);
-        assert_eq!(slam.loop_edges(), &[measured(2, 12, 10.0)]);
+        slam.apply_loop(&[measured(1, 11, 10.0)]);
+        assert_eq!(loops_in_graph(&slam), vec![(2, 12), (1, 11)]);
+        assert_eq!(
+            slam.loop_edges(),
+            &[measured(2, 12, 10.0), measured(1, 11, 10.0)]
+        );
         assert_eq!(slam.uncertainty_information.len(), slam.graph.edges().len());
         let x_m = slam.records[10].pose.x_m;
-        assert!((x_m - 10.0).abs() < 0.05, "the poses without it: {x_m}");
+        assert!((x_m - 10.0).abs() < 0.1, "the poses without it: {x_m}");
         // Switched off, the same closure stays.
-        let mut slam = thirteen_in_a_row(0.1);
+        let mut slam = thirteen_in_a_row(0.4);
         slam.params.loop_closure.recheck_chi2 = 0.0;
-        slam.apply_loop(&[measured(0, 10, 13.0)]);
+        slam.apply_loop(&[measured(0, 10, 14.0)]);
         slam.apply_loop(&[measured(2, 12, 10.0)]);
+        slam.apply_loop(&[measured(1, 11, 10.0)]);
+        assert_eq!(loops_in_graph(&slam), vec![(0, 10), (2, 12), (1, 11)]);
+    }
+
+    #[test]
+    fn of_two_closures_that_contradict_each_other_the_next_closure_decides() {
+        // A right closure, then a wrong one 3 m off: each disagrees with the other, and the
+        // chain alone judges neither, so both stay for now.
+        let mut slam = thirteen_in_a_row(0.1);
+        slam.apply_loop(&[measured(0, 10, 10.0)]);
+        slam.apply_loop(&[measured(2, 12, 13.0)]);
         assert_eq!(loops_in_graph(&slam), vec![(0, 10), (2, 12)]);
+        // A third closure sides with the first: the newer, wrong one leaves.
+        slam.apply_loop(&[measured(1, 11, 10.0)]);
+        assert_eq!(loops_in_graph(&slam), vec![(0, 10), (1, 11)]);
+        let x_m = slam.records[12].pose.x_m;
+        assert!((x_m - 12.0).abs() < 0.05, "{x_m}");
     }
 
     #[test]
     fn a_closure_stays_where_the_graph_agrees_or_cannot_judge() {
-        // Agrees: verified, never tested again.
+        // A single closure: the chain alone judges nothing, however tight.
+        let mut slam = thirteen_in_a_row(0.1);
+        slam.apply_loop(&[measured(0, 10, 13.0)]);
+        assert_eq!(loops_in_graph(&slam), vec![(0, 10)]);
+        // Agrees with a later closure: verified, never tested again; the newest waits.
         let mut slam = thirteen_in_a_row(0.1);
         slam.apply_loop(&[measured(0, 10, 10.1)]);
         slam.apply_loop(&[measured(2, 12, 10.0)]);
         assert_eq!(loops_in_graph(&slam), vec![(0, 10), (2, 12)]);
         assert_eq!(slam.unverified_closures, vec![vec![(2, 12)]]);
-        // A chain of 2 m per step knows too little to refute 3 m: the closure stays, unverified.
+        // A chain of 2 m per step knows too little to refute 3 m: the closures stay, unverified.
         let mut slam = thirteen_in_a_row(2.0);
         slam.apply_loop(&[measured(0, 10, 13.0)]);
         slam.apply_loop(&[measured(2, 12, 10.0)]);
