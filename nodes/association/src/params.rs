@@ -602,7 +602,8 @@ impl LoopClosureParams {
         ]
     }
 
-    /// (field, value, min, max) of the pose graph's edge model, which [`Self::validate`] checks
+    /// (field, value, min, max) of the pose graph's edge model and of the checks between its
+    /// closures (recheck, pair widening), which [`Self::validate`] checks
     /// after [`Self::matching_ranges`].
     fn graph_ranges(&self) -> [(&'static str, f64, f64, f64); 10] {
         [
