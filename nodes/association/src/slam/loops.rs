@@ -393,9 +393,7 @@ impl Association {
     /// [`Association::loop_edges`].
     fn remove_loop_edges(&mut self, gone: &[(usize, usize)]) {
         self.loop_edges.retain(|e| !gone.contains(&(e.from, e.to)));
-        let kept = self.graph.retain_edges(|edge| {
-            !(edge.kind == EdgeKind::Loop && gone.contains(&(edge.from, edge.to)))
-        });
+        let kept = self.graph.retain_edges(|edge| !Self::is_member(edge, gone));
         // One entry per graph edge: the same edges leave.
         let mut kept = kept.into_iter();
         self.uncertainty_information
@@ -437,9 +435,9 @@ impl Association {
             .collect();
         let mut dropped = false;
         loop {
-            let graph = self.graph.clone();
+            let graph = &self.graph;
             self.unverified_closures
-                .retain(|closure| Self::members(&graph, closure).next().is_some());
+                .retain(|closure| Self::members(graph, closure).next().is_some());
             let Some(newest) = self.unverified_closures.len().checked_sub(1) else {
                 return dropped;
             };
@@ -495,6 +493,11 @@ impl Association {
         }
     }
 
+    /// Whether `edge` is one of `closure`'s loop edges.
+    fn is_member(edge: &Edge, closure: &[(usize, usize)]) -> bool {
+        edge.kind == EdgeKind::Loop && closure.contains(&(edge.from, edge.to))
+    }
+
     /// The loop edges of `graph` that belong to `closure`.
     fn members<'g>(
         graph: &'g PoseGraph,
@@ -503,7 +506,7 @@ impl Association {
         graph
             .edges()
             .iter()
-            .filter(|edge| edge.kind == EdgeKind::Loop && closure.contains(&(edge.from, edge.to)))
+            .filter(|edge| Self::is_member(edge, closure))
     }
 
     /// `graph` without `closure`'s edges, optimised, and how those edges fare against it: the
@@ -521,9 +524,7 @@ impl Association {
     ) -> LeftOut {
         let members: Vec<Edge> = Self::members(graph, closure).copied().collect();
         let mut without = graph.clone();
-        let is_member =
-            |edge: &Edge| edge.kind == EdgeKind::Loop && closure.contains(&(edge.from, edge.to));
-        without.retain_edges(|edge| !is_member(edge));
+        without.retain_edges(|edge| !Self::is_member(edge, closure));
         without.optimise(settings);
         // Only other loop closures can judge a closure: without them its relative pose is the
         // chain's dead reckoning, whose drift the closure is there to measure.
