@@ -37,7 +37,7 @@
 #[path = "common/mod.rs"]
 mod common;
 
-use common::{build_grids, scene};
+use common::{build_grids, scene, window_pad};
 use criterion::{criterion_group, criterion_main, Criterion};
 use nrslam_association::correlative::{
     exhaustive_search, plateau_centre, runner_up, search_with, suggested_depth, CorrelativeError,
@@ -117,7 +117,13 @@ fn paper_step(c: &mut Criterion, case: &Case) {
     for cell_m in [0.1, 0.25] {
         let gaussian = Kernel::Gaussian { sigma_m: cell_m };
         let depth = suggested_depth(case.window.linear_m, cell_m);
-        let grids = build_grids(&case.submap, cell_m, gaussian, depth);
+        let grids = build_grids(
+            &case.submap,
+            cell_m,
+            gaussian,
+            window_pad(case.window.linear_m, cell_m),
+            depth,
+        );
         let options = SearchOptions::default();
         let fast = case.fast(&grids, &options);
         assert_eq!(fast, case.slow(&grids, &options));
@@ -146,7 +152,13 @@ fn loop_options() -> SearchOptions {
 fn loop_closure(c: &mut Criterion, case: &Case) {
     let hit = Kernel::Hit { cells: 1 };
     let depth = suggested_depth(case.window.linear_m, 0.25);
-    let grids = build_grids(&case.submap, 0.25, hit, depth);
+    let grids = build_grids(
+        &case.submap,
+        0.25,
+        hit,
+        window_pad(case.window.linear_m, 0.25),
+        depth,
+    );
     let options = loop_options();
     // `ambiguity` > 0: only a runner-up above that fraction of the best is looked for, as the
     // loop verifier asks (its `max_ambiguity`).
@@ -204,7 +216,15 @@ fn precompute(c: &mut Criterion, case: &Case) {
     ] {
         let depth = suggested_depth(case.window.linear_m, cell_m);
         group.bench_function(name, |b| {
-            b.iter(|| build_grids(black_box(&case.submap), cell_m, kernel, depth))
+            b.iter(|| {
+                build_grids(
+                    black_box(&case.submap),
+                    cell_m,
+                    kernel,
+                    window_pad(case.window.linear_m, cell_m),
+                    depth,
+                )
+            })
         });
     }
     group.finish();
@@ -235,7 +255,13 @@ fn depth(c: &mut Criterion, case: &Case) {
         ),
     ] {
         for depth in 1..=7 {
-            let grids = build_grids(&case.submap, cell_m, kernel, depth);
+            let grids = build_grids(
+                &case.submap,
+                cell_m,
+                kernel,
+                window_pad(case.window.linear_m, cell_m),
+                depth,
+            );
             group.bench_function(format!("{name}/{depth}"), |b| {
                 b.iter(|| case.fast(&grids, &options))
             });
@@ -261,7 +287,13 @@ fn fine_search(c: &mut Criterion, case: &Case) {
         let kernel = Kernel::Gaussian { sigma_m: 0.1 };
         let depth = suggested_depth(window.linear_m, step_m);
         let settle = || {
-            let grids = build_grids(black_box(&case.submap), step_m, kernel, depth);
+            let grids = build_grids(
+                black_box(&case.submap),
+                step_m,
+                kernel,
+                window_pad(window.linear_m, step_m),
+                depth,
+            );
             search_with(&grids, &case.query, start, &window, &options, 0.0)
         };
         let found = settle().unwrap().unwrap();
@@ -282,7 +314,13 @@ fn fine_search(c: &mut Criterion, case: &Case) {
 fn plateau(c: &mut Criterion, case: &Case) {
     let hit = Kernel::Hit { cells: 1 };
     let depth = suggested_depth(case.window.linear_m, 0.25);
-    let grids = build_grids(&case.submap, 0.25, hit, depth);
+    let grids = build_grids(
+        &case.submap,
+        0.25,
+        hit,
+        window_pad(case.window.linear_m, 0.25),
+        depth,
+    );
     let options = SearchOptions {
         prior_sigma_m: None,
         ..loop_options()

@@ -130,17 +130,21 @@ pub fn multi_lap_graph(truth: &[Pose2], lap: usize, loops: usize, seed: u64) -> 
     graph
 }
 
-/// The correlative matcher's grids over `points`: cells of `cell_m` filled with `kernel`, `depth`
-/// levels.
+/// The correlative matcher's grids over `points`: cells of `cell_m` filled with `kernel`, stored
+/// with `pad_cells` of zeros around them, `depth` levels.
 pub fn build_grids(
     points: &[[f64; 2]],
     cell_m: f64,
     kernel: Kernel,
+    pad_cells: usize,
     depth: u32,
 ) -> MultiResolutionGrid {
-    MultiResolutionGrid::new(
-        ProbabilityGrid::with_kernel(points, cell_m, kernel).unwrap(),
-        depth,
-    )
-    .unwrap()
+    let grid = ProbabilityGrid::with_kernel(points, cell_m, kernel).unwrap();
+    MultiResolutionGrid::new(grid.padded(pad_cells), depth).unwrap()
+}
+
+/// The padding `MultiResolutionGrid::for_window` gives a window of `window_m` either side on
+/// cells of `cell_m`: twice its steps.
+pub fn window_pad(window_m: f64, cell_m: f64) -> usize {
+    2 * (window_m / cell_m).ceil() as usize
 }
