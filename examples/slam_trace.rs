@@ -17,7 +17,7 @@
 //! (is a wrong loop the clouds' fault, the data's, or the search's start?), and `DUMP=DIR`
 //! writes the true-pose clouds as
 //! `DIR/cloud_OLD_NEW.csv` (`s` submap, `q` query at the truth, `m` query where it matched).
-//! `TRUTHS=FILE` writes each keyframe's true pose (`x_m y_m yaw_rad` per line, keyframe order),
+//! `LOOP='KEY = VALUE; …'` overrides loop closure parameters by name. `TRUTHS=FILE` writes each keyframe's true pose (`x_m y_m yaw_rad` per line, keyframe order),
 //! which `scripts/loop_match_errors.py` pairs with the debug log's accepted and pending loop
 //! matches (`NRSLAM_LOG=nrslam_association=debug`). It also prints the keyframes' NEES under
 //! their published covariance and their RMSE once the best rigid motion has aligned them to the
@@ -166,6 +166,16 @@ fn configure(args: &[String]) -> anyhow::Result<(nrslam_radar::Params, u64, Para
     set_count(&mut lc.query_keyframes, opt(12));
     set_count(&mut lc.submap_keyframes, opt(13));
     set(&mut lc.max_ambiguity, opt(14));
+    // `LOOP='key = value …'` (TOML, newline- or semicolon-separated) overrides any loop closure
+    // parameter by name.
+    if let Ok(overrides) = std::env::var("LOOP") {
+        let mut table = toml::Value::try_from(&params.loop_closure)?;
+        let given: toml::Table = toml::from_str(&overrides.replace(';', "\n"))?;
+        if let Some(t) = table.as_table_mut() {
+            t.extend(given);
+        }
+        params.loop_closure = table.try_into()?;
+    }
     Ok((radar, seed, params))
 }
 

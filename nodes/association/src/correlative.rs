@@ -356,16 +356,19 @@ impl ProbabilityGrid {
     }
 
     /// The same grid stored with `pad_cells` cells of zeros around it (fewer if the whole would
-    /// exceed [`MAX_GRID_CELLS`]; none if it is padded already): every value and search result
+    /// exceed [`MAX_GRID_CELLS`], or its levels to `depth` the limit of
+    /// [`MultiResolutionGrid::new`]; none if it is padded already): every value and search result
     /// stays the same, but a search whose window reaches L ≤ `pad_cells` / 2 steps reads the
     /// scan's cells without a bounds test, about twice as fast (`benches/correlative.rs`).
     /// [`MultiResolutionGrid::for_window`] pads by twice its window.
-    pub fn padded(self, pad_cells: usize) -> Self {
+    pub fn padded(self, pad_cells: usize, depth: u32) -> Self {
         let (width, height) = (self.level.width, self.level.height);
         let fits = |pad: usize| {
-            (width + 2 * pad)
-                .checked_mul(height + 2 * pad)
+            let (padded_width, padded_height) = (width + 2 * pad, height + 2 * pad);
+            padded_width
+                .checked_mul(padded_height)
                 .is_some_and(|cells| cells <= MAX_GRID_CELLS)
+                && level_cells(padded_width, padded_height, depth) <= MAX_LEVEL_CELLS
         };
         let mut pad = pad_cells.min(MAX_GRID_CELLS);
         while pad > 0 && !fits(pad) {
@@ -435,12 +438,7 @@ impl MultiResolutionGrid {
                 value: f64::from(depth),
             });
         }
-        let total: f64 = (1..=depth)
-            .map(|h| {
-                let extra = f64::from((1u32 << h) - 1);
-                (grid.level.width as f64 + extra) * (grid.level.height as f64 + extra)
-            })
-            .sum();
+        let total = level_cells(grid.level.width, grid.level.height, depth);
         if total > MAX_LEVEL_CELLS {
             return Err(CorrelativeError::TooLarge {
                 what: "the precomputed grids (cells)",
@@ -467,13 +465,14 @@ impl MultiResolutionGrid {
         linear_m: f64,
     ) -> Result<Self, CorrelativeError> {
         let grid = ProbabilityGrid::with_kernel(points_m, cell_m, kernel)?;
+        let depth = suggested_depth(linear_m, cell_m);
         let window_steps = (linear_m / cell_m).ceil();
         let grid = if window_steps.is_finite() && window_steps >= 1.0 {
-            grid.padded(2 * window_steps.min(MAX_LINEAR_STEPS) as usize)
+            grid.padded(2 * window_steps.min(MAX_LINEAR_STEPS) as usize, depth)
         } else {
             grid
         };
-        Self::new(grid, suggested_depth(linear_m, cell_m))
+        Self::new(grid, depth)
     }
 
     /// The base grid.
@@ -505,6 +504,16 @@ impl MultiResolutionGrid {
             h => &self.levels[h as usize - 1],
         }
     }
+}
+
+/// The cells of the precomputed levels 1..=`depth` over a base of `width` × `height` cells.
+fn level_cells(width: usize, height: usize, depth: u32) -> f64 {
+    (1..=depth)
+        .map(|h| {
+            let extra = f64::from((1u32 << h) - 1);
+            (width as f64 + extra) * (height as f64 + extra)
+        })
+        .sum()
 }
 
 /// A depth for [`MultiResolutionGrid::new`] suited to a window of `linear_m` either side on
@@ -1347,6 +1356,35 @@ mod tests {
         .unwrap()
         .branch_and_bound(grids)
         .unwrap()
+    }
+
+    #[test]
+    fn padding_keeps_every_value_and_stays_within_the_limits() {
+        let points = [[0.0, 0.0], [1.0, 0.5], [0.3, -0.7]];
+        let kernel = Kernel::Gaussian { sigma_m: 0.1 };
+        let grid = ProbabilityGrid::with_kernel(&points, 0.1, kernel).unwrap();
+        let padded = grid.clone().padded(7, 3);
+        assert_eq!(padded.level.offset, 7);
+        assert_eq!(
+            (padded.width(), padded.height(), padded.origin_m()),
+            (grid.width(), grid.height(), grid.origin_m())
+        );
+        for column in -10..grid.width() as i64 + 10 {
+            for row in -10..grid.height() as i64 + 10 {
+                assert_eq!(padded.value(column, row), grid.value(column, row));
+            }
+        }
+        // A long thin grid whose padding would exceed the limits pads less, and its levels
+        // still build.
+        let long = [[0.0, 0.0], [400.0, 0.0]];
+        let long = ProbabilityGrid::with_kernel(&long, 0.25, Kernel::Hit { cells: 1 }).unwrap();
+        let padded = long.padded(4000, 7);
+        assert!(
+            (1..4000).contains(&padded.level.offset),
+            "{}",
+            padded.level.offset
+        );
+        assert!(MultiResolutionGrid::new(padded, 7).is_ok());
     }
 
     #[test]

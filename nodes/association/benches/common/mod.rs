@@ -140,7 +140,7 @@ pub fn build_grids(
     depth: u32,
 ) -> MultiResolutionGrid {
     let grid = ProbabilityGrid::with_kernel(points, cell_m, kernel).unwrap();
-    MultiResolutionGrid::new(grid.padded(pad_cells), depth).unwrap()
+    MultiResolutionGrid::new(grid.padded(pad_cells, depth), depth).unwrap()
 }
 
 /// The padding `MultiResolutionGrid::for_window` gives a window of `window_m` either side on
