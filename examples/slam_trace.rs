@@ -10,14 +10,17 @@
 //!
 //! The scan matcher's parameters come from the environment where set: `CELL` (`cell_m`), `NEIGH`
 //! (`cell_neighbours`), `CORR` (`max_correspondence_m`), `ROBUST` (`robust_sigma`), `PRIOR_M`,
-//! `PRIOR_DEG` (the prior's floors) and `MAPSTD` (`map_std_m`); `ALL=1` prints every frame; `SCENE=FILE` replaces the hall; `DISTORT=1` prints
+//! `PRIOR_DEG` (the prior's floors) and `MAPSTD` (`map_std_m`); `ALL=1` prints every frame;
+//! `SCENE=FILE` replaces the hall; `DISTORT=1` prints
 //! how far each loop's query and submap keyframes are from their true placement; `TRUECLOUD=1`
 //! re-matches each loop's query and submap, built at the true poses and at the estimated ones,
 //! from the true relative pose (2 m radius) and from the back end's own prediction and radius
 //! (is a wrong loop the clouds' fault, the data's, or the search's start?), and `DUMP=DIR`
 //! writes the true-pose clouds as
 //! `DIR/cloud_OLD_NEW.csv` (`s` submap, `q` query at the truth, `m` query where it matched).
-//! `LOOP='KEY = VALUE; …'` overrides loop closure parameters by name. `TRUTHS=FILE` writes each keyframe's true pose (`x_m y_m yaw_rad` per line, keyframe order),
+//! `LOOP='KEY = VALUE; …'` overrides loop closure parameters by name (TOML values;
+//! `scripts/loop_truth_clouds.py` passes it on). `TRUTHS=FILE` writes each keyframe's true pose
+//! (`x_m y_m yaw_rad` per line, keyframe order),
 //! which `scripts/loop_match_errors.py` pairs with the debug log's accepted and pending loop
 //! matches (`NRSLAM_LOG=nrslam_association=debug`). It also prints the keyframes' NEES under
 //! their published covariance and their RMSE once the best rigid motion has aligned them to the

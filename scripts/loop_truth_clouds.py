@@ -53,11 +53,16 @@ def seeds_of(text):
 
 def trace(binary, range_std_m, angle_std_deg, seed, loop):
     """Every closure of one run: a dict from way to (error m, error deg)."""
-    env = dict(os.environ, TRUECLOUD="1")
+    # Only this script's settings: a LOOP, DUMP or ALL left in the shell would change the runs.
+    env = {k: v for k, v in os.environ.items() if k not in ("LOOP", "DUMP", "ALL", "DISTORT")}
+    env["TRUECLOUD"] = "1"
     if loop:
         env["LOOP"] = loop
     args = [binary, str(range_std_m), str(angle_std_deg), str(seed), "true"]
-    out = subprocess.run(args, env=env, capture_output=True, text=True, check=True).stdout
+    run = subprocess.run(args, env=env, capture_output=True, text=True, check=False)
+    if run.returncode != 0:
+        sys.exit(f"seed {seed}: {' '.join(args)} failed:\n{run.stderr[-2000:]}")
+    out = run.stdout
     closures, current = [], {}
     for line in out.splitlines():
         if m := REMATCH.search(line):

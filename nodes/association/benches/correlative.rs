@@ -206,7 +206,8 @@ fn loop_closure(c: &mut Criterion, case: &Case) {
     group.finish();
 }
 
-/// Building the grids, per kernel and cell size.
+/// Building the grids, per kernel and cell size, padded for the case's window as
+/// `MultiResolutionGrid::for_window` pads them and without padding (what the padding costs).
 fn precompute(c: &mut Criterion, case: &Case) {
     let mut group = c.benchmark_group("precompute");
     for (name, cell_m, kernel) in [
@@ -215,17 +216,14 @@ fn precompute(c: &mut Criterion, case: &Case) {
         ("hit/0.25", 0.25, Kernel::Hit { cells: 1 }),
     ] {
         let depth = suggested_depth(case.window.linear_m, cell_m);
-        group.bench_function(name, |b| {
-            b.iter(|| {
-                build_grids(
-                    black_box(&case.submap),
-                    cell_m,
-                    kernel,
-                    window_pad(case.window.linear_m, cell_m),
-                    depth,
-                )
-            })
-        });
+        for (padding, pad) in [
+            ("padded", window_pad(case.window.linear_m, cell_m)),
+            ("unpadded", 0),
+        ] {
+            group.bench_function(format!("{name}/{padding}"), |b| {
+                b.iter(|| build_grids(black_box(&case.submap), cell_m, kernel, pad, depth))
+            });
+        }
     }
     group.finish();
 }

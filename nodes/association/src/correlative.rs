@@ -65,7 +65,8 @@ const MAX_LINEAR_STEPS: f64 = (1u64 << 14) as f64;
 const MAX_ROTATIONS: f64 = (1u64 << 16) as f64;
 /// Largest number of (rotation, scan point) cells kept (16 MiB).
 const MAX_ROTATED_CELLS: f64 = (1u64 << 21) as f64;
-/// Largest number of (rotation, scan point, level) indices kept (32 MiB).
+/// Largest number of (rotation, scan point, level) indices kept (32 MiB); a larger search reads
+/// its cells with bounds tests instead.
 const MAX_LEVEL_INDICES: f64 = (1u64 << 23) as f64;
 /// Largest number of root nodes (rotations × coarsest blocks).
 const MAX_ROOT_NODES: f64 = (1u64 << 22) as f64;
@@ -362,6 +363,10 @@ impl ProbabilityGrid {
     /// scan's cells without a bounds test, about twice as fast (`benches/correlative.rs`).
     /// [`MultiResolutionGrid::for_window`] pads by twice its window.
     pub fn padded(self, pad_cells: usize, depth: u32) -> Self {
+        if self.level.offset != 0 {
+            return self;
+        }
+        let depth = depth.min(MAX_DEPTH);
         let (width, height) = (self.level.width, self.level.height);
         let fits = |pad: usize| {
             let (padded_width, padded_height) = (width + 2 * pad, height + 2 * pad);
@@ -374,7 +379,7 @@ impl ProbabilityGrid {
         while pad > 0 && !fits(pad) {
             pad /= 2;
         }
-        if pad == 0 || self.level.offset != 0 {
+        if pad == 0 {
             return self;
         }
         let padded_width = width + 2 * pad;
@@ -997,6 +1002,9 @@ impl Lattice {
                 return invalid("options.exclude.radius_m", exclude.radius_m);
             }
         }
+        debug_assert!(levels
+            .first()
+            .is_some_and(|l| std::ptr::eq(*l, &grid.level)));
         let cell_m = grid.cell_m;
         let angular_step_rad = match options.angular_step_rad {
             Some(step_rad) => {
@@ -1017,11 +1025,6 @@ impl Lattice {
             rotations * scan_points_m.len() as f64,
             MAX_ROTATED_CELLS,
         )?;
-        too_large(
-            "rotated scan cells' level indices",
-            rotations * scan_points_m.len() as f64 * levels.len() as f64,
-            MAX_LEVEL_INDICES,
-        )?;
         let (linear_steps, angular_steps) = (linear_steps as i64, angular_steps as i64);
 
         // Each point's cell at every rotation, once: translations are integer offsets of these.
@@ -1033,9 +1036,9 @@ impl Lattice {
         // 0 at every motion searched, so it is dropped: every bound still bounds every score
         // from above, and every score is the same. A level stores the cells
         // [−offset, size − offset) along each axis; a cell that every translation keeps inside
-        // every level's rectangle is read by the innermost loop with one addition and no bounds
-        // test. With a grid padded by 2L ([`ProbabilityGrid::padded`]) that is every cell kept;
-        // the rest, the rim, are tested cell by cell. Sums are exact integers.
+        // every level's rectangle is read by the innermost loop with one addition and no range
+        // test of its own. With a grid padded by 2L ([`ProbabilityGrid::padded`]) that is every
+        // cell kept; the rest, the rim, are tested cell by cell. Sums are exact integers.
         let steps = linear_steps;
         let inside_from = |size: fn(&Level) -> usize| {
             let lowest = levels.iter().map(|l| steps - l.offset).max().unwrap_or(0);
@@ -1048,6 +1051,10 @@ impl Lattice {
         };
         let (inside_x, inside_y) = (inside_from(|l| l.width), inside_from(|l| l.height));
         let always_inside = |c: i64, (lowest, highest): (i64, i64)| c >= lowest && c < highest;
+        // The inner cells' indices, one per level, are bounded (`MAX_LEVEL_INDICES`); a search
+        // too large for them reads every cell through the rim's bounds tests instead.
+        let indexed =
+            rotations * scan_points_m.len() as f64 * levels.len() as f64 <= MAX_LEVEL_INDICES;
         let (reach_x, reach_y) = (
             (-steps, grid.width() as i64 + steps),
             (-steps, grid.height() as i64 + steps),
@@ -1063,9 +1070,12 @@ impl Lattice {
                 let x = clamp_cell((cos * p[0] - sin * p[1] + base_m[0]) / cell_m);
                 let y = clamp_cell((sin * p[0] + cos * p[1] + base_m[1]) / cell_m);
                 let (cx, cy) = (i64::from(x), i64::from(y));
-                if always_inside(cx, inside_x) && always_inside(cy, inside_y) {
+                if !(always_inside(cx, reach_x) && always_inside(cy, reach_y)) {
+                    continue;
+                }
+                if indexed && always_inside(cx, inside_x) && always_inside(cy, inside_y) {
                     inner_cells.push([cx, cy]);
-                } else if always_inside(cx, reach_x) && always_inside(cy, reach_y) {
+                } else {
                     rim.push([x, y]);
                 }
             }
@@ -1074,7 +1084,8 @@ impl Lattice {
                 rim: rim_start..rim.len(),
             });
         }
-        // Level sizes are bounded by `MAX_LEVEL_CELLS`, so every index fits in 32 bits.
+        // Levels hold at most `MAX_LEVEL_CELLS` cells (the base `MAX_GRID_CELLS`), so every
+        // index fits in 32 bits.
         let inner_indices = levels
             .iter()
             .map(|level| {
@@ -2000,8 +2011,13 @@ mod tests {
                 -1e10..1e10f64,
                 -3.0..3.0f64,
                 (-5i64..5).prop_map(|k| k as f64),
-                Just(CELL_LIMIT), Just(-CELL_LIMIT), Just(CELL_LIMIT + 0.5), Just(-CELL_LIMIT - 0.5),
-                Just(-0.0), Just(f64::INFINITY), Just(f64::NEG_INFINITY),
+                Just(CELL_LIMIT),
+                Just(-CELL_LIMIT),
+                Just(CELL_LIMIT + 0.5),
+                Just(-CELL_LIMIT - 0.5),
+                Just(-0.0),
+                Just(f64::INFINITY),
+                Just(f64::NEG_INFINITY),
             ],
         ) {
             let expected = value.floor().clamp(-CELL_LIMIT, CELL_LIMIT) as i32;
