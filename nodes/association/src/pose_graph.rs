@@ -1030,10 +1030,9 @@ impl PoseGraph {
         settings: &OptimiserSettings,
         information: impl Fn(usize, &Edge) -> Matrix3<f64>,
     ) -> Result<(f64, f64), OptimiseError> {
-        let mut anchored = self.clone();
-        anchored.fixed.iter_mut().for_each(|fixed| *fixed = false);
-        anchored.fixed[from] = true;
-        let covariance_to = anchored.marginal_covariance_of(to, settings, information)?;
+        let mut fixed = vec![false; self.nodes.len()];
+        fixed[from] = true;
+        let covariance_to = self.marginal_covariance_anchored(&fixed, to, settings, information)?;
         let (xi, xj) = (&self.nodes[from], &self.nodes[to]);
         let err = edge_error(xi, xj, measurement);
         let (_, b) = jacobians(xi, xj, measurement);
@@ -1064,7 +1063,19 @@ impl PoseGraph {
         settings: &OptimiserSettings,
         information: impl Fn(usize, &Edge) -> Matrix3<f64>,
     ) -> Result<Matrix3<f64>, OptimiseError> {
-        let layout = Layout::new(&self.fixed, &self.edges);
+        self.marginal_covariance_anchored(&self.fixed, node, settings, information)
+    }
+
+    /// [`PoseGraph::marginal_covariance_of`] with the nodes `fixed` holds fixed in place of the
+    /// graph's own: no copy of the graph to move its anchor.
+    fn marginal_covariance_anchored(
+        &self,
+        fixed: &[bool],
+        node: usize,
+        settings: &OptimiserSettings,
+        information: impl Fn(usize, &Edge) -> Matrix3<f64>,
+    ) -> Result<Matrix3<f64>, OptimiseError> {
+        let layout = Layout::new(fixed, &self.edges);
         self.check(settings, &layout, self.cost(&self.nodes, settings))?;
         let Some(block) = layout.block_of[node] else {
             return Ok(Matrix3::zeros());
