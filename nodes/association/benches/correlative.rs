@@ -85,6 +85,13 @@ fn case() -> Case {
 }
 
 impl Case {
+    /// The submap's grids on cells of `cell_m` with `kernel` and `depth` levels, padded for the
+    /// case's window as `MultiResolutionGrid::for_window` pads them.
+    fn grids(&self, cell_m: f64, kernel: Kernel, depth: u32) -> MultiResolutionGrid {
+        let pad = window_pad(self.window.linear_m, cell_m);
+        build_grids(&self.submap, cell_m, kernel, pad, depth)
+    }
+
     /// The branch and bound over `grids` from the case's prediction and window.
     fn fast(&self, grids: &MultiResolutionGrid, options: &SearchOptions) -> Found {
         search_with(
@@ -117,13 +124,7 @@ fn paper_step(c: &mut Criterion, case: &Case) {
     for cell_m in [0.1, 0.25] {
         let gaussian = Kernel::Gaussian { sigma_m: cell_m };
         let depth = suggested_depth(case.window.linear_m, cell_m);
-        let grids = build_grids(
-            &case.submap,
-            cell_m,
-            gaussian,
-            window_pad(case.window.linear_m, cell_m),
-            depth,
-        );
+        let grids = case.grids(cell_m, gaussian, depth);
         let options = SearchOptions::default();
         let fast = case.fast(&grids, &options);
         assert_eq!(fast, case.slow(&grids, &options));
@@ -152,13 +153,7 @@ fn loop_options() -> SearchOptions {
 fn loop_closure(c: &mut Criterion, case: &Case) {
     let hit = Kernel::Hit { cells: 1 };
     let depth = suggested_depth(case.window.linear_m, 0.25);
-    let grids = build_grids(
-        &case.submap,
-        0.25,
-        hit,
-        window_pad(case.window.linear_m, 0.25),
-        depth,
-    );
+    let grids = case.grids(0.25, hit, depth);
     let options = loop_options();
     // `ambiguity` > 0: only a runner-up above that fraction of the best is looked for, as the
     // loop verifier asks (its `max_ambiguity`).
@@ -253,13 +248,7 @@ fn depth(c: &mut Criterion, case: &Case) {
         ),
     ] {
         for depth in 1..=7 {
-            let grids = build_grids(
-                &case.submap,
-                cell_m,
-                kernel,
-                window_pad(case.window.linear_m, cell_m),
-                depth,
-            );
+            let grids = case.grids(cell_m, kernel, depth);
             group.bench_function(format!("{name}/{depth}"), |b| {
                 b.iter(|| case.fast(&grids, &options))
             });
@@ -312,13 +301,7 @@ fn fine_search(c: &mut Criterion, case: &Case) {
 fn plateau(c: &mut Criterion, case: &Case) {
     let hit = Kernel::Hit { cells: 1 };
     let depth = suggested_depth(case.window.linear_m, 0.25);
-    let grids = build_grids(
-        &case.submap,
-        0.25,
-        hit,
-        window_pad(case.window.linear_m, 0.25),
-        depth,
-    );
+    let grids = case.grids(0.25, hit, depth);
     let options = SearchOptions {
         prior_sigma_m: None,
         ..loop_options()

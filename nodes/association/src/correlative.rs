@@ -696,15 +696,7 @@ pub fn exhaustive_search(
     options: &SearchOptions,
     min_score: f64,
 ) -> Result<Option<Match>, CorrelativeError> {
-    let lattice = Lattice::new(
-        grid,
-        &[&grid.level],
-        scan_points_m,
-        initial,
-        window,
-        options,
-        min_score,
-    )?;
+    let lattice = Lattice::on_base(grid, scan_points_m, initial, window, options, min_score)?;
     let mut best: Option<Node> = None;
     for leaf in lattice.leaves(&grid.level) {
         // Visited in key order: only a strictly higher score replaces the best.
@@ -746,15 +738,7 @@ pub fn plateau_centre(
             value: window.angular_rad,
         });
     }
-    let lattice = Lattice::new(
-        grid,
-        &[&grid.level],
-        scan_points_m,
-        initial,
-        window,
-        options,
-        0.0,
-    )?;
+    let lattice = Lattice::on_base(grid, scan_points_m, initial, window, options, 0.0)?;
     let steps = lattice.linear_steps;
     let side = (2 * steps + 1) as usize;
     too_large(
@@ -1114,6 +1098,27 @@ impl Lattice {
             mean_scale: 1.0 / (scan_points_m.len() as f64 * VALUE_SCALE),
             min_score,
         })
+    }
+
+    /// [`Lattice::new`] scored on the base grid alone: the exhaustive search and the plateau.
+    fn on_base(
+        grid: &ProbabilityGrid,
+        scan_points_m: &[[f64; 2]],
+        initial: Pose2,
+        window: &SearchWindow,
+        options: &SearchOptions,
+        min_score: f64,
+    ) -> Result<Self, CorrelativeError> {
+        let levels = [&grid.level];
+        Self::new(
+            grid,
+            &levels,
+            scan_points_m,
+            initial,
+            window,
+            options,
+            min_score,
+        )
     }
 
     fn rotations(&self) -> usize {
