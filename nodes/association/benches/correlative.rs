@@ -3,7 +3,8 @@
 //! a loop-closure-sized case: a 447-point submap of rectangle and circle outlines spread over
 //! ~20 m, a 224-point query of the same place seen from a pose 3.4 m and 7° from the initial
 //! guess, with 0.05 m noise, and a ±6 m × ±12° window. Both searches are checked to return the
-//! same match before they are timed.
+//! same match before they are timed. The grids are padded as `MultiResolutionGrid::for_window`
+//! pads them (twice the window's steps of zeros around the submap).
 //!
 //! `cargo bench -p nrslam-association --bench correlative -- --warm-up-time 1 --measurement-time 3`
 //!
@@ -11,26 +12,29 @@
 //! for the query (0.49° at 0.1 m, 1.21° at 0.25 m) and no prior; `loop_closure` is what
 //! `match_loop` runs with the default parameters (hit raster on 0.25 m cells, 1° steps, prior
 //! σ = 3 m) for the best motion and then the runner-up ≥ 2 m from it; `precompute` is building
-//! the grid and its maxima; `depth` is the branch and bound with 1 to 7 precomputed levels
+//! the grid and its maxima, padded and not; `depth` is the branch and bound with 1 to 7 precomputed levels
 //! (`suggested_depth` picks 4 at 0.25 m and 5 at 0.1 m here); `fine_search/<step>` is loop
 //! closure's fine search after the ICP (field and maxima built, then searched), at the two
 //! `fine_step_m` values docs/slam.md compares; `plateau/<window>` is the plateau's centre that
 //! loop closure takes at a metre of scatter (`plateau_window_m` 1.5, 2.5 and 3.5 m, ±3°), beside
-//! the best-plus-runner-up search every candidate runs: 0.24, 0.65 and 1.22 ms against 0.81 ms
-//! (the cost grows with the window's area; 2.5 m, the default, holds the Δθ 5° plateau whole).
+//! the best-plus-runner-up search every candidate runs: 0.109, 0.282 and 0.541 ms against
+//! 0.402 ms (the cost grows with the window's area; 2.5 m, the default, holds the Δθ 5° plateau
+//! whole).
 //!
-//! Measured on the 2-core machine, otherwise idle (criterion's means over two runs; its
-//! intervals were within ±10 %):
+//! Measured on the 2-core machine at commit dde5e4f (criterion's means; the VM moves them by
+//! ±15 % between runs):
 //!
 //! | case                                   | branch and bound | exhaustive | ratio |
 //! |----------------------------------------|------------------|------------|-------|
-//! | `paper_step/0.1` (±60 cells, 51 rot.)  | 0.51 ms          | 154 ms     | 300×  |
-//! | `paper_step/0.25` (±24 cells, 21 rot.) | 0.117 ms         | 10.5 ms    | 90×   |
-//! | `loop_closure`, best + runner-up       | 1.60 ms          | 23.1 ms    | 14×   |
-//! | `loop_closure`, best only              | 0.50–0.57 ms     | 12.3 ms    | 22×   |
+//! | `paper_step/0.1` (±60 cells, 51 rot.)  | 0.32 ms          | 82 ms      | 260×  |
+//! | `paper_step/0.25` (±24 cells, 21 rot.) | 0.088 ms         | 4.35 ms    | 50×   |
+//! | `loop_closure`, best + runner-up       | 0.736 ms         | 10.8 ms    | 15×   |
+//! | `loop_closure`, best only              | 0.237 ms         | 5.41 ms    | 23×   |
 //!
-//! Building the grids costs 0.08 ms (hit raster, 0.25 m), 0.28 ms (Gaussian, 0.25 m) and 0.71 ms
-//! (Gaussian, 0.1 m). The runner-up search costs twice the first: it must prove that nothing
+//! Before the padding (commit eccf3b6, a saved criterion baseline in the same session) the loop
+//! search took 1.486 ms (best + runner-up) and 0.455 ms (best only). Building the padded grids
+//! costs 0.040 ms (hit raster, 0.25 m; 0.016 ms unpadded), 0.154 ms (Gaussian, 0.25 m; 0.129)
+//! and 0.343 ms (Gaussian, 0.1 m; 0.181). The runner-up search costs twice the first: it must prove that nothing
 //! outside the excluded disc beats a score under half the best's, and coarse bounds seldom fall
 //! that low.
 
