@@ -12,14 +12,14 @@
 //! for the query (0.49° at 0.1 m, 1.21° at 0.25 m) and no prior; `loop_closure` is what
 //! `match_loop` runs with the default parameters (hit raster on 0.25 m cells, 1° steps, prior
 //! σ = 3 m) for the best motion and then the runner-up ≥ 2 m from it; `precompute` is building
-//! the grid and its maxima, padded and not; `depth` is the branch and bound with 1 to 7 precomputed levels
-//! (`suggested_depth` picks 4 at 0.25 m and 5 at 0.1 m here); `fine_search/<step>` is loop
-//! closure's fine search after the ICP (field and maxima built, then searched), at the two
-//! `fine_step_m` values docs/slam.md compares; `plateau/<window>` is the plateau's centre that
-//! loop closure takes at a metre of scatter (`plateau_window_m` 1.5, 2.5 and 3.5 m, ±3°), beside
-//! the best-plus-runner-up search every candidate runs: 0.109, 0.282 and 0.541 ms against
-//! 0.402 ms (the cost grows with the window's area; 2.5 m, the default, holds the Δθ 5° plateau
-//! whole).
+//! the grid and its maxima, padded and not; `depth` is the branch and bound with 1 to 7
+//! precomputed levels (`suggested_depth` picks 4 at 0.25 m and 5 at 0.1 m here);
+//! `fine_search/<step>` is loop closure's fine search after the ICP (field and maxima built, then
+//! searched), at the two `fine_step_m` values docs/slam.md compares; `plateau/<window>` is the
+//! plateau's centre that loop closure takes at a metre of scatter (`plateau_window_m` 1.5, 2.5
+//! and 3.5 m, ±3°), beside the best-plus-runner-up search every candidate runs: 0.109, 0.282 and
+//! 0.541 ms against 0.402 ms (the cost grows with the window's area; 2.5 m, the default, holds
+//! the Δθ 5° plateau whole).
 //!
 //! Measured on the 2-core machine at commit dde5e4f (criterion's means; the VM moves them by
 //! ±15 % between runs):
@@ -34,9 +34,9 @@
 //! Before the padding (commit eccf3b6, a saved criterion baseline in the same session) the loop
 //! search took 1.486 ms (best + runner-up) and 0.455 ms (best only). Building the padded grids
 //! costs 0.040 ms (hit raster, 0.25 m; 0.016 ms unpadded), 0.154 ms (Gaussian, 0.25 m; 0.129)
-//! and 0.343 ms (Gaussian, 0.1 m; 0.181). The runner-up search costs twice the first: it must prove that nothing
-//! outside the excluded disc beats a score under half the best's, and coarse bounds seldom fall
-//! that low.
+//! and 0.343 ms (Gaussian, 0.1 m; 0.181). The runner-up search costs twice the first: it must
+//! prove that nothing outside the excluded disc beats a score under half the best's, and coarse
+//! bounds seldom fall that low.
 
 #[path = "common/mod.rs"]
 mod common;
