@@ -45,7 +45,7 @@ use common::{build_grids, scene, window_pad};
 use criterion::{criterion_group, criterion_main, Criterion};
 use nrslam_association::correlative::{
     exhaustive_search, plateau_centre, runner_up, search_with, suggested_depth, CorrelativeError,
-    Exclusion, Kernel, Match, MultiResolutionGrid, SearchOptions, SearchWindow,
+    Exclusion, Kernel, Match, MultiResolutionGrid, PreparedSearch, SearchOptions, SearchWindow,
 };
 use nrslam_association::Pose2;
 use rand::SeedableRng;
@@ -198,6 +198,24 @@ fn loop_closure(c: &mut Criterion, case: &Case) {
         b.iter(|| case.slow(&grids, &options))
     });
     group.bench_function("branch_and_bound", |b| b.iter(both_fast));
+    // What `match_loop` runs: both searches from one preparation of the query's cells.
+    let both_prepared = || {
+        let mut search = PreparedSearch::new(
+            &grids,
+            black_box(&case.query),
+            case.initial,
+            &case.window,
+            &options,
+        )
+        .unwrap();
+        let best = search.best_outside(None, 0.0).unwrap().unwrap();
+        let second = search
+            .best_outside(Some(Exclusion::around(&best, 2.0)), 0.0)
+            .unwrap();
+        (best, second)
+    };
+    assert_eq!(both_prepared(), both_fast());
+    group.bench_function("prepared_best_and_runner_up", |b| b.iter(both_prepared));
     group.bench_function("branch_and_bound_runner_up_above_0.85", |b| {
         b.iter(|| both_fast_above(0.85))
     });

@@ -651,16 +651,61 @@ pub fn search_with(
     options: &SearchOptions,
     min_score: f64,
 ) -> Result<Option<Match>, CorrelativeError> {
-    let lattice = Lattice::new(
-        grids.grid(),
-        &grids.levels_from_base(),
-        scan_points_m,
-        initial,
-        window,
-        options,
-        min_score,
-    )?;
-    Ok(lattice.branch_and_bound(grids)?.0)
+    PreparedSearch::new(grids, scan_points_m, initial, window, options)?
+        .best_outside(options.exclude, min_score)
+}
+
+/// A search of one scan from one initial pose over one window, prepared once (the scan's cells
+/// at every rotation) and run as often as asked: loop closure's best motion and then its
+/// runner-up share it, instead of placing the scan's points twice. Each run is
+/// [`search_with`]'s, with its own excluded disc and minimum score.
+pub struct PreparedSearch<'g> {
+    grids: &'g MultiResolutionGrid,
+    lattice: Lattice,
+}
+
+impl<'g> PreparedSearch<'g> {
+    /// Prepares the search of `scan_points_m` over `grids` within `window` of `initial`, with
+    /// `options`' rotation step and prior (its excluded disc is each run's).
+    ///
+    /// Errors: as [`search_with`].
+    pub fn new(
+        grids: &'g MultiResolutionGrid,
+        scan_points_m: &[[f64; 2]],
+        initial: Pose2,
+        window: &SearchWindow,
+        options: &SearchOptions,
+    ) -> Result<Self, CorrelativeError> {
+        let lattice = Lattice::new(
+            grids.grid(),
+            &grids.levels_from_base(),
+            scan_points_m,
+            initial,
+            window,
+            &SearchOptions {
+                exclude: None,
+                ..*options
+            },
+            0.0,
+        )?;
+        Ok(PreparedSearch { grids, lattice })
+    }
+
+    /// The best motion outside `away` (none: anywhere in the window) with a score of at least
+    /// `min_score`; `Ok(None)` if none has.
+    ///
+    /// Errors: an exclusion with a non-finite centre or a negative radius, a NaN `min_score`, or
+    /// more root nodes than the search may enumerate.
+    pub fn best_outside(
+        &mut self,
+        away: Option<Exclusion>,
+        min_score: f64,
+    ) -> Result<Option<Match>, CorrelativeError> {
+        check_target(away, min_score)?;
+        self.lattice.exclude = away;
+        self.lattice.min_score = min_score;
+        Ok(self.lattice.branch_and_bound(self.grids)?.0)
+    }
 }
 
 /// The best motion outside `away` (a disc around the best motion, see [`Exclusion::around`]) with
@@ -855,6 +900,29 @@ fn rasterise_gaussian(
     }
 }
 
+/// Checks what a search looks for: an excluded disc with a finite centre and a radius of at
+/// least 0, and a minimum score that is a number.
+fn check_target(exclude: Option<Exclusion>, min_score: f64) -> Result<(), CorrelativeError> {
+    if min_score.is_nan() {
+        return Err(CorrelativeError::InvalidParameter {
+            name: "min_score",
+            value: min_score,
+        });
+    }
+    if let Some(exclude) = exclude {
+        if !(exclude.center_m[0].is_finite() && exclude.center_m[1].is_finite()) {
+            return Err(CorrelativeError::NonFinite("the exclusion's centre"));
+        }
+        if !(exclude.radius_m.is_finite() && exclude.radius_m >= 0.0) {
+            return Err(CorrelativeError::InvalidParameter {
+                name: "options.exclude.radius_m",
+                value: exclude.radius_m,
+            });
+        }
+    }
+    Ok(())
+}
+
 fn check_positive(name: &'static str, value: f64) -> Result<(), CorrelativeError> {
     if value.is_finite() && value > 0.0 {
         Ok(())
@@ -972,20 +1040,10 @@ impl Lattice {
         if !(0.0..=std::f64::consts::PI).contains(&window.angular_rad) {
             return invalid("window.angular_rad", window.angular_rad);
         }
-        if min_score.is_nan() {
-            return invalid("min_score", min_score);
-        }
         if let Some(sigma_m) = options.prior_sigma_m {
             check_positive("options.prior_sigma_m", sigma_m)?;
         }
-        if let Some(exclude) = options.exclude {
-            if !(exclude.center_m[0].is_finite() && exclude.center_m[1].is_finite()) {
-                return Err(CorrelativeError::NonFinite("the exclusion's centre"));
-            }
-            if !(exclude.radius_m.is_finite() && exclude.radius_m >= 0.0) {
-                return invalid("options.exclude.radius_m", exclude.radius_m);
-            }
-        }
+        check_target(options.exclude, min_score)?;
         debug_assert!(levels
             .first()
             .is_some_and(|l| std::ptr::eq(*l, &grid.level)));

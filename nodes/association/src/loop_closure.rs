@@ -47,8 +47,8 @@
 //! ties between equal scores by the smallest (rotation, x, y) step.
 
 use crate::correlative::{
-    plateau_centre, runner_up, search_with, Exclusion, Kernel, MultiResolutionGrid, SearchOptions,
-    SearchWindow,
+    plateau_centre, search_with, Exclusion, Kernel, MultiResolutionGrid, PreparedSearch,
+    SearchOptions, SearchWindow,
 };
 use crate::icp::{align, IcpStatus, PointMap};
 use crate::params::{LoopClosureParams, Params};
@@ -117,15 +117,14 @@ pub enum LoopRejection {
 /// the best is looked for (that is all the verifier asks, and branch and bound prunes the rest):
 /// 0 when none does.
 fn runner_up_mean_value(
-    grids: &MultiResolutionGrid,
-    sample: &[[f64; 2]],
-    (predicted, window, options): (Pose2, &SearchWindow, &SearchOptions),
+    search: &mut PreparedSearch,
     best: &crate::correlative::Match,
     loop_params: &LoopClosureParams,
 ) -> f64 {
     let min_score = loop_params.max_ambiguity * best.score;
     let away = Exclusion::around(best, loop_params.ambiguity_distance_m);
-    let runner = runner_up(grids, sample, predicted, window, options, away, min_score)
+    let runner = search
+        .best_outside(Some(away), min_score)
         .ok()
         .flatten()
         .map_or(0.0, |m| m.score);
@@ -205,7 +204,11 @@ pub fn match_loop(
         prior_sigma_m: Some(0.5 * radius_m.max(step_m)),
         exclude: None,
     };
-    let best = search_with(&grids, &sample, predicted, &window, &options, 0.0)
+    // The best motion, and later the runner-up, from one preparation of the sample's cells.
+    let mut search = PreparedSearch::new(&grids, &sample, predicted, &window, &options)
+        .map_err(|_| LoopRejection::TooFewPoints)?;
+    let best = search
+        .best_outside(None, 0.0)
         .ok()
         .flatten()
         .ok_or(LoopRejection::TooFewPoints)?;
@@ -231,13 +234,7 @@ pub fn match_loop(
     let mut map = PointMap::for_params(&refine);
     map.extend(&submap_m);
     refuse_hopeless(&map, &sample, &best.pose, loop_params)?;
-    let runner_up = runner_up_mean_value(
-        &grids,
-        &sample,
-        (predicted, &window, &options),
-        &best,
-        loop_params,
-    );
+    let runner_up = runner_up_mean_value(&mut search, &best, loop_params);
     let score = best.mean_value;
     if runner_up > loop_params.max_ambiguity * score {
         return Err(LoopRejection::Ambiguous { score, runner_up });
