@@ -1009,9 +1009,6 @@ struct Lattice {
     inner_indices: Vec<Vec<u32>>,
     /// Cells some motion moves off some level's stored rectangle, bounds-checked at each node.
     rim: Vec<[i32; 2]>,
-    /// Each depth's level width, cells: a translation by (x, y) steps moves a flat index by
-    /// y × width + x.
-    level_widths: Vec<i64>,
     /// 1 / (points × `VALUE_SCALE`): a sum of values times this is their mean.
     mean_scale: f64,
     min_score: f64,
@@ -1092,7 +1089,7 @@ impl Lattice {
             (lowest, highest)
         };
         let (inside_x, inside_y) = (inside_from(|l| l.width), inside_from(|l| l.height));
-        let always_inside = |c: i64, (lowest, highest): (i64, i64)| c >= lowest && c < highest;
+        let within = |c: i64, (lowest, highest): (i64, i64)| c >= lowest && c < highest;
         // The inner cells' indices, one per level, are bounded (`MAX_LEVEL_INDICES`); a search
         // too large for them reads every cell through the rim's bounds tests instead.
         let indexed =
@@ -1101,7 +1098,6 @@ impl Lattice {
             (-steps, grid.width() as i64 + steps),
             (-steps, grid.height() as i64 + steps),
         );
-        let level_widths: Vec<i64> = levels.iter().map(|l| l.width as i64).collect();
         let mut rotated = Vec::with_capacity(rotations as usize);
         let mut inner_cells: Vec<[i64; 2]> = Vec::new();
         let mut rim = Vec::new();
@@ -1112,10 +1108,10 @@ impl Lattice {
                 let x = clamp_cell((cos * p[0] - sin * p[1] + base_m[0]) / cell_m);
                 let y = clamp_cell((sin * p[0] + cos * p[1] + base_m[1]) / cell_m);
                 let (cx, cy) = (i64::from(x), i64::from(y));
-                if !(always_inside(cx, reach_x) && always_inside(cy, reach_y)) {
+                if !(within(cx, reach_x) && within(cy, reach_y)) {
                     continue;
                 }
-                if indexed && always_inside(cx, inside_x) && always_inside(cy, inside_y) {
+                if indexed && within(cx, inside_x) && within(cy, inside_y) {
                     inner_cells.push([cx, cy]);
                 } else {
                     rim.push([x, y]);
@@ -1152,7 +1148,6 @@ impl Lattice {
             rotated,
             inner_indices,
             rim,
-            level_widths,
             mean_scale: 1.0 / (scan_points_m.len() as f64 * VALUE_SCALE),
             min_score,
         })
@@ -1256,7 +1251,7 @@ impl Lattice {
     #[inline]
     fn sum_at(&self, level: &Level, depth: u32, rotation: usize, x0: i64, y0: i64) -> u64 {
         let cells = &self.rotated[rotation];
-        let shift = y0 * self.level_widths[depth as usize] + x0;
+        let shift = y0 * level.width as i64 + x0;
         let inner: u64 = self.inner_indices[depth as usize][cells.inner.clone()]
             .iter()
             .map(|&index| u64::from(level.values[(i64::from(index) + shift) as usize]))
