@@ -1,5 +1,5 @@
 #!/bin/bash
-# The loop-closure acceptance study of docs/slam.md: every condition of the paper (four ideal,
+# The loop-closure acceptance study of docs/slam-log.md: every condition of the paper (four ideal,
 # 5G spectral) with loop_closure false and true, seeds 1..N (default 20), one summary.json per run
 # in OUT/<condition>_<false|true>_<seed>.json; then the table.
 #   scripts/loop_closure_study.sh OUT [N]        (release binary: cargo build --release first)

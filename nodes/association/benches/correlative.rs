@@ -317,7 +317,7 @@ fn fine_search(c: &mut Criterion, case: &Case) {
 }
 
 /// Loop closure's plateau centre at a metre of scatter (`plateau_fraction` 0.03, ±3° in 1°
-/// steps on the hit raster of 0.25 m), at the three `plateau_window_m` values docs/slam.md
+/// steps on the hit raster of 0.25 m), at the three `plateau_window_m` values docs/slam-log.md
 /// compares, beside the best-plus-runner-up search that every loop candidate runs, in the same
 /// run.
 fn plateau(c: &mut Criterion, case: &Case) {

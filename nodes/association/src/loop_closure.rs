@@ -243,7 +243,7 @@ pub fn match_loop(
     // counterpart in the submap pull at the pose; the fine search settles it where the most
     // points lie on submap outlines.
     // On the search's sample, as the fine search is: the full query made the ICP a third of the
-    // loop search's time and moved no study figure beyond its noise (docs/slam.md).
+    // loop search's time and moved no study figure beyond its noise (docs/slam-log.md).
     let relative = refine_match(&map, &sample, best.pose, &refine)?;
     let relative = fine_search(&submap_m, &sample, relative, loop_params);
     let relative = plateau_centre_of(&grids, &sample, relative, loop_params);

@@ -290,7 +290,7 @@ pub struct LoopClosureParams {
     /// `superseding_score` joins it. A run's first revisit sees its old place only in part: its
     /// match scores ~0.67 and, though within its own uncertainty, is often 0.5–1 m and 2–4°
     /// off, where the loops a few keyframes later score 0.9–1 and are centimetres off
-    /// (docs/slam.md). 0: no edge leaves. Finite, 0..=1.
+    /// (docs/slam-log.md). 0: no edge leaves. Finite, 0..=1.
     pub supersede_below_score: f64,
     /// See `supersede_below_score`; at least that (an edge is superseded only by a fuller view
     /// than its own) unless superseding is off. Finite, 0..=1.

@@ -49,7 +49,7 @@ fn may_slide(edge: &LoopEdge, lc: &LoopClosureParams) -> bool {
 /// (it is why the new match is accepted), but its measurement along the slide is no better than
 /// its own confirmation would be, which is none: a match that may slide is never confirmed itself.
 /// On the hall at Δθ 5° such partners had slid 2.8–3.7 m (seeds 2, 19, 30, 32 and 35).
-/// Measured against keeping them (docs/slam.md): final keyframe RMSE −0.035 ± 0.010 m over hall
+/// Measured against keeping them (docs/slam-log.md): final keyframe RMSE −0.035 ± 0.010 m over hall
 /// seeds 1–200 at Δθ 5°, ET-GOPSA +0.15 ± 0.61, and every other row within its noise.
 fn partner_edges(partner: &LoopEdge, lc: &LoopClosureParams) -> Vec<LoopEdge> {
     if may_slide(partner, lc) {
