@@ -310,14 +310,6 @@ pub struct LoopClosureParams {
     /// widened edge says, and a fixed 0.3 m left 40 % of the hall's single laps at Δθ 5°
     /// without a closure (docs/slam.md). 0: the tolerances stay. Finite, 0..=10.
     pub pair_scatter_widening: f64,
-    /// Of a closure's loop edges (a match and the pending match that confirmed it), those whose
-    /// two keyframes lie farther apart than this, as measured, only vouch for the place; the
-    /// shorter join the graph, and a closure with none as short keeps its shortest. A long edge
-    /// turns its keyframe's own heading error into a translation error: on the hall, the second
-    /// old place of a single lap's closure lies ~23 m from the revisit, and such edges were every
-    /// hall edge more than 0.5 m off at ΔR 0.1 m (docs/slam.md). Cartographer's
-    /// `max_constraint_distance` is the same 15 m. 0: no limit. Metres, finite, 0..=1e4.
-    pub max_edge_length_m: f64,
     /// A match that waits for confirmation is dropped after this many keyframes.
     pub pending_keyframes: u32,
     /// At every closure, each earlier closure not yet verified is tested against the rest of
@@ -387,7 +379,6 @@ impl Default for LoopClosureParams {
             superseding_score: 0.85,
             confirm_min_information_per_m2: 1.0,
             pair_scatter_widening: 1.0,
-            max_edge_length_m: 15.0,
             pending_keyframes: 20,
             recheck_chi2: 16.27,
             verified_std_m: 1.0,
@@ -614,7 +605,7 @@ impl LoopClosureParams {
     /// (field, value, min, max) of the pose graph's edge model and of the checks between its
     /// closures (recheck, pair widening), which [`Self::validate`] checks
     /// after [`Self::matching_ranges`].
-    fn graph_ranges(&self) -> [(&'static str, f64, f64, f64); 11] {
+    fn graph_ranges(&self) -> [(&'static str, f64, f64, f64); 10] {
         [
             (
                 "loop_closure.odometry_std_per_m",
@@ -660,12 +651,6 @@ impl LoopClosureParams {
                 self.verified_std_m,
                 1e-6,
                 1e3,
-            ),
-            (
-                "loop_closure.max_edge_length_m",
-                self.max_edge_length_m,
-                0.0,
-                1e4,
             ),
         ]
     }
@@ -1134,9 +1119,6 @@ mod tests {
             }),
             ("loop_closure.pair_scatter_widening", |p| {
                 p.loop_closure.pair_scatter_widening = 11.0
-            }),
-            ("loop_closure.max_edge_length_m", |p| {
-                p.loop_closure.max_edge_length_m = -1.0
             }),
             ("loop_closure.plateau_window_deg", |p| {
                 p.loop_closure.plateau_window_deg = 60.0

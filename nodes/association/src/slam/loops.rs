@@ -59,27 +59,6 @@ fn partner_edges(partner: &LoopEdge, lc: &LoopClosureParams) -> Vec<LoopEdge> {
     }
 }
 
-/// The edges of a closure that join the graph: those whose two keyframes lie at most
-/// `max_edge_length_m` apart as measured, or the shortest if none does (0: all of them). A long
-/// edge still vouched for the place; in the graph it would carry its old keyframe's own heading
-/// error over its length (`LoopClosureParams::max_edge_length_m`). Measured against joining
-/// every edge, over the study (docs/slam-log.md): edges more than 0.5 m off on the hall at
-/// ΔR 0.1 m 2 → 0, 5G 5 → 3, Δθ 5° 45 of 67 → 25 of 41, and every map within its noise.
-fn joining(edges: Vec<LoopEdge>, max_edge_length_m: f64) -> Vec<LoopEdge> {
-    let length_m = |e: &LoopEdge| e.relative.x_m.hypot(e.relative.y_m);
-    if max_edge_length_m <= 0.0 {
-        edges
-    } else if edges.iter().any(|e| length_m(e) <= max_edge_length_m) {
-        let short = |e: &LoopEdge| length_m(e) <= max_edge_length_m;
-        edges.into_iter().filter(short).collect()
-    } else {
-        let shortest = edges
-            .into_iter()
-            .min_by(|a, b| length_m(a).total_cmp(&length_m(b)));
-        shortest.into_iter().collect()
-    }
-}
-
 /// Closures tested by each recheck at most, the newest; older unverified ones stay in the graph
 /// untested, so that a run whose closures the graph can never judge does not pay a growing
 /// re-optimisation per closure.
@@ -259,7 +238,6 @@ impl Association {
                             "loop accepted"
                         );
                         edges.push(edge);
-                        let edges = joining(edges, lc.max_edge_length_m);
                         self.apply_loop(&edges);
                         return Some(found);
                     }
@@ -1031,28 +1009,5 @@ mod tests {
             assert!(may_slide(&edge(sliding), &lc), "std_scale {std_scale}");
             assert!(!may_slide(&edge(pinned), &lc), "std_scale {std_scale}");
         }
-    }
-
-    #[test]
-    fn of_a_closures_edges_only_the_short_ones_join_unless_none_is() {
-        let edge = |from: usize, x_m: f64| LoopEdge {
-            from,
-            to: 100,
-            relative: Pose2::new(x_m, 0.0, 0.0),
-            information: [[0.0; 3]; 3],
-            std_scale: 1.0,
-            score: 0.7,
-        };
-        let (near, far, farther) = (edge(0, 9.0), edge(11, 23.0), edge(20, 30.0));
-        assert_eq!(joining(vec![near, far], 15.0), vec![near]);
-        assert_eq!(joining(vec![far, near], 15.0), vec![near]);
-        // At the limit an edge is short enough.
-        assert_eq!(joining(vec![edge(0, 15.0), far], 15.0), vec![edge(0, 15.0)]);
-        // A closure of long edges keeps its shortest; a single edge always joins.
-        assert_eq!(joining(vec![farther, far], 15.0), vec![far]);
-        assert_eq!(joining(vec![farther], 15.0), vec![farther]);
-        // 0: no limit.
-        assert_eq!(joining(vec![near, far], 0.0), vec![near, far]);
-        assert!(joining(Vec::new(), 15.0).is_empty());
     }
 }
