@@ -8,8 +8,8 @@
 //! must cover.
 //!
 //! A candidate is tested by matching a *query* (the current keyframe and the few before it, in the
-//! current keyframe's frame) against a *submap* (the candidate and its neighbours, in the
-//! candidate's frame):
+//! frame of their middle keyframe, the anchor) against a *submap* (the candidate and its
+//! neighbours, in the candidate's frame):
 //!
 //! 1. **Correlative search.** The submap is rasterised on cells of `search_step_m`
 //!    ([`crate::correlative::ProbabilityGrid`]): by default into a binary grid (cells within one
