@@ -65,15 +65,17 @@ run_one() { # NAME SCENE_ARG SEED LAUNCH ARGS...
   dir=$(mktemp -d)
   if "$bin" launch "$launch" "$@" "${extra[@]}" --seed "$seed" --out "$dir" >/dev/null 2>"$dir/stderr"; then
     cp "$dir/summary.json" "$out/runs/$name.json"
+    printf '\r%s of %s runs done' "$(find "$out/runs" -name '*.json' | wc -l)" "$total" >&2
   else
     echo "run $name failed: $(tail -1 "$dir/stderr")" >&2
   fi
   rm -rf "$dir"
 }
 export -f run_one
-export bin out
 total=$(wc -l < "$plan")
+export bin out total
 echo "$total runs, $jobs at a time" >&2
 # shellcheck disable=SC2016
 xargs -P "$jobs" -L 1 bash -c 'run_one "$@"' _ < "$plan"
+echo >&2
 python3 "$(dirname "$0")/slam_study_table.py" "$out/runs"

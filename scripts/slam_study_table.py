@@ -66,6 +66,8 @@ def main(root):
             ratio = sum(et_slam) / sum(et_oracle)
             paired = [a / b for a, b in zip(et_slam, et_oracle) if b > 0]
             _, ratio_se = mean_se(paired)
+            # One run has no spread to show.
+            ratio_text = f"{ratio:.2f} ± {ratio_se:.2f}" if len(paired) > 1 else f"{ratio:.2f}"
             kf = [slam[k].get("keyframe_rmse_m", float("nan")) for k in keys]
             diverged = sum(1 for v in kf if v > 2.0)
             last_lap = [
@@ -84,12 +86,12 @@ def main(root):
             bad += f" | {sum(informed)}" if informed else " | n/a"
             print(
                 f"| {label} | {group} | {len(keys)} | {mean_se(et_slam)[0]:.1f} | "
-                f"{mean_se(et_oracle)[0]:.1f} | {ratio:.2f} ± {ratio_se:.2f} | "
+                f"{mean_se(et_oracle)[0]:.1f} | {ratio_text} | "
                 f"{mean_se(kf)[0]:.3f} | {diverged} | "
                 f"{mean_se(last_lap)[0]:.3f} | {mean_se(loops)[0]:.2f} | {bad} |"
                 if last_lap
                 else f"| {label} | {group} | {len(keys)} | {mean_se(et_slam)[0]:.1f} | "
-                f"{mean_se(et_oracle)[0]:.1f} | {ratio:.2f} ± {ratio_se:.2f} | "
+                f"{mean_se(et_oracle)[0]:.1f} | {ratio_text} | "
                 f"{mean_se(kf)[0]:.3f} | {diverged} | n/a | {mean_se(loops)[0]:.2f} | {bad} |"
             )
 
