@@ -67,7 +67,7 @@ run_one() { # NAME SCENE_ARG SEED LAUNCH ARGS...
     cp "$dir/summary.json" "$out/runs/$name.json"
     printf '\r%s of %s runs done' "$(find "$out/runs" -name '*.json' | wc -l)" "$total" >&2
   else
-    echo "run $name failed: $(tail -1 "$dir/stderr")" >&2
+    printf '\nrun %s failed: %s\n' "$name" "$(tail -1 "$dir/stderr")" >&2
   fi
   rm -rf "$dir"
 }

@@ -15,7 +15,7 @@
 //! the grid and its maxima, padded and not; `depth` is the branch and bound with 1 to 7
 //! precomputed levels (`suggested_depth` picks 4 at 0.25 m and 5 at 0.1 m here);
 //! `fine_search/<step>` is loop closure's fine search after the ICP (field and maxima built, then
-//! searched), at the two `fine_step_m` values docs/slam.md compares; `plateau/<window>` is the
+//! searched), at the two `fine_step_m` values docs/slam-log.md compares; `plateau/<window>` is the
 //! plateau's centre that loop closure takes at a metre of scatter (`plateau_window_m` 1.5, 2.5
 //! and 3.5 m, ±3°), beside the best-plus-runner-up search every candidate runs: 0.109, 0.282 and
 //! 0.541 ms against 0.402 ms (the cost grows with the window's area; 2.5 m, the default, holds
@@ -281,7 +281,7 @@ fn depth(c: &mut Criterion, case: &Case) {
 
 /// Loop closure's fine search (`fine_sigma_m` 0.1 m, ±0.3 m × ±1.5°, Hess's angular step) from
 /// 0.14 m and 0.5° off the query's true pose, at the two `fine_step_m` values measured in
-/// docs/slam.md: building the field and its maxima, then the branch and bound.
+/// docs/slam-log.md: building the field and its maxima, then the branch and bound.
 fn fine_search(c: &mut Criterion, case: &Case) {
     let truth = Pose2::new(1.0, -0.5, 0.2);
     let start = truth.compose(&Pose2::new(0.1, -0.1, 0.5f64.to_radians()));
