@@ -41,10 +41,11 @@ pub struct Params {
     /// A scan point and its nearest map point form a correspondence only if they are at most this
     /// far apart, metres.
     pub max_correspondence_m: f64,
-    /// Maximum ICP iterations per scan.
+    /// Iterations at most per match: of tracking's Gauss–Newton scan match and of the loop
+    /// match's ICP refinement, which share it (and the two convergence tolerances below).
     pub max_iterations: u32,
-    /// ICP has converged when an iteration moves the matched scan points' centroid by less than
-    /// this, metres…
+    /// A match has converged when an iteration moves it by less than this (the ICP: the matched
+    /// scan points' centroid), metres…
     pub convergence_translation_m: f64,
     /// …and by less than this rotation, degrees.
     pub convergence_rotation_deg: f64,
