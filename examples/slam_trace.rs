@@ -10,8 +10,14 @@
 //!
 //! The scan matcher's parameters come from the environment where set: `CELL` (`cell_m`), `NEIGH`
 //! (`cell_neighbours`), `CORR` (`max_correspondence_m`), `ROBUST` (`robust_sigma`), `PRIOR_M`,
-//! `PRIOR_DEG` (the prior's floors) and `MAPSTD` (`map_std_m`); `ALL=1` prints every frame;
-//! `SCENE=FILE` replaces the hall; `DISTORT=1` prints
+//! `PRIOR_DEG` (the prior's floors), `MAPSTD` (`map_std_m`) and `MAXIT` (`max_iterations`);
+//! `ALL=1` prints every frame; `SCENE=FILE` replaces the hall. `FIDELITY=spectral` runs the 5G
+//! chain instead of the ideal radar (the range × angle map of Table I and the estimator of
+//! `launch/paper-5g.toml`: bin centres, or refined with `REFINE=interpolation`; the positional
+//! noise arguments are then ignored), `QUANT=1` moves each detection to the centre of its 5G
+//! resolution cell (one per cell: the grid's quantisation without the spectral map), and
+//! `ORACLEMAP=1` (or `full`) also matches every frame against a map built at the true poses
+//! (`OracleTracking`: how well one frame measures its pose when the map is right). `DISTORT=1` prints
 //! how far each loop's query and submap keyframes are from their true placement; `TRUECLOUD=1`
 //! re-matches each loop's query and submap, built at the true poses and at the estimated ones,
 //! from the true relative pose (2 m radius) and from the back end's own prediction and radius
@@ -27,7 +33,9 @@
 //! truth; `ALIGNINFO=1` prints that motion and the
 //! first keyframes' errors.
 
-use nrslam_association::{detection_to_agv_m, Association, LoopMatch, Params, Pose2};
+use nrslam_association::{
+    detection_to_agv_m, wrap_angle_rad, Association, LoopMatch, Params, Pose2,
+};
 
 fn main() -> anyhow::Result<()> {
     tracing_subscriber::fmt()
@@ -43,6 +51,8 @@ fn main() -> anyhow::Result<()> {
         ctx.seed_for("radar"),
     )?;
     let boresight = sim.scene().sensor.boresight_rad;
+    let mut spectral = spectral_estimator(&radar)?;
+    let mut oracle = OracleTracking::new(&params);
     let mut slam = Association::new(params)?;
     let mut truths: Vec<Pose2> = Vec::new();
     // The online error when each keyframe was taken, beside its final error after every closure.
@@ -52,18 +62,34 @@ fn main() -> anyhow::Result<()> {
     while let Some(frame) = sim.try_next_frame()? {
         let o = frame.odometry.pose;
         slam.on_odometry_at(frame.stamp_s, Pose2::new(o.x_m, o.y_m, o.yaw_rad))?;
-        let scan: Vec<[f64; 2]> = frame
-            .detections
+        let detections = match (&mut spectral, &frame.spectrum) {
+            (Some(estimator), Some(map)) => estimated_detections(estimator, &radar, map)?,
+            _ => frame.detections.clone(),
+        };
+        let detections = if std::env::var("QUANT").is_ok() {
+            quantised(&detections, &radar)
+        } else {
+            detections
+        };
+        let scan: Vec<[f64; 2]> = detections
             .iter()
             .map(|d| detection_to_agv_m(d.range_m, d.angle_rad, boresight))
             .collect();
-        let std: Vec<[f64; 2]> = frame
-            .detections
+        let std: Vec<[f64; 2]> = detections
             .iter()
             .map(|d| [d.range_std_m, d.angle_std_rad])
             .collect();
         // The keyframe poses before this frame's closure moved them: what the loop search saw.
         let mut before: Vec<Pose2> = slam.keyframe_records().iter().map(|r| r.pose).collect();
+        if std::env::var("ORACLEMAP").is_ok() {
+            let t = frame.true_pose;
+            oracle.frame((
+                Pose2::new(t.x_m, t.y_m, t.yaw_rad),
+                Pose2::new(o.x_m, o.y_m, o.yaw_rad),
+                scan.clone(),
+                std.clone(),
+            ));
+        }
         let out = slam.on_scan_with_std(&scan, Some(&std))?;
         let t = frame.true_pose;
         let truth = Pose2::new(t.x_m, t.y_m, t.yaw_rad);
@@ -109,6 +135,7 @@ fn main() -> anyhow::Result<()> {
             );
         }
     }
+    oracle.report();
     print_keyframe_errors(&slam, &truths, &online_at_keyframe, (sum2 / n).sqrt());
     if let Ok(path) = std::env::var("TRUTHS") {
         // Keyframe k's truth on line k: what the debug log's keyframe indices refer to.
@@ -119,6 +146,197 @@ fn main() -> anyhow::Result<()> {
         std::fs::write(path, text)?;
     }
     Ok(())
+}
+
+/// One frame as the oracle tracking sees it: true pose, odometry pose, scan (AGV frame) and each
+/// point's `[range m, angle rad]` std.
+type OracleFrame = (Pose2, Pose2, Vec<[f64; 2]>, Vec<[f64; 2]>);
+
+/// `ORACLEMAP=1`: every frame matched by tracking's matcher (its parameters and prior) against a
+/// map of the earlier frames' detections placed at their true poses (every second frame, as
+/// keyframes every metre), from the odometry's prediction off the last true pose: how well one
+/// frame's match measures its pose when the map is right. `ORACLEMAP=full`: against the map of
+/// every frame of the run, so that no frame meets the end of what has been mapped.
+struct OracleTracking {
+    map: nrslam_association::scan_matcher::DistributionMap,
+    settings: nrslam_association::scan_matcher::MatchSettings,
+    odometry_std_per_m: f64,
+    odometry_std_deg_per_m: f64,
+    frames: Vec<OracleFrame>,
+    /// Per matched frame: position error (m), signed heading error (deg), of the match and of
+    /// the prediction.
+    errors: Vec<[f64; 4]>,
+}
+
+impl OracleTracking {
+    fn new(params: &Params) -> Self {
+        Self {
+            map: params.distribution_map(),
+            settings: params.match_settings(),
+            odometry_std_per_m: params.loop_closure.odometry_std_per_m,
+            odometry_std_deg_per_m: params.loop_closure.odometry_std_deg_per_m,
+            frames: Vec::new(),
+            errors: Vec::new(),
+        }
+    }
+
+    fn frame(&mut self, frame: OracleFrame) {
+        let incremental = std::env::var("ORACLEMAP").as_deref() != Ok("full");
+        if incremental {
+            self.match_frame(self.frames.len(), &frame);
+            if self.frames.len().is_multiple_of(2) {
+                self.insert(&frame);
+            }
+        }
+        self.frames.push(frame);
+    }
+
+    fn insert(&mut self, (truth, _, scan, _): &OracleFrame) {
+        let world: Vec<[f64; 2]> = scan.iter().map(|p| truth.transform_point(*p)).collect();
+        self.map.extend(&world);
+    }
+
+    /// Matches frame `index` (the previous frame is `self.frames[index - 1]`).
+    fn match_frame(&mut self, index: usize, (truth, odometry, scan, std): &OracleFrame) {
+        let Some((last_truth, last_odometry, _, _)) = index.checked_sub(1).map(|i| &self.frames[i])
+        else {
+            return;
+        };
+        let points: Vec<nrslam_association::scan_matcher::RadarPoint> = scan
+            .iter()
+            .zip(std)
+            .map(|(p, s)| nrslam_association::scan_matcher::RadarPoint {
+                position_m: *p,
+                range_std_m: s[0],
+                angle_std_rad: s[1],
+            })
+            .collect();
+        let increment = last_odometry.between(odometry);
+        let predicted = last_truth.compose(&increment);
+        let step_m = increment.x_m.hypot(increment.y_m);
+        // Tracking's prior: the odometry increment's own error model, above the floors.
+        let mut settings = self.settings;
+        settings.prior_std_m = settings.prior_std_m.max(self.odometry_std_per_m * step_m);
+        settings.prior_std_rad = settings
+            .prior_std_rad
+            .max((self.odometry_std_deg_per_m * step_m).to_radians());
+        let matched =
+            nrslam_association::scan_matcher::match_scan(&self.map, &points, predicted, &settings);
+        let yaw_deg = |p: &Pose2| wrap_angle_rad(p.yaw_rad - truth.yaw_rad).to_degrees();
+        self.errors.push([
+            matched.pose.distance_m(truth),
+            yaw_deg(&matched.pose),
+            predicted.distance_m(truth),
+            yaw_deg(&predicted),
+        ]);
+    }
+
+    fn report(&mut self) {
+        if std::env::var("ORACLEMAP").as_deref() == Ok("full") {
+            let frames = std::mem::take(&mut self.frames);
+            for frame in frames.iter().step_by(2) {
+                self.insert(frame);
+            }
+            self.frames = frames;
+            for index in 0..self.frames.len() {
+                let frame = self.frames[index].clone();
+                self.match_frame(index, &frame);
+            }
+        }
+        if self.errors.is_empty() {
+            return;
+        }
+        let n = self.errors.len() as f64;
+        let rms = |k: usize| (self.errors.iter().map(|e| e[k] * e[k]).sum::<f64>() / n).sqrt();
+        let mean = |k: usize| self.errors.iter().map(|e| e[k]).sum::<f64>() / n;
+        println!(
+            "oracle map: match {:.3} m {:.3} deg RMS (mean heading error {:+.3} deg), \
+             prediction {:.3} m {:.3} deg RMS (mean {:+.3} deg)",
+            rms(0),
+            rms(1),
+            mean(1),
+            rms(2),
+            rms(3),
+            mean(3)
+        );
+    }
+}
+
+/// With `FIDELITY=spectral`, the estimator of `launch/paper-5g.toml` (peaks within 10 dB of the
+/// frame's strongest; `REFINE=interpolation` refines them, else the bin centres, as the paper).
+fn spectral_estimator(
+    radar: &nrslam_radar::Params,
+) -> anyhow::Result<Option<nrslam_estimator::Estimator>> {
+    if radar.fidelity != nrslam_radar::Fidelity::Spectral {
+        return Ok(None);
+    }
+    let refinement = match std::env::var("REFINE").as_deref() {
+        Ok("interpolation") => nrslam_estimator::Refinement::Interpolation,
+        _ => nrslam_estimator::Refinement::None,
+    };
+    let config = nrslam_estimator::EstimatorConfig {
+        dynamic_range_db: 10.0,
+        refinement,
+        ..nrslam_estimator::EstimatorConfig::default()
+    };
+    Ok(Some(
+        nrslam_estimator::Estimator::new(&radar.ofdm, config)
+            .map_err(|e| anyhow::anyhow!("estimator: {e}"))?,
+    ))
+}
+
+/// The detections of one spectral frame, each with the std of its resolution cell (as the
+/// estimator node publishes them).
+fn estimated_detections(
+    estimator: &mut nrslam_estimator::Estimator,
+    radar: &nrslam_radar::Params,
+    map: &nrslam_ofdm::RangeAngleSpectrum,
+) -> anyhow::Result<Vec<nrslam_msgs::Detection>> {
+    let found = estimator
+        .process_spectrum(map)
+        .map_err(|e| anyhow::anyhow!("estimator: {e}"))?;
+    let range_std_m = radar.ofdm.range_bin_m() / 12f64.sqrt();
+    let sine_std = radar.ofdm.sine_bin() / 12f64.sqrt();
+    Ok(found
+        .into_iter()
+        .map(|d| nrslam_msgs::Detection {
+            range_m: d.range_m,
+            angle_rad: d.angle_rad,
+            range_std_m,
+            angle_std_rad: (sine_std / d.angle_rad.cos().max(0.05))
+                .min(std::f64::consts::FRAC_PI_2),
+            power_db: d.power_db,
+        })
+        .collect())
+}
+
+/// `QUANT=1`: each detection moved to the centre of its 5G resolution cell (range bin × sine
+/// bin), one per cell, with the cell's std: the grid quantisation without the spectral map.
+fn quantised(
+    detections: &[nrslam_msgs::Detection],
+    radar: &nrslam_radar::Params,
+) -> Vec<nrslam_msgs::Detection> {
+    let range_bin_m = radar.ofdm.range_bin_m();
+    let sine_bin = radar.ofdm.sine_bin();
+    let mut cells = std::collections::BTreeSet::new();
+    detections
+        .iter()
+        .filter_map(|d| {
+            let r = (d.range_m / range_bin_m).round() as i64;
+            let s = (d.angle_rad.sin() / sine_bin).round() as i64;
+            cells.insert((r, s)).then(|| {
+                let angle_rad = (s as f64 * sine_bin).clamp(-1.0, 1.0).asin();
+                nrslam_msgs::Detection {
+                    range_m: r as f64 * range_bin_m,
+                    angle_rad,
+                    range_std_m: range_bin_m / 12f64.sqrt(),
+                    angle_std_rad: (sine_bin / 12f64.sqrt() / angle_rad.cos().max(0.05))
+                        .min(std::f64::consts::FRAC_PI_2),
+                    power_db: d.power_db,
+                }
+            })
+        })
+        .collect()
 }
 
 /// The radar's and the association's parameters and the seed, from the positional arguments and
@@ -132,6 +350,9 @@ fn configure(args: &[String]) -> anyhow::Result<(nrslam_radar::Params, u64, Para
     };
     if let Ok(scene) = std::env::var("SCENE") {
         radar.scene = scene.into();
+    }
+    if std::env::var("FIDELITY").as_deref() == Ok("spectral") {
+        radar.fidelity = nrslam_radar::Fidelity::Spectral;
     }
     let seed: u64 = get(3, "1").parse()?;
     let mut params = Params {
@@ -157,6 +378,7 @@ fn configure(args: &[String]) -> anyhow::Result<(nrslam_radar::Params, u64, Para
     set(&mut params.prior_std_m, env("PRIOR_M"));
     set(&mut params.prior_std_deg, env("PRIOR_DEG"));
     set(&mut params.map_std_m, env("MAPSTD"));
+    set_count(&mut params.max_iterations, env("MAXIT"));
     // Positional overrides apply only where given: the shipped defaults otherwise.
     let lc = &mut params.loop_closure;
     let opt = |i: usize| args.get(i).and_then(|v| v.parse::<f64>().ok());
