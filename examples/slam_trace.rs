@@ -295,18 +295,9 @@ fn estimated_detections(
     let found = estimator
         .process_spectrum(map)
         .map_err(|e| anyhow::anyhow!("estimator: {e}"))?;
-    let range_std_m = radar.ofdm.range_bin_m() / 12f64.sqrt();
-    let sine_std = radar.ofdm.sine_bin() / 12f64.sqrt();
     Ok(found
-        .into_iter()
-        .map(|d| nrslam_msgs::Detection {
-            range_m: d.range_m,
-            angle_rad: d.angle_rad,
-            range_std_m,
-            angle_std_rad: (sine_std / d.angle_rad.cos().max(0.05))
-                .min(std::f64::consts::FRAC_PI_2),
-            power_db: d.power_db,
-        })
+        .iter()
+        .map(|d| nrslam_estimator::cell_detection(&radar.ofdm, d.range_m, d.angle_rad, d.power_db))
         .collect())
 }
 
@@ -326,14 +317,8 @@ fn quantised(
             let s = (d.angle_rad.sin() / sine_bin).round() as i64;
             cells.insert((r, s)).then(|| {
                 let angle_rad = (s as f64 * sine_bin).clamp(-1.0, 1.0).asin();
-                nrslam_msgs::Detection {
-                    range_m: r as f64 * range_bin_m,
-                    angle_rad,
-                    range_std_m: range_bin_m / 12f64.sqrt(),
-                    angle_std_rad: (sine_bin / 12f64.sqrt() / angle_rad.cos().max(0.05))
-                        .min(std::f64::consts::FRAC_PI_2),
-                    power_db: d.power_db,
-                }
+                let range_m = r as f64 * range_bin_m;
+                nrslam_estimator::cell_detection(&radar.ofdm, range_m, angle_rad, d.power_db)
             })
         })
         .collect()

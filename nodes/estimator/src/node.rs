@@ -159,24 +159,29 @@ impl EstimatorNode {
         found: Vec<RangeAngleDetection>,
     ) -> Detections {
         let ofdm = self.planned.as_ref().map_or(self.params.ofdm, |(p, _)| *p);
-        let range_std_m = ofdm.range_bin_m() / 12f64.sqrt();
-        let sine_std = ofdm.sine_bin() / 12f64.sqrt();
         Detections {
             header: Header::new(header.stamp, "radar"),
             boresight_rad,
             detections: found
-                .into_iter()
-                .map(|d| Detection {
-                    range_m: d.range_m,
-                    angle_rad: d.angle_rad,
-                    range_std_m,
-                    // dθ = d(sin θ) / cos θ, capped at endfire.
-                    angle_std_rad: (sine_std / d.angle_rad.cos().max(0.05))
-                        .min(std::f64::consts::FRAC_PI_2),
-                    power_db: d.power_db,
-                })
+                .iter()
+                .map(|d| cell_detection(&ofdm, d.range_m, d.angle_rad, d.power_db))
                 .collect(),
         }
+    }
+}
+
+/// A detection at `range_m` and `angle_rad` as `/radar/detections` carries it: with the standard
+/// deviations of its resolution cell, Δr/√12 in range and Δ(sin θ)/√12 in the sine of the angle
+/// (the grid limit of a peak at a bin centre, the paper's chain).
+pub fn cell_detection(ofdm: &OfdmParams, range_m: f64, angle_rad: f64, power_db: f64) -> Detection {
+    let sine_std = ofdm.sine_bin() / 12f64.sqrt();
+    Detection {
+        range_m,
+        angle_rad,
+        range_std_m: ofdm.range_bin_m() / 12f64.sqrt(),
+        // dθ = d(sin θ) / cos θ, capped at endfire.
+        angle_std_rad: (sine_std / angle_rad.cos().max(0.05)).min(std::f64::consts::FRAC_PI_2),
+        power_db,
     }
 }
 
@@ -207,5 +212,26 @@ impl Node for EstimatorNode {
         let detections = self.detections(header, boresight_rad, found);
         outbox.publish(DETECTIONS, detections);
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_cell_detection_carries_its_cells_std() {
+        let ofdm = OfdmParams::default();
+        let broadside = cell_detection(&ofdm, 10.0, 0.0, -3.0);
+        assert_eq!((broadside.range_m, broadside.power_db), (10.0, -3.0));
+        assert!((broadside.range_std_m - ofdm.range_bin_m() / 12f64.sqrt()).abs() < 1e-15);
+        assert!((broadside.angle_std_rad - ofdm.sine_bin() / 12f64.sqrt()).abs() < 1e-15);
+        // A sine bin spans twice the angle at 60° off broadside (dθ = d(sin θ) / cos θ)...
+        let off = cell_detection(&ofdm, 10.0, 60f64.to_radians(), 0.0);
+        assert!((off.angle_std_rad / broadside.angle_std_rad - 2.0).abs() < 1e-9);
+        // ...and the std stays finite and at most π/2 at endfire.
+        let endfire = cell_detection(&ofdm, 10.0, std::f64::consts::FRAC_PI_2, 0.0);
+        assert!(endfire.angle_std_rad.is_finite());
+        assert!(endfire.angle_std_rad <= std::f64::consts::FRAC_PI_2);
     }
 }
