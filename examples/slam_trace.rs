@@ -53,6 +53,7 @@ fn main() -> anyhow::Result<()> {
     let boresight = sim.scene().sensor.boresight_rad;
     let mut spectral = spectral_estimator(&radar)?;
     let mut oracle = OracleTracking::new(&params);
+    let oracle_tracking = std::env::var("ORACLEMAP").is_ok();
     let mut slam = Association::new(params)?;
     let mut truths: Vec<Pose2> = Vec::new();
     // The online error when each keyframe was taken, beside its final error after every closure.
@@ -81,7 +82,8 @@ fn main() -> anyhow::Result<()> {
             .collect();
         // The keyframe poses before this frame's closure moved them: what the loop search saw.
         let mut before: Vec<Pose2> = slam.keyframe_records().iter().map(|r| r.pose).collect();
-        if std::env::var("ORACLEMAP").is_ok() {
+        let at_last_closure_m = slam.travelled_at_last_closure_m();
+        if oracle_tracking {
             let t = frame.true_pose;
             oracle.frame((
                 Pose2::new(t.x_m, t.y_m, t.yaw_rad),
@@ -106,7 +108,7 @@ fn main() -> anyhow::Result<()> {
                 } else {
                     out.predicted
                 });
-                trace_loop(&slam, &truths, &before, m)?;
+                trace_loop(&slam, &truths, &before, at_last_closure_m, m)?;
                 let true_rel = truths[m.candidate].between(&truths[m.query]);
                 println!(
                     "frame {:3} kf {:3} LOOP with kf {:3}: relative error {:.2} m {:.2}°, inliers {:.2}, score {:.2}/{:.2}",
@@ -152,17 +154,20 @@ fn main() -> anyhow::Result<()> {
 /// point's `[range m, angle rad]` std.
 type OracleFrame = (Pose2, Pose2, Vec<[f64; 2]>, Vec<[f64; 2]>);
 
-/// `ORACLEMAP=1`: every frame matched by tracking's matcher (its parameters and prior) against a
-/// map of the earlier frames' detections placed at their true poses (every second frame, as
-/// keyframes every metre), from the odometry's prediction off the last true pose: how well one
-/// frame's match measures its pose when the map is right. `ORACLEMAP=full`: against the map of
-/// every frame of the run, so that no frame meets the end of what has been mapped.
+/// `ORACLEMAP=1`: every frame matched by tracking's matcher (its parameters, prior and std
+/// floors) against a map of the earlier frames' detections placed at their true poses (a frame
+/// joins the map once it is `keyframe_distance_m` from the last one that did, as keyframes do),
+/// from the odometry's prediction off the last true pose: how well one frame's match measures
+/// its pose when the map is right. `ORACLEMAP=full`: against the map of the whole run, every
+/// frame's own points left out of it while it is matched, so that no frame meets the end of
+/// what has been mapped.
 struct OracleTracking {
+    params: Params,
+    whole_run: bool,
     map: nrslam_association::scan_matcher::DistributionMap,
-    settings: nrslam_association::scan_matcher::MatchSettings,
-    odometry_std_per_m: f64,
-    odometry_std_deg_per_m: f64,
     frames: Vec<OracleFrame>,
+    /// Whether each frame joined the map.
+    mapped: Vec<bool>,
     /// Per matched frame: position error (m), signed heading error (deg), of the match and of
     /// the prediction.
     errors: Vec<[f64; 4]>,
@@ -171,29 +176,37 @@ struct OracleTracking {
 impl OracleTracking {
     fn new(params: &Params) -> Self {
         Self {
+            params: params.clone(),
+            whole_run: std::env::var("ORACLEMAP").as_deref() == Ok("full"),
             map: params.distribution_map(),
-            settings: params.match_settings(),
-            odometry_std_per_m: params.loop_closure.odometry_std_per_m,
-            odometry_std_deg_per_m: params.loop_closure.odometry_std_deg_per_m,
             frames: Vec::new(),
+            mapped: Vec::new(),
             errors: Vec::new(),
         }
     }
 
     fn frame(&mut self, frame: OracleFrame) {
-        let incremental = std::env::var("ORACLEMAP").as_deref() != Ok("full");
-        if incremental {
+        let last_mapped = self
+            .frames
+            .iter()
+            .zip(&self.mapped)
+            .rev()
+            .find_map(|(f, &m)| m.then_some(f.0));
+        let joins =
+            last_mapped.is_none_or(|at| at.distance_m(&frame.0) >= self.params.keyframe_distance_m);
+        if !self.whole_run {
             self.match_frame(self.frames.len(), &frame);
-            if self.frames.len().is_multiple_of(2) {
-                self.insert(&frame);
+            if joins {
+                self.map.extend(&Self::world(&frame));
             }
         }
         self.frames.push(frame);
+        self.mapped.push(joins);
     }
 
-    fn insert(&mut self, (truth, _, scan, _): &OracleFrame) {
-        let world: Vec<[f64; 2]> = scan.iter().map(|p| truth.transform_point(*p)).collect();
-        self.map.extend(&world);
+    /// The frame's points placed at its true pose.
+    fn world((truth, _, scan, _): &OracleFrame) -> Vec<[f64; 2]> {
+        scan.iter().map(|p| truth.transform_point(*p)).collect()
     }
 
     /// Matches frame `index` (the previous frame is `self.frames[index - 1]`).
@@ -205,21 +218,20 @@ impl OracleTracking {
         let points: Vec<nrslam_association::scan_matcher::RadarPoint> = scan
             .iter()
             .zip(std)
-            .map(|(p, s)| nrslam_association::scan_matcher::RadarPoint {
-                position_m: *p,
-                range_std_m: s[0],
-                angle_std_rad: s[1],
+            .map(|(p, s)| {
+                let [range_std_m, angle_std_rad] = self.params.point_std(Some(*s));
+                nrslam_association::scan_matcher::RadarPoint {
+                    position_m: *p,
+                    range_std_m,
+                    angle_std_rad,
+                }
             })
             .collect();
         let increment = last_odometry.between(odometry);
         let predicted = last_truth.compose(&increment);
-        let step_m = increment.x_m.hypot(increment.y_m);
-        // Tracking's prior: the odometry increment's own error model, above the floors.
-        let mut settings = self.settings;
-        settings.prior_std_m = settings.prior_std_m.max(self.odometry_std_per_m * step_m);
-        settings.prior_std_rad = settings
-            .prior_std_rad
-            .max((self.odometry_std_deg_per_m * step_m).to_radians());
+        let settings = self
+            .params
+            .tracking_settings(increment.x_m.hypot(increment.y_m));
         let matched =
             nrslam_association::scan_matcher::match_scan(&self.map, &points, predicted, &settings);
         let yaw_deg = |p: &Pose2| wrap_angle_rad(p.yaw_rad - truth.yaw_rad).to_degrees();
@@ -232,15 +244,20 @@ impl OracleTracking {
     }
 
     fn report(&mut self) {
-        if std::env::var("ORACLEMAP").as_deref() == Ok("full") {
-            let frames = std::mem::take(&mut self.frames);
-            for frame in frames.iter().step_by(2) {
-                self.insert(frame);
+        if self.whole_run {
+            for (frame, _) in self.frames.iter().zip(&self.mapped).filter(|(_, &m)| m) {
+                self.map.extend(&Self::world(frame));
             }
-            self.frames = frames;
             for index in 0..self.frames.len() {
                 let frame = self.frames[index].clone();
+                let own = Self::world(&frame);
+                if self.mapped[index] {
+                    self.map.retract(&own);
+                }
                 self.match_frame(index, &frame);
+                if self.mapped[index] {
+                    self.map.extend(&own);
+                }
             }
         }
         if self.errors.is_empty() {
@@ -401,6 +418,7 @@ fn trace_loop(
     slam: &Association,
     truths: &[Pose2],
     before: &[Pose2],
+    at_last_closure_m: Option<f64>,
     m: &LoopMatch,
 ) -> anyhow::Result<()> {
     let j = m.candidate;
@@ -428,7 +446,7 @@ fn trace_loop(
         println!("  submap {}", spread(j.saturating_sub(w), j + w, j));
     }
     if std::env::var("TRUECLOUD").is_ok() {
-        rematch_clouds(slam, truths, before, m)?;
+        rematch_clouds(slam, truths, before, at_last_closure_m, m)?;
     }
     Ok(())
 }
@@ -439,6 +457,7 @@ fn rematch_clouds(
     slam: &Association,
     truths: &[Pose2],
     before: &[Pose2],
+    at_last_closure_m: Option<f64>,
     m: &LoopMatch,
 ) -> anyhow::Result<()> {
     let j = m.candidate;
@@ -461,10 +480,14 @@ fn rematch_clouds(
         max_correspondence_m: lc.refine_correspondence_m,
         ..slam.params().clone()
     };
-    // The back end's own prediction and radius (this being a run's first closure; later ones
-    // search a smaller radius, from the travel since the last closure).
+    // The back end's own prediction and radius: the radius grows with the travel since the
+    // candidate, or since the last closure where that is less.
     let predicted = before[j].between(&before[m.query]);
-    let radius_m = lc.search_radius_for_m(records[cur].travelled_m - records[j].travelled_m);
+    let travelled_m = records[cur].travelled_m - records[j].travelled_m;
+    let drifting_m = at_last_closure_m.map_or(travelled_m, |at| {
+        travelled_m.min(records[cur].travelled_m - at)
+    });
+    let radius_m = lc.search_radius_for_m(drifting_m);
     for (truth, from_prediction) in [(true, false), (false, false), (true, true), (false, true)] {
         let q = cloud(query_from, cur, m.query, truth);
         let sm = cloud(j.saturating_sub(w), j + w, j, truth);
@@ -499,7 +522,7 @@ fn rematch_clouds(
                 f.relative.rotation_to_rad(&true_rel).to_degrees(),
                 f.score
             ),
-            Err(e) => println!("  clouds from {from}: {e:?}"),
+            Err(e) => println!("  clouds from {from}: from {started_at} refused: {e:?}"),
         }
     }
     Ok(())

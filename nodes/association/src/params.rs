@@ -809,6 +809,30 @@ impl Params {
         }
     }
 
+    /// Tracking's matcher settings for a frame `step_m` metres from the last pose: the prior
+    /// around the odometry prediction takes the increment's own error model
+    /// (`loop_closure.odometry_std_per_m` and `odometry_std_deg_per_m` times the step) where that
+    /// exceeds the floors `prior_std_m` and `prior_std_deg`: a side-looking radar confounds
+    /// heading with along-track translation, and the wheels measure the latter well.
+    pub fn tracking_settings(&self, step_m: f64) -> crate::scan_matcher::MatchSettings {
+        let mut settings = self.match_settings();
+        let lc = &self.loop_closure;
+        settings.prior_std_m = settings.prior_std_m.max(lc.odometry_std_per_m * step_m);
+        settings.prior_std_rad = settings
+            .prior_std_rad
+            .max((lc.odometry_std_deg_per_m * step_m).to_radians());
+        settings
+    }
+
+    /// The `[range m, angle rad]` standard deviations scan matching weighs a detection by: its
+    /// reported ones, at least `min_range_std_m` and `min_angle_std_deg` (and those where it
+    /// reports none or a non-finite one).
+    pub fn point_std(&self, reported: Option<[f64; 2]>) -> [f64; 2] {
+        let floor = [self.min_range_std_m, self.min_angle_std_deg.to_radians()];
+        let pick = |v: f64, floor: f64| if v.is_finite() { v.max(floor) } else { floor };
+        reported.map_or(floor, |s| [pick(s[0], floor[0]), pick(s[1], floor[1])])
+    }
+
     /// An empty map of cell Gaussians for these parameters.
     pub fn distribution_map(&self) -> crate::scan_matcher::DistributionMap {
         crate::scan_matcher::DistributionMap::new(

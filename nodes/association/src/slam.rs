@@ -334,22 +334,14 @@ impl Association {
             .copied()
             .filter(|p| p[0].is_finite() && p[1].is_finite())
             .collect();
-        let std_floor = [
-            self.params.min_range_std_m,
-            self.params.min_angle_std_deg.to_radians(),
-        ];
         let point_std: Vec<[f64; 2]> = match std {
             Some(std) if std.len() == scan_agv_m.len() => scan_agv_m
                 .iter()
                 .zip(std)
                 .filter(|(p, _)| p[0].is_finite() && p[1].is_finite())
-                .map(|(_, s)| {
-                    let pick =
-                        |v: f64, floor: f64| if v.is_finite() { v.max(floor) } else { floor };
-                    [pick(s[0], std_floor[0]), pick(s[1], std_floor[1])]
-                })
+                .map(|(_, s)| self.params.point_std(Some(*s)))
                 .collect(),
-            _ => vec![std_floor; scan.len()],
+            _ => vec![self.params.point_std(None); scan.len()],
         };
         let radar_points: Vec<RadarPoint> = scan
             .iter()
@@ -364,16 +356,8 @@ impl Association {
             let step_m = self
                 .slam_pose
                 .map_or(0.0, |previous| previous.distance_m(&predicted));
-            let mut settings = self.params.match_settings();
-            if !odometry_rejected {
-                // The odometry increment's own error model holds what the scan observes poorly
-                // (a side-looking radar confounds heading with along-track translation).
-                let lc = &self.params.loop_closure;
-                settings.prior_std_m = settings.prior_std_m.max(lc.odometry_std_per_m * step_m);
-                settings.prior_std_rad = settings
-                    .prior_std_rad
-                    .max((lc.odometry_std_deg_per_m * step_m).to_radians());
-            } else {
+            let mut settings = self.params.tracking_settings(step_m);
+            if odometry_rejected {
                 settings.prior_std_m = settings.max_correction_m;
                 settings.prior_std_rad = settings.max_correction_rad;
             }
@@ -681,6 +665,12 @@ impl Association {
     /// The keyframes with their current poses.
     pub fn keyframe_records(&self) -> &[KeyframeRecord] {
         &self.records
+    }
+
+    /// Distance travelled (m) when the last loop closure was applied; `None` before the first.
+    /// The loop search's radius grows with the travel since then.
+    pub fn travelled_at_last_closure_m(&self) -> Option<f64> {
+        self.travelled_at_closure_m
     }
 
     /// The loop edges in the pose graph, in the order they were accepted.
