@@ -302,8 +302,7 @@ fn spectral_estimator(
     ))
 }
 
-/// The detections of one spectral frame, each with the std of its resolution cell (as the
-/// estimator node publishes them).
+/// The detections of one spectral frame, each with the std the estimator node publishes.
 fn estimated_detections(
     estimator: &mut nrslam_estimator::Estimator,
     radar: &nrslam_radar::Params,
@@ -314,7 +313,7 @@ fn estimated_detections(
         .map_err(|e| anyhow::anyhow!("estimator: {e}"))?;
     Ok(found
         .iter()
-        .map(|d| nrslam_estimator::cell_detection(&radar.ofdm, d.range_m, d.angle_rad, d.power_db))
+        .map(|d| nrslam_estimator::published_detection(&radar.ofdm, estimator.config(), d))
         .collect())
 }
 

@@ -81,6 +81,14 @@ pub struct EstimatorConfig {
     pub max_range_m: Option<f64>,
     /// Zero-padding factor of the array DFT (angle bins = K · factor), 1 to 1024; 1 = the paper.
     pub zero_padding_angle: usize,
+    /// With `refinement` = interpolation, the range and angle std a detection is published with
+    /// (`/radar/detections`), as a fraction of its resolution cell's (Δr/√12, Δ(sin θ)/√12),
+    /// 0.01 to 1. A lone echo's interpolated peak lies within a thousandth of a bin of it
+    /// (`nrslam accuracy --refine interpolation`), but on extended targets several scatterers
+    /// share a cell and pull the peak. Default 0.3, measured through SLAM on the study's 5G runs
+    /// with interpolation (docs/slam.md): the cell's own std weighed refined detections as if
+    /// they sat on the grid. Without refinement, or with zero padding, the cell's std stands.
+    pub interpolated_std_fraction: f64,
 }
 
 impl Default for EstimatorConfig {
@@ -99,6 +107,7 @@ impl Default for EstimatorConfig {
             refinement: Refinement::None,
             max_range_m: None,
             zero_padding_angle: 1,
+            interpolated_std_fraction: 0.3,
         }
     }
 }
@@ -137,7 +146,22 @@ impl EstimatorConfig {
             }
         }
         InvalidParam::check_count("zero_padding_angle", self.zero_padding_angle, 1, 1024)?;
+        InvalidParam::check_range(
+            "interpolated_std_fraction",
+            self.interpolated_std_fraction,
+            0.01,
+            1.0,
+        )?;
         Ok(())
+    }
+
+    /// The fraction of its resolution cell's std a detection is published with
+    /// (`interpolated_std_fraction` after interpolation, else 1).
+    pub fn published_std_fraction(&self) -> f64 {
+        match self.refinement {
+            Refinement::Interpolation => self.interpolated_std_fraction,
+            Refinement::None | Refinement::ZeroPadding { .. } => 1.0,
+        }
     }
 
     /// Zero-padding factor of the range IDFT this configuration implies.

@@ -58,4 +58,4 @@ pub use config::{Detector, EstimatorConfig, Refinement};
 pub use error::EstimatorError;
 pub use estimator::{validate_params, Estimator, RangeAngleDetection};
 pub mod node;
-pub use node::{build, cell_detection, Params};
+pub use node::{build, cell_detection, published_detection, Params};

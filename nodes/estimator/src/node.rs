@@ -164,9 +164,25 @@ impl EstimatorNode {
             boresight_rad,
             detections: found
                 .iter()
-                .map(|d| cell_detection(&ofdm, d.range_m, d.angle_rad, d.power_db))
+                .map(|d| published_detection(&ofdm, &self.params.estimator, d))
                 .collect(),
         }
+    }
+}
+
+/// A detection as `/radar/detections` carries it: its resolution cell's std
+/// ([`cell_detection`]) times the refinement's [`EstimatorConfig::published_std_fraction`].
+pub fn published_detection(
+    ofdm: &OfdmParams,
+    config: &EstimatorConfig,
+    found: &RangeAngleDetection,
+) -> Detection {
+    let fraction = config.published_std_fraction();
+    let cell = cell_detection(ofdm, found.range_m, found.angle_rad, found.power_db);
+    Detection {
+        range_std_m: cell.range_std_m * fraction,
+        angle_std_rad: cell.angle_std_rad * fraction,
+        ..cell
     }
 }
 
@@ -218,6 +234,7 @@ impl Node for EstimatorNode {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::Refinement;
 
     #[test]
     fn a_cell_detection_carries_its_cells_std() {
@@ -237,5 +254,37 @@ mod tests {
         };
         let endfire = cell_detection(&two_antennas, 10.0, std::f64::consts::FRAC_PI_2, 0.0);
         assert_eq!(endfire.angle_std_rad, std::f64::consts::FRAC_PI_2);
+    }
+
+    #[test]
+    fn only_interpolated_detections_are_published_finer_than_their_cell() {
+        let ofdm = OfdmParams::default();
+        let found = RangeAngleDetection {
+            range_m: 10.0,
+            angle_rad: 0.3,
+            power_db: 0.0,
+            range_bin: 82,
+            angle_bin: 18,
+        };
+        let cell = cell_detection(&ofdm, found.range_m, found.angle_rad, found.power_db);
+        let with = |refinement| EstimatorConfig {
+            refinement,
+            ..EstimatorConfig::default()
+        };
+        let plain = published_detection(&ofdm, &with(Refinement::None), &found);
+        assert_eq!(plain, cell);
+        let padded =
+            published_detection(&ofdm, &with(Refinement::ZeroPadding { factor: 4 }), &found);
+        assert_eq!(padded, cell);
+        let config = with(Refinement::Interpolation);
+        let refined = published_detection(&ofdm, &config, &found);
+        let fraction = config.interpolated_std_fraction;
+        assert!(fraction < 1.0);
+        assert!((refined.range_std_m - fraction * cell.range_std_m).abs() < 1e-15);
+        assert!((refined.angle_std_rad - fraction * cell.angle_std_rad).abs() < 1e-15);
+        assert_eq!(
+            (refined.range_m, refined.angle_rad),
+            (cell.range_m, cell.angle_rad)
+        );
     }
 }
