@@ -7,7 +7,8 @@
 //! pass the same arguments to both).
 //!
 //! Each detection's `range_std_m` and `angle_std_rad` are the grid limits of the bin it fell in
-//! (bin / √12): the honest spread of a DFT-grid estimate without refinement, an upper bound with it.
+//! (bin / √12), the honest spread of a DFT-grid estimate without refinement; after interpolation,
+//! `interpolated_std_fraction` of them ([`published_detection`]).
 
 use crate::{Estimator, EstimatorConfig, EstimatorError, RangeAngleDetection};
 use nrslam_msgs::topics::{DETECTIONS, ECHO, SPECTRUM};
