@@ -438,6 +438,7 @@ fn config_validation_names_the_field() {
         cfar_pfa: [0.0],
         max_range_m: [Some(-1.0)],
         zero_padding_angle: [0],
+        interpolated_std_fraction: [0.0, 2.0, f64::NAN],
     });
     // A nested field, named with its path.
     let no_padding = EstimatorConfig {
