@@ -52,8 +52,10 @@ fn main() -> anyhow::Result<()> {
     )?;
     let boresight = sim.scene().sensor.boresight_rad;
     let mut spectral = spectral_estimator(&radar)?;
-    let mut oracle = OracleTracking::new(&params);
-    let oracle_tracking = std::env::var("ORACLEMAP").is_ok();
+    let mut oracle = std::env::var("ORACLEMAP")
+        .ok()
+        .map(|mode| OracleTracking::new(&params, mode == "full"));
+    let quantise = std::env::var("QUANT").is_ok();
     let mut slam = Association::new(params)?;
     let mut truths: Vec<Pose2> = Vec::new();
     // The online error when each keyframe was taken, beside its final error after every closure.
@@ -67,7 +69,7 @@ fn main() -> anyhow::Result<()> {
             (Some(estimator), Some(map)) => estimated_detections(estimator, &radar, map)?,
             _ => frame.detections.clone(),
         };
-        let detections = if std::env::var("QUANT").is_ok() {
+        let detections = if quantise {
             quantised(&detections, &radar)
         } else {
             detections
@@ -83,7 +85,7 @@ fn main() -> anyhow::Result<()> {
         // The keyframe poses before this frame's closure moved them: what the loop search saw.
         let mut before: Vec<Pose2> = slam.keyframe_records().iter().map(|r| r.pose).collect();
         let at_last_closure_m = slam.travelled_at_last_closure_m();
-        if oracle_tracking {
+        if let Some(oracle) = &mut oracle {
             let t = frame.true_pose;
             oracle.frame((
                 Pose2::new(t.x_m, t.y_m, t.yaw_rad),
@@ -137,7 +139,9 @@ fn main() -> anyhow::Result<()> {
             );
         }
     }
-    oracle.report();
+    if let Some(oracle) = &mut oracle {
+        oracle.report();
+    }
     print_keyframe_errors(&slam, &truths, &online_at_keyframe, (sum2 / n).sqrt());
     if let Ok(path) = std::env::var("TRUTHS") {
         // Keyframe k's truth on line k: what the debug log's keyframe indices refer to.
@@ -174,10 +178,10 @@ struct OracleTracking {
 }
 
 impl OracleTracking {
-    fn new(params: &Params) -> Self {
+    fn new(params: &Params, whole_run: bool) -> Self {
         Self {
             params: params.clone(),
-            whole_run: std::env::var("ORACLEMAP").as_deref() == Ok("full"),
+            whole_run,
             map: params.distribution_map(),
             frames: Vec::new(),
             mapped: Vec::new(),
@@ -479,14 +483,12 @@ fn rematch_clouds(
         max_correspondence_m: lc.refine_correspondence_m,
         ..slam.params().clone()
     };
-    // The back end's own prediction and radius: the radius grows with the travel since the
-    // candidate, or since the last closure where that is less.
+    // The back end's own prediction and radius.
     let predicted = before[j].between(&before[m.query]);
-    let travelled_m = records[cur].travelled_m - records[j].travelled_m;
-    let drifting_m = at_last_closure_m.map_or(travelled_m, |at| {
-        travelled_m.min(records[cur].travelled_m - at)
-    });
-    let radius_m = lc.search_radius_for_m(drifting_m);
+    let radius_m = lc.search_radius_for_m(
+        records[cur].travelled_m - records[j].travelled_m,
+        at_last_closure_m.map(|at| records[cur].travelled_m - at),
+    );
     for (truth, from_prediction) in [(true, false), (false, false), (true, true), (false, true)] {
         let q = cloud(query_from, cur, m.query, truth);
         let sm = cloud(j.saturating_sub(w), j + w, j, truth);

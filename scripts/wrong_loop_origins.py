@@ -34,13 +34,19 @@ import json
 import os
 import re
 import subprocess
+import tomllib
 
-# slam_trace reads no launch file: the loop closure settings launch/paper-5g.toml gives the 5G
-# chain, as slam_trace's LOOP overrides.
-LOOP_5G = (
-    "inlier_distance_m = 1.0; min_inlier_ratio = 0.40; pair_deg = 3.0; "
-    "confirm_min_information_per_m2 = 0.5"
-)
+
+def loop_overrides(launch):
+    """The loop closure settings a launch file gives its association node, as slam_trace's LOOP
+    overrides (slam_trace reads no launch file); `enabled`, a launch argument, is left out."""
+    with open(launch, "rb") as f:
+        nodes = tomllib.load(f)["node"]
+    (association,) = [n for n in nodes if n.get("kind") == "association"]
+    table = association.get("params", {}).get("loop_closure", {})
+    return "; ".join(f"{k} = {json.dumps(v)}" for k, v in table.items() if k != "enabled")
+
+
 # A re-match prints its error against the truth, or "refused" and the matcher's reason.
 REMATCH = re.compile(
     r"clouds from (truth|estimate): from (true prediction|the back end's prediction) "
@@ -65,7 +71,7 @@ def replay(binary, out, name, summary):
         env["SCENE"] = os.path.join(out, "scenes", f"{name.split('_')[2]}.toml")
     if arguments.get("fidelity", "ideal") != "ideal":
         env["FIDELITY"] = arguments["fidelity"]
-        env["LOOP"] = LOOP_5G
+        env["LOOP"] = loop_overrides("launch/paper-5g.toml")
         env["REFINE"] = arguments.get("refinement", "none")
         noise = ("0", "0")
     else:

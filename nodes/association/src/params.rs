@@ -703,10 +703,11 @@ impl LoopClosureParams {
         current.saturating_sub((self.query_keyframes as usize).saturating_sub(1))
     }
 
-    /// Search radius for a candidate `travelled_m` of travel ago, metres.
-    pub fn search_radius_for_m(&self, travelled_m: f64) -> f64 {
-        (self.search_radius_m + self.search_radius_per_m * travelled_m)
-            .min(self.max_search_radius_m)
+    /// Search radius for a candidate `since_candidate_m` of travel ago, metres: it grows with the
+    /// drift since then, or since the last closure (`since_closure_m`) where that is less.
+    pub fn search_radius_for_m(&self, since_candidate_m: f64, since_closure_m: Option<f64>) -> f64 {
+        let drifting_m = since_closure_m.map_or(since_candidate_m, |c| since_candidate_m.min(c));
+        (self.search_radius_m + self.search_radius_per_m * drifting_m).min(self.max_search_radius_m)
     }
 }
 

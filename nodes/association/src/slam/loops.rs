@@ -149,11 +149,8 @@ impl Association {
             .enumerate()
             .filter_map(|(j, r)| {
                 let travelled = travelled_now - r.travelled_m;
-                // Drift since the last closure, or since the candidate if that is less.
-                let drifting = self
-                    .travelled_at_closure_m
-                    .map_or(travelled, |at| travelled.min(travelled_now - at));
-                let radius = lc.search_radius_for_m(drifting);
+                let since_closure = self.travelled_at_closure_m.map(|at| travelled_now - at);
+                let radius = lc.search_radius_for_m(travelled, since_closure);
                 let distance = r.pose.distance_m(&here);
                 (travelled >= lc.min_separation_m && distance <= radius + lc.candidate_distance_m)
                     .then_some((distance, j, radius))
