@@ -10,6 +10,9 @@
 # Defaults: 40 hall seeds, 20 random scenes (`nrslam scene --random --seed K`) × 2 seeds, 2 laps.
 # Conditions: CONDITIONS (default "a1 r01a1 a5 5g 5gi": ΔR 0/Δθ 1°, ΔR 0.1 m/Δθ 1°, ΔR 0/Δθ 5°,
 # 5G spectral without refinement, 5G with interpolation). JOBS runs in parallel (default: nproc).
+# FIRST_HALL_SEED and FIRST_SCENE (default 1) shift the hall seeds and the random scenes, for
+# held-out checks on seeds and scenes no setting was chosen on (e.g. FIRST_HALL_SEED=41
+# FIRST_SCENE=21: hall seeds 41–80, scenes 21–40). Run names keep the true seed and scene.
 # Needs the release binary (cargo build --release) or NRSLAM pointing at one.
 set -euo pipefail
 out=${1:?usage: scripts/slam_study.sh OUT [HALL_SEEDS] [SCENES] [SCENE_SEEDS] [LAPS]}
@@ -20,6 +23,10 @@ laps=${5:-2}
 bin=${NRSLAM:-target/release/nrslam}
 jobs=${JOBS:-$(nproc)}
 conditions=${CONDITIONS:-a1 r01a1 a5 5g 5gi}
+first_hall_seed=${FIRST_HALL_SEED:-1}
+first_scene=${FIRST_SCENE:-1}
+hall_range=$(seq "$first_hall_seed" $((first_hall_seed + hall_seeds - 1)))
+scene_range=$(seq "$first_scene" $((first_scene + scenes - 1)))
 mkdir -p "$out/runs" "$out/scenes"
 
 args_of() { # condition -> "SLAM_LAUNCH ORACLE_ARGS ... | launch arguments"
@@ -39,16 +46,16 @@ plan="$out/plan.txt"
 : > "$plan"
 # xargs -L continues a line that ends in a blank, so no line may.
 line() { printf '%s\n' "$(echo "$1" | sed 's/[[:space:]]*$//')" >> "$plan"; }
-for k in $(seq 1 "$scenes"); do
+for k in $scene_range; do
   "$bin" scene --random --seed "$k" --laps "$laps" --out "$out/scenes/s$k.toml" >/dev/null
 done
 for c in $conditions; do
   IFS='|' read -r slam_launch slam_args oracle_args <<< "$(args_of "$c")"
-  for s in $(seq 1 "$hall_seeds"); do
+  for s in $hall_range; do
     line "${c}_slam_hall_$s - $s $slam_launch $slam_args"
     line "${c}_oracle_hall_$s - $s launch/true-poses.toml $oracle_args"
   done
-  for k in $(seq 1 "$scenes"); do
+  for k in $scene_range; do
     for s in $(seq 1 "$scene_seeds"); do
       line "${c}_slam_s${k}_$s scene:=$out/scenes/s$k.toml $s $slam_launch $slam_args"
       line "${c}_oracle_s${k}_$s scene:=$out/scenes/s$k.toml $s launch/true-poses.toml $oracle_args"

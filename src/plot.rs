@@ -188,7 +188,7 @@ fn draw_outlines<DB: DrawingBackend>(
 }
 
 /// `map.png`: grid (free white, occupied black, unknown grey), truth outlines, true path (green,
-/// dashed) and SLAM path (red).
+/// dashed), SLAM path as published (red), the final keyframe path (orange) and the loop edges.
 pub fn map_png(path: &Path, report: &Reporter) -> Result<()> {
     let root = canvas(path, (1100, 850))?;
     let (x_range, y_range) = bounds(report);
@@ -249,8 +249,79 @@ pub fn map_png(path: &Path, report: &Reporter) -> Result<()> {
         .map_err(plot_error)?
         .label("SLAM AGV path")
         .legend(line_key(RED.stroke_width(2)));
+    draw_keyframes_and_loops(&mut chart, report)?;
     draw_legend(&mut chart, SeriesLabelPosition::MiddleRight)?;
     root.present().map_err(plot_error)?;
+    Ok(())
+}
+
+/// The back end's final keyframe path (every loop closure applied, the last
+/// `/slam/keyframe_poses`), where the published path above shows each pose as it was first
+/// published, and its loop edges between the keyframes they join: those off by more than
+/// [`crate::report::LOOP_EDGE_WRONG_M`] against the truth drawn apart, so a wrong closure shows
+/// where it happened.
+fn draw_keyframes_and_loops<DB: DrawingBackend>(
+    chart: &mut ChartContext<
+        '_,
+        DB,
+        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+    >,
+    report: &Reporter,
+) -> Result<()> {
+    let Some(keyframes) = &report.keyframe_poses else {
+        return Ok(());
+    };
+    let at: std::collections::HashMap<u32, (f64, f64)> = keyframes
+        .ids
+        .iter()
+        .zip(&keyframes.poses)
+        .map(|(id, pose)| (*id, (pose.position.x, pose.position.y)))
+        .filter(|(_, (x, y))| x.is_finite() && y.is_finite())
+        .collect();
+    let mut path: Vec<(u32, (f64, f64))> = at.iter().map(|(id, p)| (*id, *p)).collect();
+    path.sort_by_key(|(id, _)| *id);
+    let orange = RGBColor(255, 140, 0);
+    chart
+        .draw_series(LineSeries::new(
+            path.into_iter().map(|(_, p)| p),
+            orange.stroke_width(1),
+        ))
+        .map_err(plot_error)?
+        .label("SLAM keyframes, final")
+        .legend(line_key(orange.stroke_width(2)));
+    let wrong: std::collections::HashSet<(u32, u32)> = report
+        .scored_loop_edges()
+        .iter()
+        .filter(|e| e.error_m > crate::report::LOOP_EDGE_WRONG_M)
+        .map(|e| (e.from, e.to))
+        .collect();
+    let edges: Vec<((f64, f64), (f64, f64), bool)> = keyframes
+        .loop_from_ids
+        .iter()
+        .zip(&keyframes.loop_to_ids)
+        .filter_map(|(from, to)| {
+            Some((*at.get(from)?, *at.get(to)?, wrong.contains(&(*from, *to))))
+        })
+        .collect();
+    let purple = RGBColor(120, 60, 200);
+    let magenta = RGBColor(230, 0, 180);
+    for (is_wrong, color, width, label) in [
+        (false, purple, 1, "loop edges"),
+        (true, magenta, 3, "loop edges > 0.5 m off the truth"),
+    ] {
+        let mine: Vec<_> = edges.iter().filter(|e| e.2 == is_wrong).collect();
+        if mine.is_empty() {
+            continue;
+        }
+        chart
+            .draw_series(
+                mine.iter()
+                    .map(|(a, b, _)| PathElement::new(vec![*a, *b], color.stroke_width(width))),
+            )
+            .map_err(plot_error)?
+            .label(label)
+            .legend(line_key(color.stroke_width(width)));
+    }
     Ok(())
 }
 

@@ -1,5 +1,7 @@
 //! `pareto.png`: final ET-GOPSA against time per radar frame (log scale), one colour per knob,
-//! the Pareto front's settings drawn larger and joined by a line.
+//! each setting with its ± standard error, the Pareto front's settings drawn larger and joined by
+//! a line. Settings crowd near the baseline, so each label goes where it overlaps no earlier label
+//! or point, or is left out (the Pareto front's first): `tradeoff.csv` names every point.
 
 use super::knobs::KNOBS;
 use super::table::Row;
@@ -59,18 +61,48 @@ pub(super) fn write_pareto_png(path: &Path, rows: &[Row]) -> Result<()> {
         .map_err(plot_error)?
         .label("Pareto front")
         .legend(line_key(BLACK.mix(0.5).stroke_width(2)));
+    // Pareto settings claim their label places first.
+    let mut ordered = points.clone();
+    ordered.sort_by_key(|r| !r.pareto);
+    let at_px: Vec<(i32, i32)> = ordered
+        .iter()
+        .map(|r| chart.backend_coord(&(r.time_per_frame_ms, r.final_etgospa)))
+        .collect();
+    let widths_px: Vec<i32> = ordered
+        .iter()
+        .map(|r| label_width_px(&r.setting.label))
+        .collect();
+    let offsets = place_labels(&at_px, &widths_px);
     for (index, knob) in std::iter::once("baseline").chain(KNOBS).enumerate() {
         let color = Palette99::pick(index).to_rgba();
-        let mine: Vec<&&Row> = points.iter().filter(|r| r.setting.knob == knob).collect();
+        let mine: Vec<(&Row, Option<(i32, i32)>)> = ordered
+            .iter()
+            .zip(&offsets)
+            .filter(|(r, _)| r.setting.knob == knob)
+            .map(|(r, offset)| (*r, *offset))
+            .collect();
         if mine.is_empty() {
             continue;
         }
         chart
-            .draw_series(mine.iter().map(|r| {
+            .draw_series(mine.iter().filter_map(|(r, _)| {
+                let sem = r.final_etgospa_sem;
+                (sem.is_finite() && sem > 0.0).then(|| {
+                    let t = r.time_per_frame_ms;
+                    PathElement::new(
+                        vec![(t, r.final_etgospa - sem), (t, r.final_etgospa + sem)],
+                        color.stroke_width(2),
+                    )
+                })
+            }))
+            .map_err(plot_error)?;
+        chart
+            .draw_series(mine.iter().map(|(r, offset)| {
                 let at = (r.time_per_frame_ms, r.final_etgospa);
+                let label = offset.map_or(String::new(), |_| r.setting.label.clone());
                 EmptyElement::at(at)
                     + Circle::new((0, 0), if r.pareto { 7 } else { 5 }, color.filled())
-                    + Text::new(r.setting.label.clone(), (8, -6), ("sans-serif", 13))
+                    + Text::new(label, offset.unwrap_or((0, 0)), ("sans-serif", LABEL_PX))
             }))
             .map_err(plot_error)?
             .label(knob)
@@ -79,4 +111,100 @@ pub(super) fn write_pareto_png(path: &Path, rows: &[Row]) -> Result<()> {
     draw_legend(&mut chart, SeriesLabelPosition::UpperRight)?;
     root.present().map_err(plot_error)?;
     Ok(())
+}
+
+/// Height of a label's text (px).
+const LABEL_PX: i32 = 13;
+
+/// A label's width (px), from its length: the plots' sans-serif averages about 7 px a character
+/// at [`LABEL_PX`].
+fn label_width_px(label: &str) -> i32 {
+    7 * label.chars().count() as i32
+}
+
+/// Where each point's label goes, as an offset of its top-left corner from the point (px), in
+/// order: the first of a few places around the point whose box overlaps no earlier label and
+/// no point's marker, or `None` (the label is left out).
+fn place_labels(at_px: &[(i32, i32)], widths_px: &[i32]) -> Vec<Option<(i32, i32)>> {
+    const MARKER_PX: i32 = 7;
+    type Rect = (i32, i32, i32, i32);
+    let overlaps = |a: &Rect, b: &Rect| a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3;
+    let markers: Vec<Rect> = at_px
+        .iter()
+        .map(|&(x, y)| (x - MARKER_PX, y - MARKER_PX, x + MARKER_PX, y + MARKER_PX))
+        .collect();
+    let mut taken: Vec<Rect> = Vec::new();
+    at_px
+        .iter()
+        .zip(widths_px)
+        .map(|(&(x, y), &width)| {
+            let places = [
+                (9, -LABEL_PX - 2),
+                (9, 2),
+                (-9 - width, -LABEL_PX - 2),
+                (-9 - width, 2),
+                (-width / 2, -LABEL_PX - 10),
+                (-width / 2, 10),
+            ];
+            let free = places.into_iter().find(|&(dx, dy)| {
+                let label = (x + dx, y + dy, x + dx + width, y + dy + LABEL_PX);
+                !taken.iter().chain(&markers).any(|b| overlaps(&label, b))
+            })?;
+            taken.push((
+                x + free.0,
+                y + free.1,
+                x + free.0 + width,
+                y + free.1 + LABEL_PX,
+            ));
+            Some(free)
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn labels_of_crowded_points_do_not_overlap_and_a_lone_point_keeps_its_label() {
+        let at_px = [(100, 100), (102, 101), (104, 99), (106, 100), (400, 300)];
+        let widths_px = [70, 70, 70, 70, 70];
+        let offsets = place_labels(&at_px, &widths_px);
+        assert_eq!(
+            offsets[4],
+            Some((9, -LABEL_PX - 2)),
+            "a point far from the others is labelled at the first place"
+        );
+        assert!(offsets[0].is_some(), "the first of a crowd is labelled");
+        let boxes: Vec<(i32, i32, i32, i32)> = at_px
+            .iter()
+            .zip(&offsets)
+            .zip(&widths_px)
+            .filter_map(|((&(x, y), offset), &w)| {
+                offset.map(|(dx, dy)| (x + dx, y + dy, x + dx + w, y + dy + LABEL_PX))
+            })
+            .collect();
+        for &(x, y) in &at_px {
+            let marker = (x - 7, y - 7, x + 7, y + 7);
+            for label in &boxes {
+                let overlap = label.0 < marker.2
+                    && marker.0 < label.2
+                    && label.1 < marker.3
+                    && marker.1 < label.3;
+                assert!(!overlap, "{label:?} covers the marker at {x}, {y}");
+            }
+        }
+        let crowd = place_labels(&[(50, 50); 8], &[70; 8]);
+        let labelled = crowd.iter().flatten().count();
+        assert!(
+            (1..8).contains(&labelled),
+            "eight points at one place: {labelled} labelled"
+        );
+        for (i, a) in boxes.iter().enumerate() {
+            for b in &boxes[i + 1..] {
+                let overlap = a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3;
+                assert!(!overlap, "{a:?} overlaps {b:?}");
+            }
+        }
+    }
 }
