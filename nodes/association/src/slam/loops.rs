@@ -64,6 +64,11 @@ fn partner_edges(partner: &LoopEdge, lc: &LoopClosureParams) -> Vec<LoopEdge> {
 /// re-optimisation per closure.
 const MAX_UNVERIFIED_CLOSURES: usize = 8;
 
+/// Of two closures or revisits the rest of the graph could do without, the one with fewer
+/// closures leaves only if the other has at least this many times as many
+/// ([`Association::recheck_closures`]).
+const OUTVOTING_FACTOR: usize = 3;
+
 /// Calibrated information of the sequential edges, by (older, newer) keyframe.
 type Calibrated = std::collections::HashMap<(usize, usize), nalgebra::Matrix3<f64>>;
 
@@ -75,6 +80,8 @@ struct LeftOut {
     chi2: f64,
     /// Whether that graph pins each of its edges' relative poses down to `verified_std_m`.
     pinned: bool,
+    /// Whether that graph has a loop edge left to judge by.
+    judged: bool,
 }
 
 /// A loop edge: the measured pose of keyframe `to` in the frame of the older keyframe `from`
@@ -417,17 +424,23 @@ impl Association {
     }
 
     /// Tests every earlier closure not yet verified (the edges accepted together, by old and
-    /// new keyframe) against the rest of the graph ([`Self::leave_out`]), the newest closure
-    /// (last in the list) included in that rest. When none is further off than `recheck_chi2`,
-    /// those the rest of the graph pins down to `verified_std_m` are verified and not tested
-    /// again. When some are, the newest becomes a suspect too, and a closure leaves the graph
-    /// (which keeps the poses optimised without it) only if it is the one culprit: without it
-    /// every other closure agrees, and no other failing closure could say the same. Two closures
-    /// that contradict only each other (a wrong one and a right one, nothing else yet) both stay
-    /// until a later closure takes a side. A closure is judged only against other loop closures:
-    /// the sequential chain alone, however long, neither refutes nor verifies it (a single lap
-    /// keeps its one closure). At most [`MAX_UNVERIFIED_CLOSURES`], the newest, are tested;
-    /// older ones stay in the graph as they are. Returns whether a closure left.
+    /// new keyframe) against the rest of the graph, the newest closure (last in the list)
+    /// included in that rest. A closure is judged without its revisit ([`Self::revisit`]: every
+    /// loop edge whose query shares keyframes with its own), since matches of overlapping
+    /// queries share their detections and with them a wrong fit, unless that leaves no loop
+    /// edge to judge by. When none is further off than
+    /// `recheck_chi2`, those the rest of the graph pins down to `verified_std_m` are verified and
+    /// not tested again. When some are, the newest becomes a suspect too, and a culprit leaves
+    /// the graph (which keeps the poses optimised without it): a failing closure, or a revisit's
+    /// closures together ([`Self::revisits_of`]), without which every other closure agrees. A
+    /// revisit's several matches are one piece of evidence, so it may not outvote a closure
+    /// elsewhere by their number: when two culprits are possible, the smaller leaves only if
+    /// the other has at least [`OUTVOTING_FACTOR`] times as many closures, and otherwise both
+    /// stay until a later closure takes a side (as two closures that contradict only each other
+    /// do). A closure is judged only against other loop closures: the sequential chain alone,
+    /// however long, neither refutes nor verifies it (a single lap keeps its one closure). At
+    /// most [`MAX_UNVERIFIED_CLOSURES`], the newest, are tested; older ones stay in the graph as
+    /// they are. Returns whether a closure left.
     fn recheck_closures(&mut self, settings: &OptimiserSettings) -> bool {
         let threshold = self.params.loop_closure.recheck_chi2;
         if threshold <= 0.0 {
@@ -438,16 +451,7 @@ impl Association {
             .len()
             .saturating_sub(MAX_UNVERIFIED_CLOSURES);
         self.unverified_closures.drain(..excess);
-        // The information the keyframes' covariances give each sequential edge, by its
-        // keyframes: the optimiser's own is deliberately looser (`covariance_sequential_scale`).
-        let calibrated: Calibrated = self
-            .graph
-            .edges()
-            .iter()
-            .zip(&self.uncertainty_information)
-            .filter(|(edge, _)| edge.kind == EdgeKind::Odometry)
-            .map(|(edge, information)| ((edge.from, edge.to), *information))
-            .collect();
+        let calibrated = self.calibrated();
         let mut dropped = false;
         loop {
             let graph = &self.graph;
@@ -456,9 +460,24 @@ impl Association {
             let Some(newest) = self.unverified_closures.len().checked_sub(1) else {
                 return dropped;
             };
+            // Without its revisit, or, where that leaves no loop edge (a first revisit's several
+            // matches and nothing else), without itself: its revisit's other matches then judge
+            // it, by their number, as nothing else can; but they do not verify it.
+            let judge = |graph: &PoseGraph, closure: &[(usize, usize)]| {
+                let revisit = self.revisit(graph, closure);
+                let verdict = self.leave_out(graph, &revisit, closure, &calibrated, settings);
+                if verdict.judged || revisit.len() == closure.len() {
+                    verdict
+                } else {
+                    LeftOut {
+                        pinned: false,
+                        ..self.leave_out(graph, closure, closure, &calibrated, settings)
+                    }
+                }
+            };
             let mut verdicts: Vec<LeftOut> = self.unverified_closures[..newest]
                 .iter()
-                .map(|closure| self.leave_out(&self.graph, closure, &calibrated, settings))
+                .map(|closure| judge(&self.graph, closure))
                 .collect();
             for (closure, verdict) in self.unverified_closures.iter().zip(&verdicts) {
                 let (chi2, pinned) = (verdict.chi2, verdict.pinned);
@@ -470,42 +489,122 @@ impl Association {
                     .retain(|_| !pinned.next().unwrap_or(false));
                 return dropped;
             }
-            let closure = &self.unverified_closures[newest];
-            verdicts.push(self.leave_out(&self.graph, closure, &calibrated, settings));
-            let failing = (0..verdicts.len()).filter(|&i| verdicts[i].chi2 > threshold);
-            // The culprit is the failing closure without which every other one agrees.
-            let culprits: Vec<usize> = failing
-                .filter(|&c| {
-                    let rest = &verdicts[c].graph;
-                    self.unverified_closures
+            verdicts.push(judge(&self.graph, &self.unverified_closures[newest]));
+            let failing: Vec<usize> = (0..verdicts.len())
+                .filter(|&i| verdicts[i].chi2 > threshold)
+                .collect();
+            let all: Vec<usize> = (0..self.unverified_closures.len()).collect();
+            let mut suspects: Vec<Vec<usize>> = failing.iter().map(|&c| vec![c]).collect();
+            suspects.extend(self.revisits_of(&all).into_iter().filter(|revisit| {
+                // A revisit that is all the closures there are has no one to outvote.
+                (2..all.len()).contains(&revisit.len())
+                    && revisit.iter().any(|c| failing.contains(c))
+            }));
+            // (closures, their edges, the graph without them) of each possible culprit.
+            type Culprit = (usize, Vec<(usize, usize)>, PoseGraph);
+            let mut culprits: Vec<Culprit> = suspects
+                .into_iter()
+                .filter_map(|suspect| {
+                    let pairs: Vec<(usize, usize)> = suspect
+                        .iter()
+                        .flat_map(|&c| self.unverified_closures[c].iter().copied())
+                        .collect();
+                    let rest = self
+                        .leave_out(&self.graph, &pairs, &pairs, &calibrated, settings)
+                        .graph;
+                    let agree = self
+                        .unverified_closures
                         .iter()
                         .enumerate()
-                        .filter(|&(d, _)| d != c)
-                        .all(|(_, other)| {
-                            self.leave_out(rest, other, &calibrated, settings).chi2 <= threshold
-                        })
+                        .filter(|(d, _)| !suspect.contains(d))
+                        .all(|(_, other)| judge(&rest, other).chi2 <= threshold);
+                    agree.then_some((suspect.len(), pairs, rest))
                 })
                 .collect();
-            let [culprit] = culprits[..] else {
+            culprits.sort_by_key(|(count, _, _)| *count);
+            let outvoted = match &culprits[..] {
+                [only] => Some(only),
+                [smallest, others @ ..] => others
+                    .iter()
+                    .all(|(count, _, _)| *count >= OUTVOTING_FACTOR * smallest.0)
+                    .then_some(smallest),
+                [] => None,
+            };
+            let Some((_, gone, without)) = outvoted else {
                 tracing::debug!(
                     closures = ?self.unverified_closures,
-                    ?culprits,
+                    culprits = ?culprits.iter().map(|(_, c, _)| c).collect::<Vec<_>>(),
                     "closures contradict each other; waiting for another closure"
                 );
                 return dropped;
             };
-            let closure = self.unverified_closures.remove(culprit);
-            tracing::debug!(
-                ?closure,
-                chi2 = verdicts[culprit].chi2,
-                "closure refuted by the rest of the graph"
-            );
-            self.remove_loop_edges(&closure);
-            for (node, pose) in verdicts[culprit].graph.nodes().iter().enumerate() {
+            tracing::debug!(closures = ?gone, "closures refuted by the rest of the graph");
+            let gone = gone.clone();
+            self.unverified_closures
+                .retain(|closure| !closure.iter().any(|pair| gone.contains(pair)));
+            for (node, pose) in without.nodes().iter().enumerate() {
                 self.graph.set_node(node, *pose);
             }
+            self.remove_loop_edges(&gone);
             dropped = true;
         }
+    }
+
+    /// The information the keyframes' covariances give each sequential edge, by its keyframes:
+    /// the optimiser's own is deliberately looser (`covariance_sequential_scale`).
+    fn calibrated(&self) -> Calibrated {
+        self.graph
+            .edges()
+            .iter()
+            .zip(&self.uncertainty_information)
+            .filter(|(edge, _)| edge.kind == EdgeKind::Odometry)
+            .map(|(edge, information)| ((edge.from, edge.to), *information))
+            .collect()
+    }
+
+    /// `closure`'s revisit in `graph`: its own loop edges and every other loop edge whose newer
+    /// keyframe lies less than `query_keyframes` from one of its own, so that their queries
+    /// share keyframes.
+    fn revisit(&self, graph: &PoseGraph, closure: &[(usize, usize)]) -> Vec<(usize, usize)> {
+        let apart = self.params.loop_closure.query_keyframes as usize;
+        let mut pairs: Vec<(usize, usize)> = closure.to_vec();
+        pairs.extend(
+            graph
+                .edges()
+                .iter()
+                .filter(|e| e.kind == EdgeKind::Loop)
+                .filter(|e| closure.iter().any(|&(_, to)| to.abs_diff(e.to) < apart))
+                .map(|e| (e.from, e.to))
+                .filter(|pair| !closure.contains(pair)),
+        );
+        pairs
+    }
+
+    /// The unverified closures `indices` grouped by revisit: two closures belong together when
+    /// the queries of two of their edges share a keyframe (newer keyframes less than
+    /// `query_keyframes` apart), and so on transitively.
+    fn revisits_of(&self, indices: &[usize]) -> Vec<Vec<usize>> {
+        let apart = self.params.loop_closure.query_keyframes as usize;
+        let near = |a: usize, b: usize| {
+            self.unverified_closures[a].iter().any(|&(_, x)| {
+                self.unverified_closures[b]
+                    .iter()
+                    .any(|&(_, y)| x.abs_diff(y) < apart)
+            })
+        };
+        let mut groups: Vec<Vec<usize>> = Vec::new();
+        for &c in indices {
+            let (joined, rest): (Vec<Vec<usize>>, Vec<Vec<usize>>) = groups
+                .into_iter()
+                .partition(|g| g.iter().any(|&d| near(c, d)));
+            let mut group: Vec<usize> = joined.into_iter().flatten().collect();
+            group.push(c);
+            group.sort_unstable();
+            groups = rest;
+            groups.push(group);
+        }
+        groups.sort();
+        groups
     }
 
     /// Whether `edge` is one of `closure`'s loop edges.
@@ -524,7 +623,8 @@ impl Association {
             .filter(|edge| Self::is_member(edge, closure))
     }
 
-    /// `graph` without `closure`'s edges, optimised, and how those edges fare against it: the
+    /// `graph` without the loop edges `left_out` (`closure`'s among them), optimised, and how
+    /// `closure`'s edges fare against it: the
     /// largest χ² among them ([`PoseGraph::relative_consistency`], the sequential edges at their
     /// calibrated information, the loop edges at their own), and whether that graph pins every
     /// one of their relative poses down to `verified_std_m`. A graph with no other loop edge, or
@@ -533,13 +633,14 @@ impl Association {
     fn leave_out(
         &self,
         graph: &PoseGraph,
+        left_out: &[(usize, usize)],
         closure: &[(usize, usize)],
         calibrated: &Calibrated,
         settings: &OptimiserSettings,
     ) -> LeftOut {
         let members: Vec<Edge> = Self::members(graph, closure).copied().collect();
         let mut without = graph.clone();
-        without.retain_edges(|edge| !Self::is_member(edge, closure));
+        without.retain_edges(|edge| !Self::is_member(edge, left_out));
         without.optimise(settings);
         // Only other loop closures can judge a closure: without them its relative pose is the
         // chain's dead reckoning, whose drift the closure is there to measure.
@@ -547,6 +648,7 @@ impl Association {
         let mut verdict = LeftOut {
             chi2: 0.0,
             pinned: judged && without.nodes().iter().all(Pose2::is_finite),
+            judged,
             graph: without,
         };
         if !verdict.pinned {
@@ -851,9 +953,15 @@ mod tests {
     /// std is `chain_std_m` per step; the optimiser takes them ten times looser, as the real
     /// graph takes its sequential edges looser than their calibration.
     fn thirteen_in_a_row(chain_std_m: f64) -> Association {
+        in_a_row(13, chain_std_m)
+    }
+
+    /// `count` keyframes 1 m apart on x, chained by steps of std `chain_std_m` (calibrated; the
+    /// optimiser's ten times looser, as the back end has them).
+    fn in_a_row(count: u32, chain_std_m: f64) -> Association {
         let mut slam = Association::new(Params::default()).unwrap();
-        keyframes_in_a_row(&mut slam, 13);
-        for k in 1..13 {
+        keyframes_in_a_row(&mut slam, count);
+        for k in 1..count as usize {
             let step = Pose2::new(1.0, 0.0, 0.0);
             let calibrated = Edge::with_std(k - 1, k, step, chain_std_m, 0.01, EdgeKind::Odometry);
             slam.uncertainty_information.push(calibrated.information);
@@ -928,17 +1036,40 @@ mod tests {
     }
 
     #[test]
+    fn two_wrong_closures_of_one_revisit_neither_verify_each_other_nor_outvote_another_revisit() {
+        // One revisit's two matches, 3 m off in the same way (keyframes 20 and 23 measured 3 m
+        // farther along): they agree with each other.
+        let mut slam = in_a_row(50, 0.05);
+        slam.apply_loop(&[measured(0, 20, 23.0)]);
+        slam.apply_loop(&[measured(3, 23, 23.0)]);
+        // A right closure of another revisit contradicts both: one piece of evidence against
+        // one, so everything stays for now.
+        slam.apply_loop(&[measured(12, 35, 23.0)]);
+        assert_eq!(loops_in_graph(&slam), vec![(0, 20), (3, 23), (12, 35)]);
+        // A second right revisit sides with the first: the wrong revisit leaves, both its
+        // closures.
+        slam.apply_loop(&[measured(24, 47, 23.0)]);
+        assert_eq!(loops_in_graph(&slam), vec![(12, 35), (24, 47)]);
+        let x_m = slam.records[23].pose.x_m;
+        assert!((x_m - 23.0).abs() < 0.1, "{x_m}");
+    }
+
+    #[test]
     fn a_closure_stays_where_the_graph_agrees_or_cannot_judge() {
         // A single closure: the chain alone judges nothing, however tight.
         let mut slam = thirteen_in_a_row(0.1);
         slam.apply_loop(&[measured(0, 10, 13.0)]);
         assert_eq!(loops_in_graph(&slam), vec![(0, 10)]);
-        // Agrees with a later closure: verified, never tested again; the newest waits.
-        let mut slam = thirteen_in_a_row(0.1);
+        // Agrees with a later closure of the same revisit (queries sharing keyframes): not
+        // verified by it. Agrees with one of another revisit too: verified, never tested again;
+        // the newest waits.
+        let mut slam = in_a_row(25, 0.1);
         slam.apply_loop(&[measured(0, 10, 10.1)]);
         slam.apply_loop(&[measured(2, 12, 10.0)]);
         assert_eq!(loops_in_graph(&slam), vec![(0, 10), (2, 12)]);
-        assert_eq!(slam.unverified_closures, vec![vec![(2, 12)]]);
+        assert_eq!(slam.unverified_closures, vec![vec![(0, 10)], vec![(2, 12)]]);
+        slam.apply_loop(&[measured(12, 22, 10.0)]);
+        assert_eq!(slam.unverified_closures, vec![vec![(12, 22)]]);
         // A chain of 2 m per step knows too little to refute 3 m: the closures stay, unverified.
         let mut slam = thirteen_in_a_row(2.0);
         slam.apply_loop(&[measured(0, 10, 13.0)]);
