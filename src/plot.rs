@@ -295,7 +295,9 @@ fn draw_keyframes_and_loops<DB: DrawingBackend>(
         .filter(|e| e.error_m > crate::report::LOOP_EDGE_WRONG_M)
         .map(|e| (e.from, e.to))
         .collect();
-    let edges: Vec<((f64, f64), (f64, f64), bool)> = keyframes
+    // (older keyframe's position, newer's, off by more than the limit)
+    type Drawn = ((f64, f64), (f64, f64), bool);
+    let edges: Vec<Drawn> = keyframes
         .loop_from_ids
         .iter()
         .zip(&keyframes.loop_to_ids)
