@@ -307,9 +307,13 @@ fn draw_keyframes_and_loops<DB: DrawingBackend>(
         .collect();
     let purple = RGBColor(120, 60, 200);
     let magenta = RGBColor(230, 0, 180);
+    let wrong_label = format!(
+        "loop edges > {} m off the truth",
+        crate::report::LOOP_EDGE_WRONG_M
+    );
     for (is_wrong, color, width, label) in [
-        (false, purple, 1, "loop edges"),
-        (true, magenta, 3, "loop edges > 0.5 m off the truth"),
+        (false, purple, 1, "loop edges".to_owned()),
+        (true, magenta, 3, wrong_label),
     ] {
         let mine: Vec<_> = edges.iter().filter(|e| e.2 == is_wrong).collect();
         if mine.is_empty() {

@@ -116,6 +116,10 @@ pub(super) fn write_pareto_png(path: &Path, rows: &[Row]) -> Result<()> {
 /// Height of a label's text (px).
 const LABEL_PX: i32 = 13;
 
+/// Half the side of the box a label keeps clear around each point (px): the largest marker's
+/// radius.
+const MARKER_PX: i32 = 7;
+
 /// A label's width (px), from its length: the plots' sans-serif averages about 6 px a character
 /// at [`LABEL_PX`] (19 characters measured 112 px).
 fn label_width_px(label: &str) -> i32 {
@@ -126,7 +130,6 @@ fn label_width_px(label: &str) -> i32 {
 /// order: the first of a few places around the point whose box overlaps no earlier label and
 /// no point's marker, or `None` (the label is left out).
 fn place_labels(at_px: &[(i32, i32)], widths_px: &[i32]) -> Vec<Option<(i32, i32)>> {
-    const MARKER_PX: i32 = 7;
     type Rect = (i32, i32, i32, i32);
     let overlaps = |a: &Rect, b: &Rect| a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3;
     let markers: Vec<Rect> = at_px
@@ -169,10 +172,35 @@ fn place_labels(at_px: &[(i32, i32)], widths_px: &[i32]) -> Vec<Option<(i32, i32
 mod tests {
     use super::*;
 
+    /// The label boxes `offsets` puts at the points `at_px`: none overlaps another or any
+    /// point's marker.
+    fn assert_clear(at_px: &[(i32, i32)], widths_px: &[i32], offsets: &[Option<(i32, i32)>]) {
+        let overlap = |a: (i32, i32, i32, i32), b: (i32, i32, i32, i32)| {
+            a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3
+        };
+        let boxes: Vec<(i32, i32, i32, i32)> = at_px
+            .iter()
+            .zip(offsets)
+            .zip(widths_px)
+            .filter_map(|((&(x, y), offset), &w)| {
+                offset.map(|(dx, dy)| (x + dx, y + dy, x + dx + w, y + dy + LABEL_PX))
+            })
+            .collect();
+        for (i, &a) in boxes.iter().enumerate() {
+            for &b in &boxes[i + 1..] {
+                assert!(!overlap(a, b), "{a:?} overlaps {b:?}");
+            }
+            for &(x, y) in at_px {
+                let marker = (x - MARKER_PX, y - MARKER_PX, x + MARKER_PX, y + MARKER_PX);
+                assert!(!overlap(a, marker), "{a:?} covers the marker at {x}, {y}");
+            }
+        }
+    }
+
     #[test]
     fn labels_of_crowded_points_do_not_overlap_and_a_lone_point_keeps_its_label() {
         let at_px = [(100, 100), (102, 101), (104, 99), (106, 100), (400, 300)];
-        let widths_px = [70, 70, 70, 70, 70];
+        let widths_px = [70; 5];
         let offsets = place_labels(&at_px, &widths_px);
         assert_eq!(
             offsets[4],
@@ -180,36 +208,15 @@ mod tests {
             "a point far from the others is labelled at the first place"
         );
         assert!(offsets[0].is_some(), "the first of a crowd is labelled");
-        let boxes: Vec<(i32, i32, i32, i32)> = at_px
-            .iter()
-            .zip(&offsets)
-            .zip(&widths_px)
-            .filter_map(|((&(x, y), offset), &w)| {
-                offset.map(|(dx, dy)| (x + dx, y + dy, x + dx + w, y + dy + LABEL_PX))
-            })
-            .collect();
-        for &(x, y) in &at_px {
-            let marker = (x - 7, y - 7, x + 7, y + 7);
-            for label in &boxes {
-                let overlap = label.0 < marker.2
-                    && marker.0 < label.2
-                    && label.1 < marker.3
-                    && marker.1 < label.3;
-                assert!(!overlap, "{label:?} covers the marker at {x}, {y}");
-            }
-        }
+        assert_clear(&at_px, &widths_px, &offsets);
         // More points at one place than there are places around it.
-        let crowd = place_labels(&[(50, 50); 16], &[70; 16]);
+        let crowd_px = [(50, 50); 16];
+        let crowd = place_labels(&crowd_px, &[70; 16]);
         let labelled = crowd.iter().flatten().count();
         assert!(
             (1..16).contains(&labelled),
             "sixteen points at one place: {labelled} labelled"
         );
-        for (i, a) in boxes.iter().enumerate() {
-            for b in &boxes[i + 1..] {
-                let overlap = a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3;
-                assert!(!overlap, "{a:?} overlaps {b:?}");
-            }
-        }
+        assert_clear(&crowd_px, &[70; 16], &crowd);
     }
 }

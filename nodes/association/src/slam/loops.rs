@@ -500,8 +500,9 @@ impl Association {
                 (2..all.len()).contains(&revisit.len())
                     && revisit.iter().any(|c| failing.contains(c))
             }));
-            // (closures, their edges, the graph without them) of each possible culprit.
-            type Culprit = (usize, Vec<(usize, usize)>, PoseGraph);
+            // (its closures' indices, their edges, the graph without them) of each possible
+            // culprit.
+            type Culprit = (Vec<usize>, Vec<(usize, usize)>, PoseGraph);
             let mut culprits: Vec<Culprit> = suspects
                 .into_iter()
                 .filter_map(|suspect| {
@@ -518,15 +519,26 @@ impl Association {
                         .enumerate()
                         .filter(|(d, _)| !suspect.contains(d))
                         .all(|(_, other)| judge(&rest, other).chi2 <= threshold);
-                    agree.then_some((suspect.len(), pairs, rest))
+                    agree.then_some((suspect, pairs, rest))
                 })
                 .collect();
-            culprits.sort_by_key(|(count, _, _)| *count);
+            // A revisit that could go because one of its closures could is no rival to it.
+            let minimal: Vec<bool> = culprits
+                .iter()
+                .map(|(mine, _, _)| {
+                    !culprits.iter().any(|(other, _, _)| {
+                        other.len() < mine.len() && other.iter().all(|c| mine.contains(c))
+                    })
+                })
+                .collect();
+            let mut minimal = minimal.into_iter();
+            culprits.retain(|_| minimal.next().unwrap_or(false));
+            culprits.sort_by_key(|(closures, _, _)| closures.len());
             let outvoted = match &culprits[..] {
                 [only] => Some(only),
                 [smallest, others @ ..] => others
                     .iter()
-                    .all(|(count, _, _)| *count >= OUTVOTING_FACTOR * smallest.0)
+                    .all(|(closures, _, _)| closures.len() >= OUTVOTING_FACTOR * smallest.0.len())
                     .then_some(smallest),
                 [] => None,
             };
@@ -624,12 +636,11 @@ impl Association {
     }
 
     /// `graph` without the loop edges `left_out` (`closure`'s among them), optimised, and how
-    /// `closure`'s edges fare against it: the
-    /// largest χ² among them ([`PoseGraph::relative_consistency`], the sequential edges at their
-    /// calibrated information, the loop edges at their own), and whether that graph pins every
-    /// one of their relative poses down to `verified_std_m`. A graph with no other loop edge, or
-    /// one that cannot be judged (optimisation or covariance failing), refutes nothing and pins
-    /// nothing.
+    /// `closure`'s edges fare against it: the largest χ² among them
+    /// ([`PoseGraph::relative_consistency`], the sequential edges at their calibrated information,
+    /// the loop edges at their own), and whether that graph pins every one of their relative poses
+    /// down to `verified_std_m`. A graph with no other loop edge, or one that cannot be judged
+    /// (optimisation or covariance failing), refutes nothing and pins nothing.
     fn leave_out(
         &self,
         graph: &PoseGraph,
@@ -1042,6 +1053,11 @@ mod tests {
         let mut slam = in_a_row(50, 0.05);
         slam.apply_loop(&[measured(0, 20, 23.0)]);
         slam.apply_loop(&[measured(3, 23, 23.0)]);
+        let apart = vec![vec![(0, 20)], vec![(3, 23)]];
+        assert_eq!(
+            slam.unverified_closures, apart,
+            "neither verified by the other"
+        );
         // A right closure of another revisit contradicts both: one piece of evidence against
         // one, so everything stays for now.
         slam.apply_loop(&[measured(12, 35, 23.0)]);
@@ -1052,6 +1068,18 @@ mod tests {
         assert_eq!(loops_in_graph(&slam), vec![(12, 35), (24, 47)]);
         let x_m = slam.records[23].pose.x_m;
         assert!((x_m - 23.0).abs() < 0.1, "{x_m}");
+    }
+
+    #[test]
+    fn a_wrong_closure_leaves_though_a_right_one_shares_its_revisit() {
+        // Keyframe 10 measured 3 m off, then a right match of an overlapping query, then a
+        // right closure of another revisit: the wrong one alone is the culprit (its revisit as
+        // a whole could go too, but only because it could), and leaves.
+        let mut slam = in_a_row(30, 0.1);
+        slam.apply_loop(&[measured(0, 10, 13.0)]);
+        slam.apply_loop(&[measured(2, 12, 10.0)]);
+        slam.apply_loop(&[measured(5, 25, 20.0)]);
+        assert_eq!(loops_in_graph(&slam), vec![(2, 12), (5, 25)]);
     }
 
     #[test]
@@ -1068,8 +1096,8 @@ mod tests {
         slam.apply_loop(&[measured(2, 12, 10.0)]);
         assert_eq!(loops_in_graph(&slam), vec![(0, 10), (2, 12)]);
         assert_eq!(slam.unverified_closures, vec![vec![(0, 10)], vec![(2, 12)]]);
-        slam.apply_loop(&[measured(12, 22, 10.0)]);
-        assert_eq!(slam.unverified_closures, vec![vec![(12, 22)]]);
+        slam.apply_loop(&[measured(5, 22, 17.0)]);
+        assert_eq!(slam.unverified_closures, vec![vec![(5, 22)]]);
         // A chain of 2 m per step knows too little to refute 3 m: the closures stay, unverified.
         let mut slam = thirteen_in_a_row(2.0);
         slam.apply_loop(&[measured(0, 10, 13.0)]);
