@@ -423,23 +423,23 @@ impl Association {
         debug_assert_eq!(self.uncertainty_information.len(), self.graph.edges().len());
     }
 
-    /// Tests every earlier closure not yet verified (the edges accepted together, by old and
-    /// new keyframe) against the rest of the graph, the newest closure (last in the list)
-    /// included in that rest. A closure is judged without its revisit ([`Self::revisit`]: every
-    /// loop edge whose query shares keyframes with its own), since matches of overlapping
-    /// queries share their detections and with them a wrong fit, unless that leaves no loop
-    /// edge to judge by. When none is further off than
-    /// `recheck_chi2`, those the rest of the graph pins down to `verified_std_m` are verified and
-    /// not tested again. When some are, the newest becomes a suspect too, and a culprit leaves
-    /// the graph (which keeps the poses optimised without it): a failing closure, or a revisit's
-    /// closures together ([`Self::revisits_of`]), without which every other closure agrees. A
-    /// revisit's several matches are one piece of evidence, so it may not outvote a closure
-    /// elsewhere by their number: when two culprits are possible, the smaller leaves only if
-    /// the other has at least [`OUTVOTING_FACTOR`] times as many closures, and otherwise both
-    /// stay until a later closure takes a side (as two closures that contradict only each other
-    /// do). A closure is judged only against other loop closures: the sequential chain alone,
-    /// however long, neither refutes nor verifies it (a single lap keeps its one closure). At
-    /// most [`MAX_UNVERIFIED_CLOSURES`], the newest, are tested; older ones stay in the graph as
+    /// Tests every earlier closure not yet verified (the edges accepted together, by old and new
+    /// keyframe) against the rest of the graph, the newest closure (last in the list) included in
+    /// that rest. A closure is judged without its revisit ([`Self::revisit`]: every loop edge whose
+    /// query shares keyframes with its own), since matches of overlapping queries share their
+    /// detections and with them a wrong fit, unless that leaves no loop edge to judge by. When none
+    /// is further off than `recheck_chi2`, those the rest of the graph pins down to
+    /// `verified_std_m` are verified and not tested again. When some are, the newest becomes a
+    /// suspect too, and a culprit leaves the graph (which keeps the poses optimised without it): a
+    /// failing closure, or a revisit's closures together ([`Self::revisits_of`]), without which
+    /// every other closure agrees. A revisit's several matches are one piece of evidence, so it may
+    /// not outvote a closure elsewhere by their number: when two culprits are possible, the smaller
+    /// leaves only if the other has at least [`OUTVOTING_FACTOR`] times as many closures (a revisit
+    /// that could go only because one of its closures could is no rival to that closure), and
+    /// otherwise both stay until a later closure takes a side (as two closures that contradict only
+    /// each other do). A closure is judged only against other loop closures: the sequential chain
+    /// alone, however long, neither refutes nor verifies it (a single lap keeps its one closure).
+    /// At most [`MAX_UNVERIFIED_CLOSURES`], the newest, are tested; older ones stay in the graph as
     /// they are. Returns whether a closure left.
     fn recheck_closures(&mut self, settings: &OptimiserSettings) -> bool {
         let threshold = self.params.loop_closure.recheck_chi2;
