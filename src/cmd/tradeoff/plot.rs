@@ -72,7 +72,9 @@ pub(super) fn write_pareto_png(path: &Path, rows: &[Row]) -> Result<()> {
         .iter()
         .map(|r| label_width_px(&r.setting.label))
         .collect();
-    let offsets = place_labels(&at_px, &widths_px);
+    let (x_px, y_px) = chart.plotting_area().get_pixel_range();
+    let inside = (x_px.start, y_px.start, x_px.end, y_px.end);
+    let offsets = place_labels(&at_px, &widths_px, inside);
     for (index, knob) in std::iter::once("baseline").chain(KNOBS).enumerate() {
         let color = Palette99::pick(index).to_rgba();
         let mine: Vec<(&Row, Option<(i32, i32)>)> = ordered
@@ -100,7 +102,13 @@ pub(super) fn write_pareto_png(path: &Path, rows: &[Row]) -> Result<()> {
             .draw_series(mine.iter().map(|(r, offset)| {
                 let at = (r.time_per_frame_ms, r.final_etgospa);
                 let label = offset.map_or(String::new(), |_| r.setting.label.clone());
+                // A label set apart from its point gets a leader line to it.
+                let leader = offset
+                    .map(|o| leader_px(o, label_width_px(&r.setting.label)))
+                    .filter(|&(x, y)| x * x + y * y > LEADER_MIN_PX * LEADER_MIN_PX)
+                    .map_or_else(Vec::new, |end| vec![(0, 0), end]);
                 EmptyElement::at(at)
+                    + PathElement::new(leader, BLACK.mix(0.4))
                     + Circle::new((0, 0), if r.pareto { 7 } else { 5 }, color.filled())
                     + Text::new(label, offset.unwrap_or((0, 0)), ("sans-serif", LABEL_PX))
             }))
@@ -120,6 +128,18 @@ const LABEL_PX: i32 = 13;
 /// radius.
 const MARKER_PX: i32 = 7;
 
+/// Labels farther than this from their point (px) get a leader line.
+const LEADER_MIN_PX: i32 = 12;
+
+/// The point of a label's box (top-left corner `offset` from its point, `width_px` wide)
+/// nearest its point, relative to the point (px): where its leader line ends.
+fn leader_px(offset: (i32, i32), width_px: i32) -> (i32, i32) {
+    (
+        0.clamp(offset.0, offset.0 + width_px),
+        0.clamp(offset.1, offset.1 + LABEL_PX),
+    )
+}
+
 /// A label's width (px), from its length: the plots' sans-serif averages about 6 px a character
 /// at [`LABEL_PX`] (19 characters measured 112 px).
 fn label_width_px(label: &str) -> i32 {
@@ -127,9 +147,14 @@ fn label_width_px(label: &str) -> i32 {
 }
 
 /// Where each point's label goes, as an offset of its top-left corner from the point (px), in
-/// order: the first of a few places around the point whose box overlaps no earlier label and
-/// no point's marker, or `None` (the label is left out).
-fn place_labels(at_px: &[(i32, i32)], widths_px: &[i32]) -> Vec<Option<(i32, i32)>> {
+/// order: the first of a few places around the point whose box lies within `inside` (left, top,
+/// right, bottom; px) and overlaps no earlier label and no point's marker, or `None` (the label
+/// is left out).
+fn place_labels(
+    at_px: &[(i32, i32)],
+    widths_px: &[i32],
+    inside: (i32, i32, i32, i32),
+) -> Vec<Option<(i32, i32)>> {
     type Rect = (i32, i32, i32, i32);
     let overlaps = |a: &Rect, b: &Rect| a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3;
     let markers: Vec<Rect> = at_px
@@ -155,7 +180,11 @@ fn place_labels(at_px: &[(i32, i32)], widths_px: &[i32]) -> Vec<Option<(i32, i32
             ];
             let free = places.into_iter().find(|&(dx, dy)| {
                 let label = (x + dx, y + dy, x + dx + width, y + dy + LABEL_PX);
-                !taken.iter().chain(&markers).any(|b| overlaps(&label, b))
+                let within = inside.0 <= label.0
+                    && inside.1 <= label.1
+                    && label.2 <= inside.2
+                    && label.3 <= inside.3;
+                within && !taken.iter().chain(&markers).any(|b| overlaps(&label, b))
             })?;
             taken.push((
                 x + free.0,
@@ -201,7 +230,8 @@ mod tests {
     fn labels_of_crowded_points_do_not_overlap_and_a_lone_point_keeps_its_label() {
         let at_px = [(100, 100), (102, 101), (104, 99), (106, 100), (400, 300)];
         let widths_px = [70; 5];
-        let offsets = place_labels(&at_px, &widths_px);
+        let page = (0, 0, 1000, 1000);
+        let offsets = place_labels(&at_px, &widths_px, page);
         assert_eq!(
             offsets[4],
             Some((9, -LABEL_PX - 2)),
@@ -211,12 +241,19 @@ mod tests {
         assert_clear(&at_px, &widths_px, &offsets);
         // More points at one place than there are places around it.
         let crowd_px = [(50, 50); 16];
-        let crowd = place_labels(&crowd_px, &[70; 16]);
+        let crowd = place_labels(&crowd_px, &[70; 16], page);
         let labelled = crowd.iter().flatten().count();
         assert!(
             (1..16).contains(&labelled),
             "sixteen points at one place: {labelled} labelled"
         );
         assert_clear(&crowd_px, &[70; 16], &crowd);
+        // A leader line ends on the label's box, at its point nearest the point.
+        assert_eq!(leader_px((9, -15), 70), (9, -2));
+        assert_eq!(leader_px((-79, 20), 70), (-9, 20));
+        assert_eq!(leader_px((-35, -23), 70), (0, -10));
+        // A point at the right edge is labelled to its left.
+        let edge = place_labels(&[(980, 500)], &[70], page);
+        assert_eq!(edge, vec![Some((-9 - 70, -LABEL_PX - 2))]);
     }
 }
