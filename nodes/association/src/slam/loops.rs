@@ -80,8 +80,6 @@ struct LeftOut {
     chi2: f64,
     /// Whether that graph pins each of its edges' relative poses down to `verified_std_m`.
     pinned: bool,
-    /// Whether that graph has a loop edge left to judge by.
-    judged: bool,
 }
 
 /// A loop edge: the measured pose of keyframe `to` in the frame of the older keyframe `from`
@@ -431,7 +429,7 @@ impl Association {
     /// is further off than `recheck_chi2`, those the rest of the graph pins down to
     /// `verified_std_m` are verified and not tested again. When some are, the newest becomes a
     /// suspect too, and a culprit leaves the graph (which keeps the poses optimised without it): a
-    /// failing closure, or a revisit's closures together ([`Self::revisits_of`]), without which
+    /// failing closure, or a revisit's closures together ([`Self::revisits`]), without which
     /// every other closure agrees. A revisit's several matches are one piece of evidence, so it may
     /// not outvote a closure elsewhere by their number: when two culprits are possible, the smaller
     /// leaves only if the other has at least [`OUTVOTING_FACTOR`] times as many closures (a revisit
@@ -465,9 +463,12 @@ impl Association {
             // it, by their number, as nothing else can; but they do not verify it.
             let judge = |graph: &PoseGraph, closure: &[(usize, usize)]| {
                 let revisit = self.revisit(graph, closure);
-                let verdict = self.leave_out(graph, &revisit, closure, &calibrated, settings);
-                if verdict.judged || revisit.len() == closure.len() {
-                    verdict
+                let judged_without_revisit = graph
+                    .edges()
+                    .iter()
+                    .any(|e| e.kind == EdgeKind::Loop && !Self::is_member(e, &revisit));
+                if judged_without_revisit {
+                    self.leave_out(graph, &revisit, closure, &calibrated, settings)
                 } else {
                     LeftOut {
                         pinned: false,
@@ -493,26 +494,23 @@ impl Association {
             let failing: Vec<usize> = (0..verdicts.len())
                 .filter(|&i| verdicts[i].chi2 > threshold)
                 .collect();
-            let all: Vec<usize> = (0..self.unverified_closures.len()).collect();
+            let count = self.unverified_closures.len();
             let mut suspects: Vec<Vec<usize>> = failing.iter().map(|&c| vec![c]).collect();
-            suspects.extend(self.revisits_of(&all).into_iter().filter(|revisit| {
+            suspects.extend(self.revisits().into_iter().filter(|revisit| {
                 // A revisit that is all the closures there are has no one to outvote.
-                (2..all.len()).contains(&revisit.len())
-                    && revisit.iter().any(|c| failing.contains(c))
+                (2..count).contains(&revisit.len()) && revisit.iter().any(|c| failing.contains(c))
             }));
             // (its closures' indices, their edges, the graph without them) of each possible
             // culprit.
             type Culprit = (Vec<usize>, Vec<(usize, usize)>, PoseGraph);
-            let mut culprits: Vec<Culprit> = suspects
+            let culprits: Vec<Culprit> = suspects
                 .into_iter()
                 .filter_map(|suspect| {
                     let pairs: Vec<(usize, usize)> = suspect
                         .iter()
                         .flat_map(|&c| self.unverified_closures[c].iter().copied())
                         .collect();
-                    let rest = self
-                        .leave_out(&self.graph, &pairs, &pairs, &calibrated, settings)
-                        .graph;
+                    let rest = Self::without(&self.graph, &pairs, settings);
                     let agree = self
                         .unverified_closures
                         .iter()
@@ -523,29 +521,27 @@ impl Association {
                 })
                 .collect();
             // A revisit that could go because one of its closures could is no rival to it.
-            let minimal: Vec<bool> = culprits
+            let mut minimal: Vec<&Culprit> = culprits
                 .iter()
-                .map(|(mine, _, _)| {
+                .filter(|(mine, _, _)| {
                     !culprits.iter().any(|(other, _, _)| {
                         other.len() < mine.len() && other.iter().all(|c| mine.contains(c))
                     })
                 })
                 .collect();
-            let mut minimal = minimal.into_iter();
-            culprits.retain(|_| minimal.next().unwrap_or(false));
-            culprits.sort_by_key(|(closures, _, _)| closures.len());
-            let outvoted = match &culprits[..] {
-                [only] => Some(only),
+            minimal.sort_by_key(|(closures, _, _)| closures.len());
+            let outvoted = match &minimal[..] {
+                [only] => Some(*only),
                 [smallest, others @ ..] => others
                     .iter()
                     .all(|(closures, _, _)| closures.len() >= OUTVOTING_FACTOR * smallest.0.len())
-                    .then_some(smallest),
+                    .then_some(*smallest),
                 [] => None,
             };
             let Some((_, gone, without)) = outvoted else {
                 tracing::debug!(
                     closures = ?self.unverified_closures,
-                    culprits = ?culprits.iter().map(|(_, c, _)| c).collect::<Vec<_>>(),
+                    culprits = ?minimal.iter().map(|(_, c, _)| c).collect::<Vec<_>>(),
                     "closures contradict each other; waiting for another closure"
                 );
                 return dropped;
@@ -592,10 +588,10 @@ impl Association {
         pairs
     }
 
-    /// The unverified closures `indices` grouped by revisit: two closures belong together when
+    /// The unverified closures' indices grouped by revisit: two closures belong together when
     /// the queries of two of their edges share a keyframe (newer keyframes less than
     /// `query_keyframes` apart), and so on transitively.
-    fn revisits_of(&self, indices: &[usize]) -> Vec<Vec<usize>> {
+    fn revisits(&self) -> Vec<Vec<usize>> {
         let apart = self.params.loop_closure.query_keyframes as usize;
         let near = |a: usize, b: usize| {
             self.unverified_closures[a].iter().any(|&(_, x)| {
@@ -605,7 +601,7 @@ impl Association {
             })
         };
         let mut groups: Vec<Vec<usize>> = Vec::new();
-        for &c in indices {
+        for c in 0..self.unverified_closures.len() {
             let (joined, rest): (Vec<Vec<usize>>, Vec<Vec<usize>>) = groups
                 .into_iter()
                 .partition(|g| g.iter().any(|&d| near(c, d)));
@@ -635,6 +631,18 @@ impl Association {
             .filter(|edge| Self::is_member(edge, closure))
     }
 
+    /// `graph` without the loop edges `left_out`, optimised.
+    fn without(
+        graph: &PoseGraph,
+        left_out: &[(usize, usize)],
+        settings: &OptimiserSettings,
+    ) -> PoseGraph {
+        let mut without = graph.clone();
+        without.retain_edges(|edge| !Self::is_member(edge, left_out));
+        without.optimise(settings);
+        without
+    }
+
     /// `graph` without the loop edges `left_out` (`closure`'s among them), optimised, and how
     /// `closure`'s edges fare against it: the largest χ² among them
     /// ([`PoseGraph::relative_consistency`], the sequential edges at their calibrated information,
@@ -650,16 +658,13 @@ impl Association {
         settings: &OptimiserSettings,
     ) -> LeftOut {
         let members: Vec<Edge> = Self::members(graph, closure).copied().collect();
-        let mut without = graph.clone();
-        without.retain_edges(|edge| !Self::is_member(edge, left_out));
-        without.optimise(settings);
+        let without = Self::without(graph, left_out, settings);
         // Only other loop closures can judge a closure: without them its relative pose is the
         // chain's dead reckoning, whose drift the closure is there to measure.
         let judged = without.edges().iter().any(|e| e.kind == EdgeKind::Loop);
         let mut verdict = LeftOut {
             chi2: 0.0,
             pinned: judged && without.nodes().iter().all(Pose2::is_finite),
-            judged,
             graph: without,
         };
         if !verdict.pinned {
