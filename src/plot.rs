@@ -158,12 +158,15 @@ const PALETTE: [RGBColor; 10] = [
     RGBColor(127, 127, 127),
 ];
 
+/// A chart over map coordinates (x m, y m), as `map.png` and `segments.png` draw.
+type MapChart<'a, DB> = ChartContext<
+    'a,
+    DB,
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+>;
+
 fn draw_outlines<DB: DrawingBackend>(
-    chart: &mut ChartContext<
-        '_,
-        DB,
-        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
-    >,
+    chart: &mut MapChart<'_, DB>,
     report: &Reporter,
     color: RGBColor,
 ) -> Result<()> {
@@ -261,11 +264,7 @@ pub fn map_png(path: &Path, report: &Reporter) -> Result<()> {
 /// [`crate::report::LOOP_EDGE_WRONG_M`] against the truth drawn apart, so a wrong closure shows
 /// where it happened.
 fn draw_keyframes_and_loops<DB: DrawingBackend>(
-    chart: &mut ChartContext<
-        '_,
-        DB,
-        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
-    >,
+    chart: &mut MapChart<'_, DB>,
     report: &Reporter,
 ) -> Result<()> {
     let Some(keyframes) = &report.keyframe_poses else {

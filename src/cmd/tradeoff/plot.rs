@@ -140,6 +140,25 @@ fn leader_px(offset: (i32, i32), width_px: i32) -> (i32, i32) {
     )
 }
 
+/// A box in pixels: left, top, right, bottom.
+type Rect = (i32, i32, i32, i32);
+
+/// The box of a label `width_px` wide whose top-left corner is `offset` from the point `at`.
+fn label_box(at: (i32, i32), offset: (i32, i32), width_px: i32) -> Rect {
+    let (x, y) = (at.0 + offset.0, at.1 + offset.1);
+    (x, y, x + width_px, y + LABEL_PX)
+}
+
+/// Whether two boxes share any area.
+fn overlaps(a: &Rect, b: &Rect) -> bool {
+    a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3
+}
+
+/// The box a label keeps clear around a point's marker.
+fn marker_box((x, y): (i32, i32)) -> Rect {
+    (x - MARKER_PX, y - MARKER_PX, x + MARKER_PX, y + MARKER_PX)
+}
+
 /// A label's width (px), from its length: the plots' sans-serif averages about 6 px a character
 /// at [`LABEL_PX`] (19 characters measured 112 px).
 fn label_width_px(label: &str) -> i32 {
@@ -155,12 +174,7 @@ fn place_labels(
     widths_px: &[i32],
     inside: (i32, i32, i32, i32),
 ) -> Vec<Option<(i32, i32)>> {
-    type Rect = (i32, i32, i32, i32);
-    let overlaps = |a: &Rect, b: &Rect| a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3;
-    let markers: Vec<Rect> = at_px
-        .iter()
-        .map(|&(x, y)| (x - MARKER_PX, y - MARKER_PX, x + MARKER_PX, y + MARKER_PX))
-        .collect();
+    let markers: Vec<Rect> = at_px.iter().copied().map(marker_box).collect();
     let mut taken: Vec<Rect> = Vec::new();
     at_px
         .iter()
@@ -178,20 +192,16 @@ fn place_labels(
                 (-9 - width, -2 * LABEL_PX - 6),
                 (-9 - width, LABEL_PX + 6),
             ];
-            let free = places.into_iter().find(|&(dx, dy)| {
-                let label = (x + dx, y + dy, x + dx + width, y + dy + LABEL_PX);
+            let (free, label) = places.into_iter().find_map(|offset| {
+                let label = label_box((x, y), offset, width);
                 let within = inside.0 <= label.0
                     && inside.1 <= label.1
                     && label.2 <= inside.2
                     && label.3 <= inside.3;
-                within && !taken.iter().chain(&markers).any(|b| overlaps(&label, b))
+                (within && !taken.iter().chain(&markers).any(|b| overlaps(&label, b)))
+                    .then_some((offset, label))
             })?;
-            taken.push((
-                x + free.0,
-                y + free.1,
-                x + free.0 + width,
-                y + free.1 + LABEL_PX,
-            ));
+            taken.push(label);
             Some(free)
         })
         .collect()
@@ -204,24 +214,19 @@ mod tests {
     /// The label boxes `offsets` puts at the points `at_px`: none overlaps another or any
     /// point's marker.
     fn assert_clear(at_px: &[(i32, i32)], widths_px: &[i32], offsets: &[Option<(i32, i32)>]) {
-        let overlap = |a: (i32, i32, i32, i32), b: (i32, i32, i32, i32)| {
-            a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3
-        };
-        let boxes: Vec<(i32, i32, i32, i32)> = at_px
+        let boxes: Vec<Rect> = at_px
             .iter()
             .zip(offsets)
             .zip(widths_px)
-            .filter_map(|((&(x, y), offset), &w)| {
-                offset.map(|(dx, dy)| (x + dx, y + dy, x + dx + w, y + dy + LABEL_PX))
-            })
+            .filter_map(|((&at, offset), &w)| offset.map(|o| label_box(at, o, w)))
             .collect();
-        for (i, &a) in boxes.iter().enumerate() {
-            for &b in &boxes[i + 1..] {
-                assert!(!overlap(a, b), "{a:?} overlaps {b:?}");
+        for (i, a) in boxes.iter().enumerate() {
+            for b in &boxes[i + 1..] {
+                assert!(!overlaps(a, b), "{a:?} overlaps {b:?}");
             }
-            for &(x, y) in at_px {
-                let marker = (x - MARKER_PX, y - MARKER_PX, x + MARKER_PX, y + MARKER_PX);
-                assert!(!overlap(a, marker), "{a:?} covers the marker at {x}, {y}");
+            for &at in at_px {
+                let marker = marker_box(at);
+                assert!(!overlaps(a, &marker), "{a:?} covers the marker at {at:?}");
             }
         }
     }
