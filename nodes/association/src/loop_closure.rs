@@ -18,11 +18,12 @@
 //!    motions on a lattice of translations (within the radius, `search_step_m` apart) and
 //!    rotations (± `max_search_rotation_deg`, `search_step_deg` apart) around the predicted
 //!    relative pose are scored by the mean grid value at the moved query points (the fraction on
-//!    hit cells), times a Gaussian prior on the offset from the prediction (σ = radius / 2). This
-//!    needs no initial guess closer than the radius, unlike ICP. The best motion is found by
-//!    branch and bound ([`crate::correlative::search_with`], after Hess et al., "Real-Time Loop
-//!    Closure in 2D LIDAR SLAM"), which returns exactly what scoring every motion would, at a
-//!    fraction of the cost; a second search that leaves out the disc of `ambiguity_distance_m`
+//!    hit cells), times a Gaussian prior on the offset from the prediction (σ =
+//!    `prior_sigma_radii` radii, `scattered_prior_sigma_radii` for a query whose detections
+//!    scatter). This needs no initial guess closer than the radius, unlike ICP. The best motion
+//!    is found by branch and bound ([`crate::correlative::search_with`], after Hess et al.,
+//!    "Real-Time Loop Closure in 2D LIDAR SLAM"), which returns exactly what scoring every
+//!    motion would, at a fraction of the cost; a second search that leaves out the disc of `ambiguity_distance_m`
 //!    around it finds the best score elsewhere ([`crate::correlative::runner_up`]).
 //! 2. **Refinement.** Point-to-line ICP of the search's sample (at most ~400 query points)
 //!    from the best motion ([`crate::icp::align`]), with a
@@ -196,12 +197,12 @@ pub fn match_loop(
         linear_m: radius_m,
         angular_rad: loop_params.max_search_rotation_deg.to_radians(),
     };
-    // The prior on the offset from the prediction (σ = half the radius) matters in halls like
-    // ours whose targets repeat on a grid: a query shifted by one station pitch can fit as well
-    // as the right one, but is farther from where odometry says the AGV is.
+    // The prior on the offset from the prediction breaks near-ties in halls like ours whose
+    // targets repeat on a grid: a query shifted by one station pitch can fit as well as the
+    // right one, but is farther from where the pose graph says the AGV is.
     let options = SearchOptions {
         angular_step_rad: Some(step_rad),
-        prior_sigma_m: Some(0.5 * radius_m.max(step_m)),
+        prior_sigma_m: Some(loop_params.prior_sigma_radii * radius_m.max(step_m)),
         exclude: None,
     };
     // The best motion, and later the runner-up, from one preparation of the sample's cells.
@@ -766,6 +767,52 @@ mod tests {
         assert!(
             matches!(result, Err(LoopRejection::Ambiguous { .. })),
             "{result:?}"
+        );
+    }
+
+    #[test]
+    fn the_prior_breaks_near_ties_but_does_not_overrule_a_better_fit() {
+        // A 2 m box, and 4 m along x the same box's bottom and left sides only: half the query
+        // fits there. The prediction is 1 m from the partial box and 3 m from the whole
+        // one (drift, as in a revisit the pose graph has not yet corrected).
+        let side = |x0: f64, sides: usize| -> Vec<[f64; 2]> {
+            let corners = [[x0, 0.0], [x0 + 2.0, 0.0], [x0 + 2.0, 2.0], [x0, 2.0]];
+            (0..sides)
+                .flat_map(|i| {
+                    let (a, b) = (corners[i], corners[(i + 1) % 4]);
+                    (0..10).map(move |k| {
+                        let t = f64::from(k) / 10.0;
+                        [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]
+                    })
+                })
+                .collect()
+        };
+        let query = side(0.0, 4);
+        let mut submap = side(0.0, 4);
+        // Sides 0 (bottom) and 3 (left) of the box.
+        let partial = side(4.0, 4);
+        submap.extend(partial[..10].iter().chain(&partial[30..]));
+        let predicted = Pose2::new(3.0, 0.0, 0.0);
+        let search = |prior_sigma_radii: f64| {
+            let params = LoopClosureParams {
+                prior_sigma_radii,
+                ..LoopClosureParams::default()
+            };
+            match_loop(&query, &submap, predicted, 6.0, &params, &Params::default())
+        };
+        let found = search(LoopClosureParams::default().prior_sigma_radii).unwrap();
+        // The whole box (the partial one is 4 m away), unambiguous.
+        assert!(
+            found.relative.distance_m(&Pose2::IDENTITY) < 0.5,
+            "{found:?}"
+        );
+        assert!(found.score > 0.95 && found.runner_up < 0.85, "{found:?}");
+        // Under a prior twice as tight, the partial box's score times its prior comes close to
+        // the whole one's: the right loop is lost as ambiguous.
+        assert!(
+            matches!(search(0.5), Err(LoopRejection::Ambiguous { .. })),
+            "{:?}",
+            search(0.5)
         );
     }
 

@@ -271,6 +271,19 @@ pub struct LoopClosureParams {
     /// See `plateau_fraction`: the rotations averaged, either side of the fine search's
     /// heading, degrees (in `search_step_deg` steps). Finite, 0..=30.
     pub plateau_window_deg: f64,
+    /// The loop search scores each motion times a Gaussian prior on its offset from where the
+    /// pose graph predicts the query, with σ this many search radii (the radius grows with
+    /// the travel since the candidate, as its drift does). The prior only breaks near-ties:
+    /// in a hall whose targets repeat on a grid, a query shifted by one pitch fits about as
+    /// well as the right one but lies farther from the prediction. Tighter and it overrules the
+    /// score, keeping the drifted place when the right one fits better (docs/slam-log.md).
+    /// Finite, 0.01..=10.
+    pub prior_sigma_radii: f64,
+    /// See `prior_sigma_radii`: σ, in search radii, for a query whose detections scatter by at
+    /// least `plateau_min_scatter_m` (Δθ 5°). Its scores are flat over a metre near every
+    /// place that looks alike, so the score tells right from drifted less and the prior must
+    /// say more. Finite, 0.01..=10.
+    pub scattered_prior_sigma_radii: f64,
     /// A verified match is accepted at once when it agrees with the pose graph's current
     /// estimate of the same relative pose within this, metres (and `agreement_deg`): it
     /// confirms what the graph already holds. Otherwise it waits for a second match it agrees
@@ -371,6 +384,8 @@ impl Default for LoopClosureParams {
             plateau_min_scatter_m: 0.5,
             plateau_window_m: 2.5,
             plateau_window_deg: 3.0,
+            prior_sigma_radii: 1.0,
+            scattered_prior_sigma_radii: 0.5,
             agreement_m: 0.3,
             agreement_deg: 2.0,
             pair_m: 0.3,
@@ -476,8 +491,20 @@ impl LoopClosureParams {
 
     /// (field, value, min, max) of the real-valued fields checked as plain closed ranges, in the
     /// order [`Self::validate`] checks them first.
-    fn real_ranges(&self) -> [(&'static str, f64, f64, f64); 23] {
+    fn real_ranges(&self) -> [(&'static str, f64, f64, f64); 25] {
         [
+            (
+                "loop_closure.prior_sigma_radii",
+                self.prior_sigma_radii,
+                0.01,
+                10.0,
+            ),
+            (
+                "loop_closure.scattered_prior_sigma_radii",
+                self.scattered_prior_sigma_radii,
+                0.01,
+                10.0,
+            ),
             (
                 "loop_closure.overlap_distance_m",
                 self.overlap_distance_m,
@@ -1137,6 +1164,12 @@ mod tests {
             }),
             ("loop_closure.plateau_min_scatter_m", |p| {
                 p.loop_closure.plateau_min_scatter_m = -0.5
+            }),
+            ("loop_closure.prior_sigma_radii", |p| {
+                p.loop_closure.prior_sigma_radii = 0.0
+            }),
+            ("loop_closure.scattered_prior_sigma_radii", |p| {
+                p.loop_closure.scattered_prior_sigma_radii = f64::NAN
             }),
             ("loop_closure.recheck_chi2", |p| {
                 p.loop_closure.recheck_chi2 = f64::NAN

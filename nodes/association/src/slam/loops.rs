@@ -261,7 +261,8 @@ impl Association {
     /// `pair_scatter_widening`). The plateau estimate
     /// (`plateau_fraction`) is switched off for a query that scatters less than
     /// `plateau_min_scatter_m`: there the best score is a sharp peak, and the plateau on the
-    /// search's 0.25 m lattice would only blur it.
+    /// search's 0.25 m lattice would only blur it. A query that scatters at least that much
+    /// takes the search prior's `scattered_prior_sigma_radii`.
     ///
     /// # Panics
     ///
@@ -273,14 +274,16 @@ impl Association {
     ) -> (LoopClosureParams, f64) {
         let scatter_m = self.scatter_m(query).unwrap_or(0.0);
         let std_scale = lc.scatter_scale(scatter_m);
+        let scattered = scatter_m >= lc.plateau_min_scatter_m;
         let widened = LoopClosureParams {
             inlier_distance_m: lc.inlier_distance_m * std_scale,
             // The overlap is the inliers' superset: it widens with them.
             overlap_distance_m: lc.overlap_distance_m * std_scale,
-            plateau_fraction: if scatter_m >= lc.plateau_min_scatter_m {
-                lc.plateau_fraction
+            plateau_fraction: if scattered { lc.plateau_fraction } else { 0.0 },
+            prior_sigma_radii: if scattered {
+                lc.scattered_prior_sigma_radii
             } else {
-                0.0
+                lc.prior_sigma_radii
             },
             ..lc
         };
