@@ -23,8 +23,9 @@
 //!    scatter). This needs no initial guess closer than the radius, unlike ICP. The best motion
 //!    is found by branch and bound ([`crate::correlative::search_with`], after Hess et al.,
 //!    "Real-Time Loop Closure in 2D LIDAR SLAM"), which returns exactly what scoring every
-//!    motion would, at a fraction of the cost; a second search that leaves out the disc of `ambiguity_distance_m`
-//!    around it finds the best score elsewhere ([`crate::correlative::runner_up`]).
+//!    motion would, at a fraction of the cost; a second search that leaves out the disc of
+//!    `ambiguity_distance_m` around it finds the best score elsewhere
+//!    ([`crate::correlative::runner_up`]).
 //! 2. **Refinement.** Point-to-line ICP of the search's sample (at most ~400 query points)
 //!    from the best motion ([`crate::icp::align`]), with a
 //!    correspondence gate (`refine_correspondence_m`) wide enough to pull in a lap's drift.
@@ -809,10 +810,10 @@ mod tests {
         assert!(found.score > 0.95 && found.runner_up < 0.85, "{found:?}");
         // Under a prior twice as tight, the partial box's score times its prior comes close to
         // the whole one's: the right loop is lost as ambiguous.
+        let tight = search(0.5);
         assert!(
-            matches!(search(0.5), Err(LoopRejection::Ambiguous { .. })),
-            "{:?}",
-            search(0.5)
+            matches!(tight, Err(LoopRejection::Ambiguous { .. })),
+            "{tight:?}"
         );
     }
 
