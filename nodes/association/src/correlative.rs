@@ -36,9 +36,10 @@
 //!
 //! **Scores.** The score of a motion is the mean grid value at the moved scan points, optionally
 //! times a Gaussian prior on the translation's offset from the initial pose (loop closure uses it
-//! to prefer, among look-alike places, the one nearer where odometry puts the AGV). The prior is
-//! largest at the offset nearest the initial pose, so a node's bound is its sum of maxima times
-//! the prior at the block's offset nearest the initial pose: still never below any leaf's score.
+//! to prefer, among look-alike places, the one nearer where the pose graph puts the AGV). The
+//! prior is largest at the offset nearest the initial pose, so a node's bound is its sum of maxima
+//! times the prior at the block's offset nearest the initial pose: still never below any leaf's
+//! score.
 //! A scan point's cell is computed once per rotation, and a translation by (i, j) steps moves it
 //! by exactly (i, j) cells (the translation step is the cell size), as Hess et al. do.
 //!

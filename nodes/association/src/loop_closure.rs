@@ -773,12 +773,12 @@ mod tests {
 
     #[test]
     fn the_prior_breaks_near_ties_but_does_not_overrule_a_better_fit() {
-        // A 2 m box, and 4 m along x the same box's bottom and left sides only: half the query
-        // fits there. The prediction is 1 m from the partial box and 3 m from the whole
-        // one (drift, as in a revisit the pose graph has not yet corrected).
-        let side = |x0: f64, sides: usize| -> Vec<[f64; 2]> {
+        // 2 m squares of 40 points, as a revisit's query sees one and as the submap holds
+        // several 4 m apart along x. The prediction is 1 m from the square at x = 4 and 3 m
+        // from the one at x = 0 (drift, as in a revisit the pose graph has not yet corrected).
+        let square = |x0: f64| -> Vec<[f64; 2]> {
             let corners = [[x0, 0.0], [x0 + 2.0, 0.0], [x0 + 2.0, 2.0], [x0, 2.0]];
-            (0..sides)
+            (0..4)
                 .flat_map(|i| {
                     let (a, b) = (corners[i], corners[(i + 1) % 4]);
                     (0..10).map(move |k| {
@@ -788,31 +788,49 @@ mod tests {
                 })
                 .collect()
         };
-        let query = side(0.0, 4);
-        let mut submap = side(0.0, 4);
-        // Sides 0 (bottom) and 3 (left) of the box.
-        let partial = side(4.0, 4);
-        submap.extend(partial[..10].iter().chain(&partial[30..]));
+        let query = square(0.0);
         let predicted = Pose2::new(3.0, 0.0, 0.0);
-        let search = |prior_sigma_radii: f64| {
-            let params = LoopClosureParams {
-                prior_sigma_radii,
-                ..LoopClosureParams::default()
-            };
-            match_loop(&query, &submap, predicted, 6.0, &params, &Params::default())
+        let search = |submap: &[[f64; 2]], params: &LoopClosureParams| {
+            match_loop(&query, submap, predicted, 6.0, params, &Params::default())
         };
-        let found = search(LoopClosureParams::default().prior_sigma_radii).unwrap();
-        // The whole box (the partial one is 4 m away), unambiguous.
+        let defaults = LoopClosureParams::default();
+
+        // A tie: two whole squares. The prior takes the one nearer the prediction (with the
+        // ambiguity test off, which would refuse a tie).
+        let twins = [square(0.0), square(4.0)].concat();
+        let tie_params = LoopClosureParams {
+            max_ambiguity: 1.0,
+            ..defaults.clone()
+        };
+        let nearer = search(&twins, &tie_params).unwrap();
+        assert!(
+            nearer.relative.distance_m(&Pose2::new(4.0, 0.0, 0.0)) < 0.5,
+            "{nearer:?}"
+        );
+
+        // No tie: the square at x = 4 has only its bottom and left sides (points 0..10 and
+        // 30..40). The whole square fits better, and the prior does not overrule that.
+        let partial = square(4.0);
+        let lookalike = [square(0.0).as_slice(), &partial[..10], &partial[30..]].concat();
+        let found = search(&lookalike, &defaults).unwrap();
         assert!(
             found.relative.distance_m(&Pose2::IDENTITY) < 0.5,
             "{found:?}"
         );
-        assert!(found.score > 0.95 && found.runner_up < 0.85, "{found:?}");
-        // Under a prior twice as tight, the partial box's score times its prior comes close to
-        // the whole one's: the right loop is lost as ambiguous.
-        let tight = search(0.5);
+        assert!(found.score > 0.95, "{found:?}");
+
+        // Under a prior half as wide, the whole square still scores best, but the partial
+        // one's score times its prior comes so close that the right loop is refused as
+        // ambiguous.
+        let tight = search(
+            &lookalike,
+            &LoopClosureParams {
+                prior_sigma_radii: 0.5,
+                ..defaults
+            },
+        );
         assert!(
-            matches!(tight, Err(LoopRejection::Ambiguous { .. })),
+            matches!(tight, Err(LoopRejection::Ambiguous { score, .. }) if score > 0.95),
             "{tight:?}"
         );
     }

@@ -262,8 +262,9 @@ pub struct LoopClosureParams {
     /// always. Finite, 0..=0.5.
     pub plateau_fraction: f64,
     /// See `plateau_fraction`: the detections' scatter from which the plateau's centre is the
-    /// match, metres (the same measure as `local_map_max_scatter_m`; a query at exactly both
-    /// limits tracks locally and takes the plateau's centre). 0: every query. Finite, 0..=1e6.
+    /// match and the search prior is `scattered_prior_sigma_radii` wide, metres (the same
+    /// measure as `local_map_max_scatter_m`; a query at exactly both limits tracks locally and
+    /// takes the plateau's centre). 0: every query. Finite, 0..=1e6.
     pub plateau_min_scatter_m: f64,
     /// See `plateau_fraction`: the translations averaged, up to this far from the fine
     /// search's pose, metres. Finite, 0..=20; the cost grows with its square.
@@ -494,18 +495,6 @@ impl LoopClosureParams {
     fn real_ranges(&self) -> [(&'static str, f64, f64, f64); 25] {
         [
             (
-                "loop_closure.prior_sigma_radii",
-                self.prior_sigma_radii,
-                0.01,
-                10.0,
-            ),
-            (
-                "loop_closure.scattered_prior_sigma_radii",
-                self.scattered_prior_sigma_radii,
-                0.01,
-                10.0,
-            ),
-            (
                 "loop_closure.overlap_distance_m",
                 self.overlap_distance_m,
                 0.0,
@@ -547,6 +536,18 @@ impl LoopClosureParams {
                 self.plateau_window_deg,
                 0.0,
                 30.0,
+            ),
+            (
+                "loop_closure.prior_sigma_radii",
+                self.prior_sigma_radii,
+                0.01,
+                10.0,
+            ),
+            (
+                "loop_closure.scattered_prior_sigma_radii",
+                self.scattered_prior_sigma_radii,
+                0.01,
+                10.0,
             ),
             (
                 "loop_closure.local_map_max_scatter_m",

@@ -851,8 +851,11 @@ mod tests {
         assert_eq!(lc.plateau_min_scatter_m, 0.5);
         assert_eq!(widened.plateau_fraction, lc.plateau_fraction);
         assert!(widened.plateau_fraction > 0.0);
+        // And its flat scores take the narrower search prior.
+        assert_eq!(widened.prior_sigma_radii, lc.scattered_prior_sigma_radii);
+        assert!(lc.scattered_prior_sigma_radii < lc.prior_sigma_radii);
         // Detections that scatter less than the fixed distance allows change nothing but the
-        // plateau, which they do not have.
+        // plateau, which they do not have (the search prior stays `prior_sigma_radii`).
         let (plain, one) = slam.widened_for_scatter(lc.clone(), 0..=0);
         let without_plateau = LoopClosureParams {
             plateau_fraction: 0.0,
