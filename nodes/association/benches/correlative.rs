@@ -10,8 +10,11 @@
 //!
 //! Groups: `paper_step/<cell>` is a Gaussian grid (σ = the cell) with Hess et al.'s angular step
 //! for the query (0.49° at 0.1 m, 1.21° at 0.25 m) and no prior; `loop_closure` is what
-//! `match_loop` runs with the default parameters (hit raster on 0.25 m cells, 1° steps, prior
-//! σ = 3 m) for the best motion and then the runner-up ≥ 2 m from it; `precompute` is building
+//! `match_loop` runs (hit raster on 0.25 m cells, 1° steps, prior σ = 3 m: half the 6 m
+//! radius, a scattered query's `scattered_prior_sigma_radii` and every query's before commit
+//! 24d3e82) for the best motion and then the runner-up ≥ 2 m from it, and
+//! `prepared_best_and_runner_up_prior_6m` the same with the default prior of a query that does
+//! not scatter (σ = the radius, `prior_sigma_radii`); `precompute` is building
 //! the grid and its maxima, padded and not; `depth` is the branch and bound with 1 to 7
 //! precomputed levels (`suggested_depth` picks 4 at 0.25 m and 5 at 0.1 m here);
 //! `fine_search/<step>` is loop closure's fine search after the ICP (field and maxima built, then
@@ -37,6 +40,11 @@
 //! and 0.343 ms (Gaussian, 0.1 m; 0.181). The runner-up search costs twice the first: it must
 //! prove that nothing outside the excluded disc beats a score under half the best's, and coarse
 //! bounds seldom fall that low.
+//!
+//! The prior's width (commit 24d3e82, one session): best and runner-up from one preparation took
+//! 0.812 ms at σ = 3 m and 0.821 ms at σ = 6 m (+1 %), with the same best match. This case has
+//! one clear peak; in whole hall trials, whose candidates are mostly near misses, the flatter
+//! prior took the search's share of the samples from 5.3 to 6.5 % (docs/performance.md).
 
 #[path = "common/mod.rs"]
 mod common;
@@ -199,13 +207,13 @@ fn loop_closure(c: &mut Criterion, case: &Case) {
     });
     group.bench_function("branch_and_bound", |b| b.iter(both_fast));
     // What `match_loop` runs: both searches from one preparation of the query's cells.
-    let both_prepared = || {
+    let prepared = |options: &SearchOptions| {
         let mut search = PreparedSearch::new(
             &grids,
             black_box(&case.query),
             case.initial,
             &case.window,
-            &options,
+            options,
         )
         .unwrap();
         let best = search.best_outside(None, 0.0).unwrap().unwrap();
@@ -214,8 +222,19 @@ fn loop_closure(c: &mut Criterion, case: &Case) {
             .unwrap();
         (best, second)
     };
+    let both_prepared = || prepared(&options);
     assert_eq!(both_prepared(), both_fast());
     group.bench_function("prepared_best_and_runner_up", |b| b.iter(both_prepared));
+    // The default prior of a query that does not scatter: σ = the 6 m radius
+    // (`prior_sigma_radii` = 1). Flatter, it lets the bounds prune less.
+    let flat = SearchOptions {
+        prior_sigma_m: Some(6.0),
+        ..options
+    };
+    eprintln!("loop_closure, prior σ = 6 m: {:?}", prepared(&flat));
+    group.bench_function("prepared_best_and_runner_up_prior_6m", |b| {
+        b.iter(|| prepared(&flat))
+    });
     group.bench_function("branch_and_bound_runner_up_above_0.85", |b| {
         b.iter(|| both_fast_above(0.85))
     });
