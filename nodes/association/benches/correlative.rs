@@ -43,8 +43,8 @@
 //!
 //! The prior's width (commit 24d3e82, one session): best and runner-up from one preparation took
 //! 0.812 ms at σ = 3 m and 0.821 ms at σ = 6 m (+1 %), with the same best match. This case has
-//! one clear peak; in whole hall trials, whose candidates are mostly near misses, the flatter
-//! prior took the search's share of the samples from 5.3 to 6.5 % (docs/performance.md).
+//! one clear peak; in whole hall trials the flatter prior took the search's share of the samples
+//! from 5.3 to 6.5 % (docs/performance.md).
 
 #[path = "common/mod.rs"]
 mod common;
