@@ -169,11 +169,7 @@ fn label_width_px(label: &str) -> i32 {
 /// order: the first of a few places around the point whose box lies within `inside` (left, top,
 /// right, bottom; px) and overlaps no earlier label and no point's marker, or `None` (the label
 /// is left out).
-fn place_labels(
-    at_px: &[(i32, i32)],
-    widths_px: &[i32],
-    inside: (i32, i32, i32, i32),
-) -> Vec<Option<(i32, i32)>> {
+fn place_labels(at_px: &[(i32, i32)], widths_px: &[i32], inside: Rect) -> Vec<Option<(i32, i32)>> {
     let markers: Vec<Rect> = at_px.iter().copied().map(marker_box).collect();
     let mut taken: Vec<Rect> = Vec::new();
     at_px

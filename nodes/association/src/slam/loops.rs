@@ -577,14 +577,17 @@ impl Association {
     /// keyframe lies less than `query_keyframes` from one of its own, so that their queries
     /// share keyframes.
     fn revisit(&self, graph: &PoseGraph, closure: &[(usize, usize)]) -> Vec<(usize, usize)> {
-        let apart = self.params.loop_closure.query_keyframes as usize;
         let mut pairs: Vec<(usize, usize)> = closure.to_vec();
         pairs.extend(
             graph
                 .edges()
                 .iter()
                 .filter(|e| e.kind == EdgeKind::Loop)
-                .filter(|e| closure.iter().any(|&(_, to)| to.abs_diff(e.to) < apart))
+                .filter(|e| {
+                    closure
+                        .iter()
+                        .any(|&(_, to)| self.queries_overlap(to, e.to))
+                })
                 .map(|e| (e.from, e.to))
                 .filter(|pair| !closure.contains(pair)),
         );
@@ -595,12 +598,11 @@ impl Association {
     /// the queries of two of their edges share a keyframe (newer keyframes less than
     /// `query_keyframes` apart), and so on transitively.
     fn revisits(&self) -> Vec<Vec<usize>> {
-        let apart = self.params.loop_closure.query_keyframes as usize;
         let near = |a: usize, b: usize| {
             self.unverified_closures[a].iter().any(|&(_, x)| {
                 self.unverified_closures[b]
                     .iter()
-                    .any(|&(_, y)| x.abs_diff(y) < apart)
+                    .any(|&(_, y)| self.queries_overlap(x, y))
             })
         };
         let mut groups: Vec<Vec<usize>> = Vec::new();
@@ -616,6 +618,12 @@ impl Association {
         }
         groups.sort();
         groups
+    }
+
+    /// Whether the queries of two loop edges, by their newer keyframes, share keyframes: those lie
+    /// less than `query_keyframes` apart.
+    fn queries_overlap(&self, newer_a: usize, newer_b: usize) -> bool {
+        newer_a.abs_diff(newer_b) < self.params.loop_closure.query_keyframes as usize
     }
 
     /// Whether `edge` is one of `closure`'s loop edges.
