@@ -28,6 +28,12 @@ impl Reporter {
             let (stamp, _) = self.keyframes_by_id.get(id)?;
             self.true_by_stamp.get(stamp).copied()
         };
+        let estimated: std::collections::HashMap<u32, (f64, f64, f64)> = k
+            .ids
+            .iter()
+            .zip(&k.poses)
+            .map(|(id, p)| (*id, p.planar()))
+            .collect();
         k.loop_from_ids
             .iter()
             .zip(&k.loop_to_ids)
@@ -41,6 +47,12 @@ impl Reporter {
                 let truth = (cos * dx + sin * dy, -sin * dx + cos * dy);
                 let (x_m, y_m, yaw_rad) = measured.planar();
                 let error_m = (x_m - truth.0).hypot(y_m - truth.1);
+                // The same relative pose as the final graph has it, every other edge applied.
+                let graph_error_m = estimated.get(from).zip(estimated.get(to)).map(|(a, b)| {
+                    let (sin, cos) = a.2.sin_cos();
+                    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+                    (cos * dx + sin * dy - truth.0).hypot(-sin * dx + cos * dy - truth.1)
+                });
                 let true_yaw_rad = b.2 - a.2;
                 let error_rad = nrslam_association::wrap_angle_rad(yaw_rad - true_yaw_rad);
                 // The error as the pose graph whitens it: in the measurement's frame.
@@ -67,6 +79,7 @@ impl Reporter {
                     measured: (x_m, y_m, yaw_rad),
                     truth: (truth.0, truth.1, true_yaw_rad),
                     error_m,
+                    graph_error_m,
                     error_rad: error_rad.abs(),
                     chi2,
                     weak_axis_information,
@@ -92,6 +105,7 @@ impl Reporter {
             "error_rad",
             "chi2",
             "weak_axis_information_per_m2",
+            "graph_error_m",
         ])?;
         for e in self.scored_loop_edges() {
             writer.write_record([
@@ -108,6 +122,7 @@ impl Reporter {
                 e.chi2.map_or_else(String::new, |c| c.to_string()),
                 e.weak_axis_information
                     .map_or_else(String::new, |c| c.to_string()),
+                e.graph_error_m.map_or_else(String::new, |c| c.to_string()),
             ])?;
         }
         writer
@@ -130,6 +145,10 @@ pub struct ScoredLoopEdge {
     pub truth: (f64, f64, f64),
     /// Distance between the measured and true positions, metres.
     pub error_m: f64,
+    /// The same distance for the final graph's relative pose of the two keyframes (m): what is
+    /// left of the edge's error once every other edge has had its say. `None` when the graph
+    /// does not publish both keyframes.
+    pub graph_error_m: Option<f64>,
     /// Heading difference, radians (absolute, wrapped to [0, π]).
     pub error_rad: f64,
     /// The error's squared Mahalanobis distance under the edge's own information

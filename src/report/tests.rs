@@ -131,6 +131,54 @@ fn loop_edges_are_scored_in_the_older_keyframes_true_frame() {
 }
 
 #[test]
+fn a_loop_edges_graph_error_is_the_final_graphs_relative_pose_against_the_truth() {
+    let mut r = Reporter::default();
+    // Keyframe 0 truly at the origin facing +y; keyframe 1 truly 3 m ahead of it, at (0, 3).
+    for (id, t, (x, y, yaw)) in [(0, 1.0, (0.0, 0.0, FRAC_PI_2)), (1, 2.0, (0.0, 3.0, 0.0))] {
+        let truth = PoseStamped {
+            header: header(t),
+            pose: Pose::from_planar(x, y, yaw),
+        };
+        r.take(topics::GROUND_TRUTH_POSE, &Message::PoseStamped(truth));
+        let keyframe = Keyframe {
+            header: header(t),
+            id,
+            ..Keyframe::default()
+        };
+        r.take(topics::KEYFRAME, &Message::Keyframe(keyframe));
+    }
+    // The edge measured 0.6 m off sideways; the graph holds the pair rotated by 90° and shifted
+    // (which the relative pose does not see) with the newer keyframe 0.2 m short of 3 m ahead.
+    let poses = KeyframePoses {
+        header: header(2.0),
+        ids: vec![0, 1],
+        poses: vec![
+            Pose::from_planar(5.0, 5.0, 0.0),
+            Pose::from_planar(7.8, 5.0, 0.0),
+        ],
+        loop_from_ids: vec![0],
+        loop_to_ids: vec![1],
+        loop_relatives: vec![Pose::from_planar(3.0, 0.6, -FRAC_PI_2)],
+        ..KeyframePoses::default()
+    };
+    r.take(
+        topics::KEYFRAME_POSES,
+        &Message::KeyframePoses(poses.clone()),
+    );
+    let edges = r.scored_loop_edges();
+    assert_eq!(edges.len(), 1);
+    assert!((edges[0].error_m - 0.6).abs() < 1e-9, "{edges:?}");
+    let graph_error_m = edges[0].graph_error_m.expect("both keyframes in the graph");
+    assert!((graph_error_m - 0.2).abs() < 1e-9, "{graph_error_m}");
+    // A graph that does not publish the older keyframe's pose cannot say.
+    let mut without = poses;
+    without.ids = vec![1];
+    without.poses.remove(0);
+    r.take(topics::KEYFRAME_POSES, &Message::KeyframePoses(without));
+    assert_eq!(r.scored_loop_edges()[0].graph_error_m, None);
+}
+
+#[test]
 fn keyframe_rmse_is_none_without_truth_at_the_keyframe_stamps() {
     let mut r = Reporter::default();
     let keyframe = Keyframe {
