@@ -44,6 +44,11 @@ impl Reporter {
                 .iter()
                 .filter(|e| e.chi2.is_some_and(|c| c > LOOP_EDGE_CHI2_99))
                 .count() as u64,
+            loop_edges_wrong_in_graph: self
+                .scored_loop_edges()
+                .iter()
+                .filter(|e| e.graph_error_m.is_some_and(|g| g > LOOP_EDGE_WRONG_M))
+                .count() as u64,
             mean_inlier_ratio: (self.association_frames > 0)
                 .then(|| self.inlier_ratio_sum / self.association_frames as f64),
             estimated_targets: last.map(|m| m.estimated_targets),
@@ -97,6 +102,10 @@ pub struct Summary {
     /// distance under the published information above [`LOOP_EDGE_CHI2_99`]. An edge that says
     /// it cannot tell where it lies along a wall, and is off along it, is not counted here.
     pub loop_edges_inconsistent: u64,
+    /// Scored edges whose two keyframes the final graph holds more than [`LOOP_EDGE_WRONG_M`]
+    /// off their true relative pose ([`super::ScoredLoopEdge::graph_error_m`]): what the map
+    /// keeps of wrong loops once every other edge has had its say.
+    pub loop_edges_wrong_in_graph: u64,
     /// Mean over frames of the association inlier ratio (`/slam/association_stats`).
     pub mean_inlier_ratio: Option<f64>,
     /// Clusters in the final map.

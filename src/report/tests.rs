@@ -170,6 +170,17 @@ fn a_loop_edges_graph_error_is_the_final_graphs_relative_pose_against_the_truth(
     assert!((edges[0].error_m - 0.6).abs() < 1e-9, "{edges:?}");
     let graph_error_m = edges[0].graph_error_m.expect("both keyframes in the graph");
     assert!((graph_error_m - 0.2).abs() < 1e-9, "{graph_error_m}");
+    let summary = r.summary(&BTreeMap::new(), 1, "x.toml");
+    assert_eq!(
+        (summary.loop_edges_wrong, summary.loop_edges_wrong_in_graph),
+        (1, 0)
+    );
+    // The graph holding the newer keyframe 0.7 m short keeps the loop wrong.
+    let mut short = poses.clone();
+    short.poses[1] = Pose::from_planar(7.3, 5.0, 0.0);
+    r.take(topics::KEYFRAME_POSES, &Message::KeyframePoses(short));
+    let summary = r.summary(&BTreeMap::new(), 1, "x.toml");
+    assert_eq!(summary.loop_edges_wrong_in_graph, 1);
     // A graph that does not publish the older keyframe's pose cannot say.
     let mut without = poses;
     without.ids = vec![1];
