@@ -28,12 +28,17 @@ impl Reporter {
             let (stamp, _) = self.keyframes_by_id.get(id)?;
             self.true_by_stamp.get(stamp).copied()
         };
-        let estimated: std::collections::HashMap<u32, (f64, f64, f64)> = k
-            .ids
-            .iter()
-            .zip(&k.poses)
-            .map(|(id, p)| (*id, p.planar()))
-            .collect();
+        // Ids and poses that do not pair up cannot say which pose is whose: no graph estimate.
+        let estimated: std::collections::HashMap<u32, (f64, f64, f64)> =
+            if k.ids.len() == k.poses.len() {
+                k.ids
+                    .iter()
+                    .zip(&k.poses)
+                    .map(|(id, p)| (*id, p.planar()))
+                    .collect()
+            } else {
+                std::collections::HashMap::new()
+            };
         k.loop_from_ids
             .iter()
             .zip(&k.loop_to_ids)
@@ -41,18 +46,19 @@ impl Reporter {
             .enumerate()
             .filter_map(|(index, ((from, to), measured))| {
                 let (a, b) = (true_pose(from)?, true_pose(to)?);
-                // The true pose of `to` in the frame of `from`.
-                let (sin, cos) = a.2.sin_cos();
-                let (dx, dy) = (b.0 - a.0, b.1 - a.1);
-                let truth = (cos * dx + sin * dy, -sin * dx + cos * dy);
+                let truth = position_in_frame_of(a, b);
                 let (x_m, y_m, yaw_rad) = measured.planar();
                 let error_m = (x_m - truth.0).hypot(y_m - truth.1);
-                // The same relative pose as the final graph has it, every other edge applied.
-                let graph_error_m = estimated.get(from).zip(estimated.get(to)).map(|(a, b)| {
-                    let (sin, cos) = a.2.sin_cos();
-                    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
-                    (cos * dx + sin * dy - truth.0).hypot(-sin * dx + cos * dy - truth.1)
-                });
+                // The same relative position as the final graph has it, every edge (this one
+                // included) applied.
+                let graph_error_m = estimated
+                    .get(from)
+                    .zip(estimated.get(to))
+                    .map(|(&a, &b)| {
+                        let graph = position_in_frame_of(a, b);
+                        (graph.0 - truth.0).hypot(graph.1 - truth.1)
+                    })
+                    .filter(|g| g.is_finite());
                 let true_yaw_rad = b.2 - a.2;
                 let error_rad = nrslam_association::wrap_angle_rad(yaw_rad - true_yaw_rad);
                 // The error as the pose graph whitens it: in the measurement's frame.
@@ -132,6 +138,13 @@ impl Reporter {
     }
 }
 
+/// The position of planar pose `b` (x m, y m, yaw rad) in the frame of `a`.
+fn position_in_frame_of(a: (f64, f64, f64), b: (f64, f64, f64)) -> (f64, f64) {
+    let (sin, cos) = a.2.sin_cos();
+    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+    (cos * dx + sin * dy, -sin * dx + cos * dy)
+}
+
 /// One loop edge of the back end's pose graph beside the truth.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ScoredLoopEdge {
@@ -145,9 +158,10 @@ pub struct ScoredLoopEdge {
     pub truth: (f64, f64, f64),
     /// Distance between the measured and true positions, metres.
     pub error_m: f64,
-    /// The same distance for the final graph's relative pose of the two keyframes (m): what is
-    /// left of the edge's error once every other edge has had its say. `None` when the graph
-    /// does not publish both keyframes.
+    /// The same distance for the final graph's relative pose of the two keyframes (m), every
+    /// edge (this one included) applied: how far off the map is at this loop, whatever the
+    /// edge measured. `None` when the graph does not publish both keyframes' poses, or they are
+    /// not finite, or its ids and poses do not pair up.
     pub graph_error_m: Option<f64>,
     /// Heading difference, radians (absolute, wrapped to [0, π]).
     pub error_rad: f64,

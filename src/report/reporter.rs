@@ -115,15 +115,20 @@ impl Reporter {
 
     /// RMSE (m) of the keyframe positions at the end of the run against the truth at their
     /// stamps: the back end's final trajectory estimate, every loop closure applied (the latest
-    /// `/slam/keyframe_poses`; without it, the keyframes as first published). `None` when no
-    /// keyframe has a true pose at its stamp.
+    /// `/slam/keyframe_poses`; without it, or if its ids and poses do not pair up, the keyframes
+    /// as first published). `None` when no keyframe has a true pose at its stamp.
     pub fn keyframe_rmse_m(&self) -> Option<f64> {
         let mut final_at: BTreeMap<u32, PositionM> = self
             .keyframes_by_id
             .iter()
             .map(|(id, (_, at))| (*id, *at))
             .collect();
-        if let Some(k) = &self.keyframe_poses {
+        // Ids and poses that do not pair up cannot say which pose is whose.
+        if let Some(k) = self
+            .keyframe_poses
+            .as_ref()
+            .filter(|k| k.ids.len() == k.poses.len())
+        {
             for (id, pose) in k.ids.iter().zip(&k.poses) {
                 if let Some(at) = final_at.get_mut(id) {
                     *at = (pose.position.x, pose.position.y);

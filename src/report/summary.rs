@@ -21,7 +21,12 @@ impl Reporter {
         let rms = |values: &[f64]| {
             (!values.is_empty()).then(|| (values.iter().sum::<f64>() / values.len() as f64).sqrt())
         };
-        let loop_errors_m = self.loop_edge_errors_m();
+        let scored_loops = self.scored_loop_edges();
+        let loop_errors_m: Vec<f64> = scored_loops.iter().map(|e| e.error_m).collect();
+        let graph_errors_m: Vec<f64> = scored_loops
+            .iter()
+            .filter_map(|e| e.graph_error_m)
+            .collect();
         Summary {
             etgospa: last.map(|m| m.etgospa),
             gospa: last.map(|m| m.gospa),
@@ -39,16 +44,16 @@ impl Reporter {
                 .filter(|&&e| e > LOOP_EDGE_WRONG_M)
                 .count() as u64,
             max_loop_edge_error_m: loop_errors_m.iter().copied().reduce(f64::max),
-            loop_edges_inconsistent: self
-                .scored_loop_edges()
+            loop_edges_inconsistent: scored_loops
                 .iter()
                 .filter(|e| e.chi2.is_some_and(|c| c > LOOP_EDGE_CHI2_99))
                 .count() as u64,
-            loop_edges_wrong_in_graph: self
-                .scored_loop_edges()
-                .iter()
-                .filter(|e| e.graph_error_m.is_some_and(|g| g > LOOP_EDGE_WRONG_M))
-                .count() as u64,
+            loop_edges_off_in_graph: (!graph_errors_m.is_empty()).then(|| {
+                graph_errors_m
+                    .iter()
+                    .filter(|&&g| g > LOOP_EDGE_WRONG_M)
+                    .count() as u64
+            }),
             mean_inlier_ratio: (self.association_frames > 0)
                 .then(|| self.inlier_ratio_sum / self.association_frames as f64),
             estimated_targets: last.map(|m| m.estimated_targets),
@@ -102,10 +107,12 @@ pub struct Summary {
     /// distance under the published information above [`LOOP_EDGE_CHI2_99`]. An edge that says
     /// it cannot tell where it lies along a wall, and is off along it, is not counted here.
     pub loop_edges_inconsistent: u64,
-    /// Scored edges whose two keyframes the final graph holds more than [`LOOP_EDGE_WRONG_M`]
-    /// off their true relative pose ([`super::ScoredLoopEdge::graph_error_m`]): what the map
-    /// keeps of wrong loops once every other edge has had its say.
-    pub loop_edges_wrong_in_graph: u64,
+    /// Scored edges, wrong or not, whose two keyframes the final graph (every edge applied)
+    /// holds more than [`LOOP_EDGE_WRONG_M`] off their true relative position
+    /// ([`super::ScoredLoopEdge::graph_error_m`]): how often the map itself is that far off at a
+    /// loop. `None` when no scored edge has a graph estimate (a back end that publishes no
+    /// keyframe poses).
+    pub loop_edges_off_in_graph: Option<u64>,
     /// Mean over frames of the association inlier ratio (`/slam/association_stats`).
     pub mean_inlier_ratio: Option<f64>,
     /// Clusters in the final map.

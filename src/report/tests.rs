@@ -64,6 +64,17 @@ fn keyframe_rmse_takes_the_latest_corrected_poses() {
         r.take(topics::KEYFRAME_POSES, &Message::KeyframePoses(corrected));
     }
     assert_eq!(r.keyframe_rmse_m(), Some(0.0));
+    // Ids and poses that do not pair up leave the keyframes as first published.
+    let unpaired = KeyframePoses {
+        header: header(2.0),
+        revision: 3,
+        ids: vec![0, 1],
+        poses: vec![pose(0.0, 0.0)],
+        ..KeyframePoses::default()
+    };
+    r.take(topics::KEYFRAME_POSES, &Message::KeyframePoses(unpaired));
+    let rmse = r.keyframe_rmse_m().unwrap();
+    assert!((rmse - (2.5f64).sqrt()).abs() < 1e-12, "{rmse}");
 }
 
 #[test]
@@ -132,6 +143,7 @@ fn loop_edges_are_scored_in_the_older_keyframes_true_frame() {
 
 #[test]
 fn a_loop_edges_graph_error_is_the_final_graphs_relative_pose_against_the_truth() {
+    use std::f64::consts::PI;
     let mut r = Reporter::default();
     // Keyframe 0 truly at the origin facing +y; keyframe 1 truly 3 m ahead of it, at (0, 3).
     for (id, t, (x, y, yaw)) in [(0, 1.0, (0.0, 0.0, FRAC_PI_2)), (1, 2.0, (0.0, 3.0, 0.0))] {
@@ -147,46 +159,61 @@ fn a_loop_edges_graph_error_is_the_final_graphs_relative_pose_against_the_truth(
         };
         r.take(topics::KEYFRAME, &Message::Keyframe(keyframe));
     }
-    // The edge measured 0.6 m off sideways; the graph holds the pair rotated by 90° and shifted
-    // (which the relative pose does not see) with the newer keyframe 0.2 m short of 3 m ahead.
-    let poses = KeyframePoses {
+    // The edge measured 0.6 m off sideways. The graph holds keyframe 0 elsewhere, facing 120°,
+    // and keyframe 1 2.8 m straight ahead of it: 0.2 m short, whatever the map frame. (Without
+    // the rotation into keyframe 0's frame, or with the wrong sign or keyframe 1's heading, the
+    // error would be 4–5 m.)
+    let ahead_m = |distance_m: f64| {
+        let yaw = 2.0 * PI / 3.0;
+        Pose::from_planar(
+            5.0 + distance_m * yaw.cos(),
+            5.0 + distance_m * yaw.sin(),
+            PI / 6.0,
+        )
+    };
+    let poses = |ahead: Pose| KeyframePoses {
         header: header(2.0),
         ids: vec![0, 1],
-        poses: vec![
-            Pose::from_planar(5.0, 5.0, 0.0),
-            Pose::from_planar(7.8, 5.0, 0.0),
-        ],
+        poses: vec![Pose::from_planar(5.0, 5.0, 2.0 * PI / 3.0), ahead],
         loop_from_ids: vec![0],
         loop_to_ids: vec![1],
         loop_relatives: vec![Pose::from_planar(3.0, 0.6, -FRAC_PI_2)],
         ..KeyframePoses::default()
     };
-    r.take(
-        topics::KEYFRAME_POSES,
-        &Message::KeyframePoses(poses.clone()),
-    );
-    let edges = r.scored_loop_edges();
+    let take = |r: &mut Reporter, k: KeyframePoses| {
+        r.take(topics::KEYFRAME_POSES, &Message::KeyframePoses(k));
+        let summary = r.summary(&BTreeMap::new(), 1, "x.toml");
+        (r.scored_loop_edges(), summary)
+    };
+    let (edges, summary) = take(&mut r, poses(ahead_m(2.8)));
     assert_eq!(edges.len(), 1);
     assert!((edges[0].error_m - 0.6).abs() < 1e-9, "{edges:?}");
     let graph_error_m = edges[0].graph_error_m.expect("both keyframes in the graph");
     assert!((graph_error_m - 0.2).abs() < 1e-9, "{graph_error_m}");
-    let summary = r.summary(&BTreeMap::new(), 1, "x.toml");
     assert_eq!(
-        (summary.loop_edges_wrong, summary.loop_edges_wrong_in_graph),
-        (1, 0)
+        (summary.loop_edges_wrong, summary.loop_edges_off_in_graph),
+        (1, Some(0))
     );
-    // The graph holding the newer keyframe 0.7 m short keeps the loop wrong.
-    let mut short = poses.clone();
-    short.poses[1] = Pose::from_planar(7.3, 5.0, 0.0);
-    r.take(topics::KEYFRAME_POSES, &Message::KeyframePoses(short));
-    let summary = r.summary(&BTreeMap::new(), 1, "x.toml");
-    assert_eq!(summary.loop_edges_wrong_in_graph, 1);
-    // A graph that does not publish the older keyframe's pose cannot say.
-    let mut without = poses;
-    without.ids = vec![1];
-    without.poses.remove(0);
-    r.take(topics::KEYFRAME_POSES, &Message::KeyframePoses(without));
-    assert_eq!(r.scored_loop_edges()[0].graph_error_m, None);
+    // A graph that holds keyframe 1 0.7 m short is off at this loop too.
+    let (_, summary) = take(&mut r, poses(ahead_m(2.3)));
+    assert_eq!(summary.loop_edges_off_in_graph, Some(1));
+    // A graph that cannot say: keyframe 0 or 1 missing, ids and poses that do not pair up, a
+    // pose that is not finite. The edge is still scored; the graph's count is unknown.
+    let mut without_older = poses(ahead_m(2.8));
+    without_older.ids.remove(0);
+    without_older.poses.remove(0);
+    let mut without_newer = poses(ahead_m(2.8));
+    without_newer.ids.pop();
+    without_newer.poses.pop();
+    let mut unpaired = poses(ahead_m(2.8));
+    unpaired.ids.push(2);
+    let nan = poses(Pose::from_planar(f64::NAN, 5.0, 0.0));
+    for k in [without_older, without_newer, unpaired, nan] {
+        let (edges, summary) = take(&mut r, k);
+        assert_eq!(edges.len(), 1);
+        assert_eq!(edges[0].graph_error_m, None, "{edges:?}");
+        assert_eq!(summary.loop_edges_off_in_graph, None);
+    }
 }
 
 #[test]
