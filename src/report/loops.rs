@@ -12,14 +12,9 @@ pub const LOOP_EDGE_WRONG_M: f64 = 0.5;
 pub const LOOP_EDGE_CHI2_99: f64 = 11.345;
 
 impl Reporter {
-    /// The position error (m) of every loop edge in the latest `/slam/keyframe_poses` whose
-    /// two keyframes have a true pose at their stamps: the distance between the measured pose of
-    /// the newer keyframe in the older one's frame and the true one.
-    pub fn loop_edge_errors_m(&self) -> Vec<f64> {
-        self.scored_loop_edges().iter().map(|e| e.error_m).collect()
-    }
-
-    /// Every loop edge of the latest `/slam/keyframe_poses` with both keyframes' true poses.
+    /// Every loop edge of the latest `/slam/keyframe_poses` with both keyframes' true poses, its
+    /// position error (`error_m`) the distance between the measured position of the newer
+    /// keyframe in the older one's frame and the true one.
     pub fn scored_loop_edges(&self) -> Vec<ScoredLoopEdge> {
         let Some(k) = &self.keyframe_poses else {
             return Vec::new();

@@ -97,7 +97,7 @@ pub struct Summary {
     /// Loop closures accepted by the back end (0 if it reports none).
     pub loop_closures: u64,
     /// Loop edges of the final pose graph scored against the truth
-    /// ([`Reporter::loop_edge_errors_m`]).
+    /// ([`Reporter::scored_loop_edges`]).
     pub loop_edges_scored: u64,
     /// Of those, edges off by more than [`LOOP_EDGE_WRONG_M`] (0.5 m): wrong loops.
     pub loop_edges_wrong: u64,

@@ -128,7 +128,7 @@ fn loop_edges_are_scored_in_the_older_keyframes_true_frame() {
         assert_eq!(summary.loop_edges_inconsistent, inconsistent, "axis {axis}");
     }
     r.take(topics::KEYFRAME_POSES, &Message::KeyframePoses(poses));
-    let errors = r.loop_edge_errors_m();
+    let errors: Vec<f64> = r.scored_loop_edges().iter().map(|e| e.error_m).collect();
     assert_eq!(errors.len(), 2, "{errors:?}");
     assert!(
         errors[0] < 1e-9 && (errors[1] - 0.6).abs() < 1e-9,
