@@ -77,11 +77,11 @@ fn keyframe_rmse_takes_the_latest_corrected_poses() {
     assert!((rmse - (2.5f64).sqrt()).abs() < 1e-12, "{rmse}");
 }
 
-#[test]
-fn loop_edges_are_scored_in_the_older_keyframes_true_frame() {
+/// Keyframes 0 and 1, stamped 1 s and 2 s, with true poses `truths` (x m, y m, yaw rad).
+fn two_keyframes_truly_at(truths: [(f64, f64, f64); 2]) -> Reporter {
     let mut r = Reporter::default();
-    // Keyframe 0 truly at (1, 1) facing +y; keyframe 1 truly at (1, 4): 3 m ahead of it.
-    for (id, t, (x, y, yaw)) in [(0, 1.0, (1.0, 1.0, FRAC_PI_2)), (1, 2.0, (1.0, 4.0, 0.0))] {
+    for (id, (x, y, yaw)) in (0u32..).zip(truths) {
+        let t = f64::from(id + 1);
         let truth = PoseStamped {
             header: header(t),
             pose: Pose::from_planar(x, y, yaw),
@@ -94,6 +94,13 @@ fn loop_edges_are_scored_in_the_older_keyframes_true_frame() {
         };
         r.take(topics::KEYFRAME, &Message::Keyframe(keyframe));
     }
+    r
+}
+
+#[test]
+fn loop_edges_are_scored_in_the_older_keyframes_true_frame() {
+    // Keyframe 0 truly at (1, 1) facing +y; keyframe 1 truly at (1, 4): 3 m ahead of it.
+    let mut r = two_keyframes_truly_at([(1.0, 1.0, FRAC_PI_2), (1.0, 4.0, 0.0)]);
     let r_with_truth = r.clone();
     // One right loop, one 0.6 m off sideways, one naming a keyframe never seen (not scored),
     // and an excess relative pose without ids (ignored).
@@ -144,21 +151,8 @@ fn loop_edges_are_scored_in_the_older_keyframes_true_frame() {
 #[test]
 fn a_loop_edges_graph_error_is_the_final_graphs_relative_pose_against_the_truth() {
     use std::f64::consts::PI;
-    let mut r = Reporter::default();
     // Keyframe 0 truly at the origin facing +y; keyframe 1 truly 3 m ahead of it, at (0, 3).
-    for (id, t, (x, y, yaw)) in [(0, 1.0, (0.0, 0.0, FRAC_PI_2)), (1, 2.0, (0.0, 3.0, 0.0))] {
-        let truth = PoseStamped {
-            header: header(t),
-            pose: Pose::from_planar(x, y, yaw),
-        };
-        r.take(topics::GROUND_TRUTH_POSE, &Message::PoseStamped(truth));
-        let keyframe = Keyframe {
-            header: header(t),
-            id,
-            ..Keyframe::default()
-        };
-        r.take(topics::KEYFRAME, &Message::Keyframe(keyframe));
-    }
+    let mut r = two_keyframes_truly_at([(0.0, 0.0, FRAC_PI_2), (0.0, 3.0, 0.0)]);
     // The edge measured 0.6 m off sideways. The graph holds keyframe 0 elsewhere, facing 120°,
     // and keyframe 1 2.8 m straight ahead of it: 0.2 m short, whatever the map frame. (Without
     // the rotation into keyframe 0's frame, or with the wrong sign or keyframe 1's heading, the
