@@ -23,17 +23,10 @@ impl Reporter {
             let (stamp, _) = self.keyframes_by_id.get(id)?;
             self.true_by_stamp.get(stamp).copied()
         };
-        // Ids and poses that do not pair up cannot say which pose is whose: no graph estimate.
-        let estimated: std::collections::HashMap<u32, (f64, f64, f64)> =
-            if k.ids.len() == k.poses.len() {
-                k.ids
-                    .iter()
-                    .zip(&k.poses)
-                    .map(|(id, p)| (*id, p.planar()))
-                    .collect()
-            } else {
-                std::collections::HashMap::new()
-            };
+        let estimated: std::collections::HashMap<u32, (f64, f64, f64)> = self
+            .corrected_keyframe_poses()
+            .map(|(id, p)| (id, p.planar()))
+            .collect();
         k.loop_from_ids
             .iter()
             .zip(&k.loop_to_ids)

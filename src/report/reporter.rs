@@ -3,7 +3,7 @@
 use super::{PositionM, StampKey, Summary};
 use anyhow::{Context, Result};
 use nrslam_msgs::{
-    topics, KeyframePoses, MapTargets, Message, Metrics, OccupancyGrid, Segments, TargetSet,
+    topics, KeyframePoses, MapTargets, Message, Metrics, OccupancyGrid, Pose, Segments, TargetSet,
 };
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -123,16 +123,9 @@ impl Reporter {
             .iter()
             .map(|(id, (_, at))| (*id, *at))
             .collect();
-        // Ids and poses that do not pair up cannot say which pose is whose.
-        if let Some(k) = self
-            .keyframe_poses
-            .as_ref()
-            .filter(|k| k.ids.len() == k.poses.len())
-        {
-            for (id, pose) in k.ids.iter().zip(&k.poses) {
-                if let Some(at) = final_at.get_mut(id) {
-                    *at = (pose.position.x, pose.position.y);
-                }
+        for (id, pose) in self.corrected_keyframe_poses() {
+            if let Some(at) = final_at.get_mut(&id) {
+                *at = (pose.position.x, pose.position.y);
             }
         }
         let squared: Vec<f64> = final_at
@@ -144,6 +137,15 @@ impl Reporter {
             })
             .collect();
         (!squared.is_empty()).then(|| (squared.iter().sum::<f64>() / squared.len() as f64).sqrt())
+    }
+
+    /// Each keyframe's pose in the latest `/slam/keyframe_poses`, by id; none without it, or if
+    /// its ids and poses do not pair up (they cannot say which pose is whose).
+    pub fn corrected_keyframe_poses(&self) -> impl Iterator<Item = (u32, &Pose)> + '_ {
+        self.keyframe_poses
+            .iter()
+            .filter(|k| k.ids.len() == k.poses.len())
+            .flat_map(|k| k.ids.iter().copied().zip(&k.poses))
     }
 
     /// Writes every output into `dir`.
