@@ -13,6 +13,10 @@
 # FIRST_HALL_SEED and FIRST_SCENE (default 1) shift the hall seeds and the random scenes, for
 # held-out checks on seeds and scenes no setting was chosen on (e.g. FIRST_HALL_SEED=41
 # FIRST_SCENE=21: hall seeds 41–80, scenes 21–40). Run names keep the true seed and scene.
+# SLAM_ARGS adds launch arguments to the SLAM runs only, e.g. a knob to study
+# (SLAM_ARGS="association.loop_closure.oracle_max_error_m:=0.5": loops verified against the
+# truth, docs/slam.md); the oracle runs do not change, so copying an earlier study's
+# runs/*_oracle_*.json into OUT/runs first skips them (runs already in OUT are not run again).
 # Needs the release binary (cargo build --release) or NRSLAM pointing at one.
 set -euo pipefail
 out=${1:?usage: scripts/slam_study.sh OUT [HALL_SEEDS] [SCENES] [SCENE_SEEDS] [LAPS]}
@@ -25,6 +29,7 @@ jobs=${JOBS:-$(nproc)}
 conditions=${CONDITIONS:-a1 r01a1 a5 5g 5gi}
 first_hall_seed=${FIRST_HALL_SEED:-1}
 first_scene=${FIRST_SCENE:-1}
+slam_extra=${SLAM_ARGS:-}
 hall_range=$(seq "$first_hall_seed" $((first_hall_seed + hall_seeds - 1)))
 scene_range=$(seq "$first_scene" $((first_scene + scenes - 1)))
 mkdir -p "$out/runs" "$out/scenes"
@@ -52,12 +57,12 @@ done
 for c in $conditions; do
   IFS='|' read -r slam_launch slam_args oracle_args <<< "$(args_of "$c")"
   for s in $hall_range; do
-    line "${c}_slam_hall_$s - $s $slam_launch $slam_args"
+    line "${c}_slam_hall_$s - $s $slam_launch $slam_args $slam_extra"
     line "${c}_oracle_hall_$s - $s launch/true-poses.toml $oracle_args"
   done
   for k in $scene_range; do
     for s in $(seq 1 "$scene_seeds"); do
-      line "${c}_slam_s${k}_$s scene:=$out/scenes/s$k.toml $s $slam_launch $slam_args"
+      line "${c}_slam_s${k}_$s scene:=$out/scenes/s$k.toml $s $slam_launch $slam_args $slam_extra"
       line "${c}_oracle_s${k}_$s scene:=$out/scenes/s$k.toml $s launch/true-poses.toml $oracle_args"
     done
   done

@@ -170,6 +170,57 @@ fn scattered_detections_close_the_lap_with_widened_tolerances() {
     );
 }
 
+/// Each accepted loop edge's `error_m` (metres off the truth), from `dir`/loops.csv.
+fn loop_edge_errors_m(dir: &Path) -> Vec<f64> {
+    let csv = read(&dir.join("loops.csv"));
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let column = header.iter().position(|h| *h == "error_m").unwrap();
+    lines
+        .map(|l| l.split(',').nth(column).unwrap().parse().unwrap())
+        .collect()
+}
+
+#[test]
+fn oracle_verification_refuses_loop_edges_off_the_truth_in_either_mode() {
+    // ΔR 0, Δθ 5°, seed 3: the back end closes the lap on an edge 0.61 m off (measured); a
+    // verifier that knows the truth (`loop_closure.oracle_max_error_m`) refuses it and closes on
+    // the next revisit's matches instead, 0.34 and 0.31 m off.
+    let dir = temp();
+    let (shipped, oracle) = (dir.path().join("shipped"), dir.path().join("oracle"));
+    let args = ["--seed", "3", "range_std_m:=0", "angle_std_deg:=5"];
+    launch("launch/paper-ideal.toml", &shipped, &args);
+    let shipped_errors = loop_edge_errors_m(&shipped);
+    assert!(
+        shipped_errors.iter().any(|&e| e > 0.5),
+        "the test needs an edge the oracle refuses: {shipped_errors:?}"
+    );
+    let limit = "association.loop_closure.oracle_max_error_m:=0.5";
+    let with_oracle: Vec<&str> = args.iter().copied().chain([limit]).collect();
+    launch("launch/paper-ideal.toml", &oracle, &with_oracle);
+    assert!(summary(&oracle)["loop_closures"].as_u64().unwrap() >= 1);
+    let errors = loop_edge_errors_m(&oracle);
+    assert!(
+        !errors.is_empty() && errors.iter().all(|&e| e <= 0.5),
+        "{errors:?}"
+    );
+    // The truth reaches the node over the transport as it does in one process.
+    let processes = dir.path().join("processes");
+    let in_processes: Vec<&str> = with_oracle
+        .iter()
+        .copied()
+        .chain(["--mode", "processes"])
+        .collect();
+    launch("launch/paper-ideal.toml", &processes, &in_processes);
+    for file in ["summary.json", "loops.csv"] {
+        assert_eq!(
+            read(&oracle.join(file)),
+            read(&processes.join(file)),
+            "{file}"
+        );
+    }
+}
+
 #[test]
 fn loop_closure_corrects_the_5g_trajectory() {
     // The 5G spectral chain drifts over the lap; its loop verifier counts an inlier within 1 m

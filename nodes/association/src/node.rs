@@ -19,11 +19,11 @@
 //!   did (detections, associated, inliers, ICP status, keyframe, loop closure).
 
 use nrslam_msgs::topics::{
-    ASSOCIATION_STATS, DETECTIONS, KEYFRAME, KEYFRAME_POSES, ODOM, SLAM_POSE,
+    ASSOCIATION_STATS, DETECTIONS, GROUND_TRUTH_POSE, KEYFRAME, KEYFRAME_POSES, ODOM, SLAM_POSE,
 };
 use nrslam_msgs::{
     AssociationStats, Detections, Header, Keyframe, KeyframePoses, Message, Odometry, Pose,
-    PoseStamped,
+    PoseStamped, Time,
 };
 use nrslam_runtime::{Node, NodeContext, NodeError, NodeResult, Outbox};
 
@@ -39,6 +39,10 @@ pub const MAP_FRAME: &str = "map";
 #[derive(Debug)]
 pub struct AssociationNode {
     slam: Association,
+    /// The latest `/ground_truth/pose` (stamp, pose), read only for oracle verification.
+    truth: Option<(Time, Pose2)>,
+    /// Whether a frame without its true pose has been reported (once per run).
+    warned_no_truth: bool,
 }
 
 /// Builds the association node from validated `params`. The node draws no random numbers and
@@ -52,6 +56,8 @@ impl AssociationNode {
     pub fn new(params: Params) -> Result<Self, NodeError> {
         Ok(AssociationNode {
             slam: Association::new(params)?,
+            truth: None,
+            warned_no_truth: false,
         })
     }
 
@@ -68,12 +74,40 @@ impl AssociationNode {
             .map_err(|e| NodeError::invalid_input(ODOM, e.to_string()))
     }
 
+    fn oracle_verification(&self) -> bool {
+        self.slam.params().loop_closure.oracle_max_error_m > 0.0
+    }
+
+    fn on_true_pose(&mut self, truth: &PoseStamped) {
+        let (x_m, y_m, yaw_rad) = truth.pose.planar();
+        self.truth = Some((truth.header.stamp, Pose2::new(x_m, y_m, yaw_rad)));
+    }
+
+    /// Hands the algorithm the true pose at `stamp` for oracle verification; `None` when it is
+    /// off or the truth of this frame has not arrived (reported once).
+    fn hand_over_truth(&mut self, stamp: Time) {
+        let truth = self
+            .truth
+            .filter(|(at, _)| self.oracle_verification() && *at == stamp)
+            .map(|(_, pose)| pose);
+        if self.oracle_verification() && truth.is_none() && !self.warned_no_truth {
+            self.warned_no_truth = true;
+            tracing::warn!(
+                stamp_s = stamp.as_seconds(),
+                "oracle verification is on but {GROUND_TRUTH_POSE} has no pose at this \
+                 frame's stamp: loop matches at its keyframes are refused"
+            );
+        }
+        self.slam.set_true_pose(truth);
+    }
+
     fn on_detections(
         &mut self,
         detections: &Detections,
         outbox: &mut Outbox,
     ) -> Result<(), NodeError> {
         let scan_agv_m = scan_points(detections)?;
+        self.hand_over_truth(detections.header.stamp);
         let std: Vec<[f64; 2]> = detections
             .detections
             .iter()
@@ -230,8 +264,13 @@ fn scan_points(detections: &Detections) -> Result<Vec<[f64; 2]>, NodeError> {
 impl Node for AssociationNode {
     fn inputs(&self) -> Vec<&'static str> {
         // Odometry first: at equal stamps the frame's odometry is delivered before its
-        // detections, so the prediction uses this frame's motion.
-        vec![ODOM, DETECTIONS]
+        // detections, so the prediction uses this frame's motion; likewise the truth, which
+        // only oracle verification subscribes to.
+        if self.oracle_verification() {
+            vec![ODOM, GROUND_TRUTH_POSE, DETECTIONS]
+        } else {
+            vec![ODOM, DETECTIONS]
+        }
     }
 
     fn outputs(&self) -> Vec<&'static str> {
@@ -242,6 +281,10 @@ impl Node for AssociationNode {
         match (topic, message) {
             (ODOM, Message::Odometry(odometry)) => self.on_odometry(odometry),
             (DETECTIONS, Message::Detections(detections)) => self.on_detections(detections, outbox),
+            (GROUND_TRUTH_POSE, Message::PoseStamped(truth)) => {
+                self.on_true_pose(truth);
+                Ok(())
+            }
             _ => Err(NodeError::unexpected(topic, message)),
         }
     }
@@ -250,7 +293,7 @@ impl Node for AssociationNode {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use nrslam_msgs::{Detection, PoseWithCovariance, Time};
+    use nrslam_msgs::{Detection, PoseWithCovariance};
     use nrslam_runtime::compose::Graph;
     use nrslam_runtime::Tick;
 
@@ -292,6 +335,55 @@ mod tests {
 
     fn node() -> AssociationNode {
         AssociationNode::new(Params::default()).unwrap()
+    }
+
+    fn true_pose(stamp_s: f64, pose: Pose2) -> Message {
+        Message::PoseStamped(PoseStamped {
+            header: Header::new(Time::from_seconds(stamp_s), MAP_FRAME),
+            pose: Pose::from_planar(pose.x_m, pose.y_m, pose.yaw_rad),
+        })
+    }
+
+    #[test]
+    fn oracle_verification_alone_subscribes_to_the_truth_and_keyframes_keep_their_stamps_truth() {
+        assert!(!node().inputs().contains(&GROUND_TRUTH_POSE));
+        let mut params = Params::default();
+        params.loop_closure.oracle_max_error_m = 0.5;
+        let mut node = AssociationNode::new(params).unwrap();
+        assert_eq!(node.inputs(), vec![ODOM, GROUND_TRUTH_POSE, DETECTIONS]);
+        let mut outbox = Outbox::new();
+        // Three keyframes 2 m apart; the truth (deliberately not the odometry, which SLAM
+        // follows here) arrives for the first two frames' stamps, the third's is a stale one.
+        let truth = |k: u32| Pose2::new(10.0 + f64::from(k), 5.0, 0.1 * f64::from(k));
+        for (k, truth_stamp_s) in [(0u32, 1.0), (1, 2.0), (2, 2.0)] {
+            let stamp_s = 1.0 + f64::from(k);
+            let agv = Pose2::new(2.0 * f64::from(k), 0.0, 0.0);
+            node.on_message(ODOM, &odometry(stamp_s, agv.x_m, 0.0, 0.0), &mut outbox)
+                .unwrap();
+            let truth_message = true_pose(truth_stamp_s, truth(k.min(1)));
+            node.on_message(GROUND_TRUTH_POSE, &truth_message, &mut outbox)
+                .unwrap();
+            node.on_message(DETECTIONS, &detections(stamp_s, agv, 0.0), &mut outbox)
+                .unwrap();
+        }
+        let kept: Vec<Option<Pose2>> = node
+            .association()
+            .keyframe_records()
+            .iter()
+            .map(|r| r.true_pose)
+            .collect();
+        assert_eq!(kept.len(), 3);
+        for (k, kept) in kept[..2].iter().enumerate() {
+            let (kept, expected) = (kept.unwrap(), truth(k as u32));
+            assert!(
+                kept.distance_m(&expected) < 1e-12 && kept.rotation_to_rad(&expected) < 1e-12,
+                "keyframe {k}: {kept:?}"
+            );
+        }
+        assert_eq!(
+            kept[2], None,
+            "the truth of another stamp is not this frame's"
+        );
     }
 
     #[test]

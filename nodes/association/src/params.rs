@@ -328,6 +328,14 @@ pub struct LoopClosureParams {
     pub pair_scatter_widening: f64,
     /// A match that waits for confirmation is dropped after this many keyframes.
     pub pending_keyframes: u32,
+    /// Research oracle, simulation only: a loop match whose translation is more than this off
+    /// the truth is refused outright (neither accepted nor kept pending), metres. The truth is
+    /// `/ground_truth/pose` at each keyframe's stamp, to which the node then subscribes; a match
+    /// with a keyframe that got none is refused too. Beside the true-pose oracle
+    /// (`launch/true-poses.toml`) it says what loop verification is worth at most: the map a
+    /// verifier that knew the truth would give with the same matches (docs/slam.md). 0: off, the
+    /// back end as it runs on a real sensor. Finite, 0..=1e3.
+    pub oracle_max_error_m: f64,
     /// At every closure, each earlier closure not yet verified is tested against the rest of
     /// the graph (optimised without it): its edges' χ² against that graph's estimate, under the
     /// edge's and the graph's uncertainty. Above this (3 degrees of freedom; 16.27 is the
@@ -398,6 +406,7 @@ impl Default for LoopClosureParams {
             confirm_min_information_per_m2: 1.0,
             pair_scatter_widening: 1.0,
             pending_keyframes: 20,
+            oracle_max_error_m: 0.0,
             recheck_chi2: 16.27,
             verified_std_m: 1.0,
         }
@@ -441,7 +450,7 @@ impl LoopClosureParams {
 
     /// (field, value, min, max) of the real fields of matching and confirmation, which
     /// [`Self::validate`] checks after [`Self::real_ranges`].
-    fn matching_ranges(&self) -> [(&'static str, f64, f64, f64); 14] {
+    fn matching_ranges(&self) -> [(&'static str, f64, f64, f64); 15] {
         [
             (
                 "loop_closure.search_sigma_m",
@@ -468,6 +477,12 @@ impl LoopClosureParams {
             ("loop_closure.agreement_deg", self.agreement_deg, 0.0, 180.0),
             ("loop_closure.pair_m", self.pair_m, 0.0, 1e3),
             ("loop_closure.pair_per_m", self.pair_per_m, 0.0, 1.0),
+            (
+                "loop_closure.oracle_max_error_m",
+                self.oracle_max_error_m,
+                0.0,
+                1e3,
+            ),
             ("loop_closure.pair_deg", self.pair_deg, 0.0, 180.0),
             (
                 "loop_closure.standalone_score",
@@ -1096,6 +1111,12 @@ mod tests {
             ("covariance_loop_scale", |p| p.covariance_loop_scale = -1.0),
             ("loop_closure.inlier_scatter_ratio", |p| {
                 p.loop_closure.inlier_scatter_ratio = f64::NAN
+            }),
+            ("loop_closure.oracle_max_error_m", |p| {
+                p.loop_closure.oracle_max_error_m = -0.5
+            }),
+            ("loop_closure.oracle_max_error_m", |p| {
+                p.loop_closure.oracle_max_error_m = f64::NAN
             }),
             ("max_correspondence_m", |p| {
                 p.max_correspondence_m = f64::NAN

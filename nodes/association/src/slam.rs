@@ -129,6 +129,9 @@ pub struct KeyframeRecord {
     /// covariance under `covariance_sequential_scale` and `covariance_loop_scale` (zero for the
     /// first keyframe, which anchors the map).
     pub covariance: nalgebra::Matrix3<f64>,
+    /// The true pose at its stamp, map frame, when the node was given one
+    /// ([`Association::set_true_pose`]); only oracle verification reads it.
+    pub true_pose: Option<Pose2>,
 }
 
 impl KeyframeRecord {
@@ -201,6 +204,8 @@ pub struct Association {
     /// sequential edge's odometry model plus the scan match's own information, a loop edge's
     /// match information.
     uncertainty_information: Vec<nalgebra::Matrix3<f64>>,
+    /// The truth of the next scan, for oracle verification (`loop_closure.oracle_max_error_m`).
+    next_true_pose: Option<Pose2>,
 }
 
 impl Association {
@@ -235,6 +240,7 @@ impl Association {
             pending: Vec::new(),
             unverified_closures: Vec::new(),
             uncertainty_information: Vec::new(),
+            next_true_pose: None,
         })
     }
 
@@ -309,6 +315,13 @@ impl Association {
             _ => Pose2::IDENTITY,
         };
         Some((slam.compose(&replacement), true, None))
+    }
+
+    /// The true pose (map frame) of the scan that comes next, or `None`: a keyframe made from
+    /// that scan keeps it for oracle verification (`loop_closure.oracle_max_error_m`), which
+    /// refuses a loop match between keyframes without one. Tracking never reads it.
+    pub fn set_true_pose(&mut self, pose: Option<Pose2>) {
+        self.next_true_pose = pose;
     }
 
     /// Processes one frame's detections, as points in the AGV frame (metres; see
@@ -566,6 +579,7 @@ impl Association {
             scatter_m: median_position_std_m(points),
             travelled_m: self.travelled_m,
             covariance,
+            true_pose: self.next_true_pose,
         });
         debug_assert!(self.maps_hold_the_window(), "the tracking maps lost count");
     }
@@ -734,6 +748,7 @@ mod tests {
             scatter_m,
             travelled_m: 0.0,
             covariance: nalgebra::Matrix3::zeros(),
+            true_pose: None,
         };
         // The limit is 0.5 m: 0.52 and 0.48 m lie either side of it, inside a 10 % band.
         let choices = |band: f64| {

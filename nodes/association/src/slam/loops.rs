@@ -215,6 +215,15 @@ impl Association {
                         std_scale,
                         score: found.score,
                     };
+                    if !self.oracle_admits(&edge) {
+                        tracing::debug!(
+                            candidate = j,
+                            anchor,
+                            ?found,
+                            "loop refused by the oracle"
+                        );
+                        continue;
+                    }
                     let (confirmed, why) = if found.score >= lc.standalone_score {
                         (Some(Vec::new()), "score")
                     } else if may_slide(&edge, &lc) {
@@ -231,6 +240,9 @@ impl Association {
                         )
                     };
                     if let Some(mut edges) = confirmed {
+                        // A pending partner was admitted when it was matched; its edges are
+                        // re-expressed (`partner_edges`), so they are judged again.
+                        edges.retain(|e| self.oracle_admits(e));
                         tracing::debug!(
                             candidate = j,
                             anchor,
@@ -334,6 +346,28 @@ impl Association {
         let widening = (lc.pair_scatter_widening * a.std_scale.max(b.std_scale)).max(1.0);
         via_a.distance_m(&via_b) <= widening * (lc.pair_m + lc.pair_per_m * tracked_m)
             && via_a.rotation_to_rad(&via_b) <= widening * lc.pair_deg.to_radians()
+    }
+
+    /// Whether oracle verification (`loop_closure.oracle_max_error_m`) lets `edge` through: always
+    /// when it is off; otherwise only when both keyframes carry a true pose and the edge's
+    /// translation is within the limit of theirs, measured as `loops.csv`'s `error_m` is.
+    fn oracle_admits(&self, edge: &LoopEdge) -> bool {
+        let limit_m = self.params.loop_closure.oracle_max_error_m;
+        if limit_m <= 0.0 {
+            return true;
+        }
+        let truth = |k: usize| self.records.get(k).and_then(|r| r.true_pose);
+        let (Some(from), Some(to)) = (truth(edge.from), truth(edge.to)) else {
+            tracing::debug!(
+                from = edge.from,
+                to = edge.to,
+                "loop refused by the oracle: a keyframe has no true pose"
+            );
+            return false;
+        };
+        let truth = from.between(&to);
+        let off_m = (edge.relative.x_m - truth.x_m).hypot(edge.relative.y_m - truth.y_m);
+        off_m <= limit_m
     }
 
     fn apply_loop(&mut self, edges: &[LoopEdge]) {
@@ -759,7 +793,8 @@ mod tests {
     use super::*;
     use crate::slam::KeyframeRecord;
 
-    /// Keyframes `0..count` one metre apart on x, each a graph node, none linked yet.
+    /// Keyframes `0..count` one metre apart on x, each a graph node, none linked yet, each
+    /// truly where it is estimated.
     fn keyframes_in_a_row(slam: &mut Association, count: u32) {
         for k in 0..count {
             let pose = Pose2::new(f64::from(k), 0.0, 0.0);
@@ -771,6 +806,7 @@ mod tests {
                 scatter_m: 0.0,
                 travelled_m: f64::from(k),
                 covariance: nalgebra::Matrix3::identity(),
+                true_pose: Some(pose),
             });
         }
     }
@@ -837,6 +873,7 @@ mod tests {
             scatter_m,
             travelled_m: 0.0,
             covariance: nalgebra::Matrix3::zeros(),
+            true_pose: None,
         };
         // An empty keyframe adds no query point, so its scatter of 0 must not dilute the rest.
         slam.records = vec![record(0.1, 40), record(0.9, 40), record(0.0, 0)];
@@ -1184,5 +1221,36 @@ mod tests {
             assert!(may_slide(&edge(sliding), &lc), "std_scale {std_scale}");
             assert!(!may_slide(&edge(pinned), &lc), "std_scale {std_scale}");
         }
+    }
+
+    #[test]
+    fn oracle_verification_admits_only_edges_within_its_limit_of_the_truth() {
+        let mut slam = in_a_row(13, 0.01);
+        // Keyframe 9 truly lies 8 m ahead of keyframe 1; this edge says 8.6 m.
+        let off = measured(1, 9, 8.6);
+        assert!(
+            slam.oracle_admits(&off),
+            "off by default: every edge passes"
+        );
+        slam.params.loop_closure.oracle_max_error_m = 0.5;
+        assert!(!slam.oracle_admits(&off), "0.6 m off a 0.5 m limit");
+        assert!(slam.oracle_admits(&measured(1, 9, 8.4)), "0.4 m off");
+        slam.params.loop_closure.oracle_max_error_m = 0.7;
+        assert!(slam.oracle_admits(&off), "0.6 m off a 0.7 m limit");
+        // The error is the translation's, in the older keyframe's frame: turn the truth of
+        // keyframe 9 by 90° about itself and the edge is still 0.6 m off, but turn keyframe 1 and
+        // where 9 truly lies from it turns with it.
+        slam.records[9].true_pose = Some(Pose2::new(9.0, 0.0, std::f64::consts::FRAC_PI_2));
+        assert!(slam.oracle_admits(&off));
+        slam.records[1].true_pose = Some(Pose2::new(1.0, 0.0, std::f64::consts::PI));
+        assert!(!slam.oracle_admits(&off), "truly 8 m behind keyframe 1");
+        assert!(slam.oracle_admits(&measured(1, 9, -8.0)));
+        // A keyframe without a true pose cannot be verified, so its matches are refused.
+        slam.records[1].true_pose = None;
+        assert!(!slam.oracle_admits(&measured(1, 9, -8.0)));
+        assert!(
+            !slam.oracle_admits(&measured(5, 20, 15.0)),
+            "no such keyframe"
+        );
     }
 }
