@@ -4,6 +4,20 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+/// The column `name` of a CSV text with a header row, each field parsed as written (a NaN stays
+/// NaN).
+pub fn csv_column(csv: &str, name: &str) -> Vec<f64> {
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let index = header
+        .iter()
+        .position(|h| *h == name)
+        .unwrap_or_else(|| panic!("no column {name}"));
+    lines
+        .map(|l| l.split(',').nth(index).unwrap().parse().unwrap())
+        .collect()
+}
+
 /// The `nrslam` binary cargo built for these tests.
 pub fn nrslam() -> Command {
     let mut command = Command::new(env!("CARGO_BIN_EXE_nrslam"));

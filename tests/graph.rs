@@ -18,18 +18,6 @@ fn launch(out: &Path, extra: &[&str]) {
     run_ok(&args);
 }
 
-fn column(csv: &str, name: &str) -> Vec<f64> {
-    let mut lines = csv.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let index = header
-        .iter()
-        .position(|h| *h == name)
-        .unwrap_or_else(|| panic!("no column {name}"));
-    lines
-        .map(|l| l.split(',').nth(index).unwrap().parse().unwrap())
-        .collect()
-}
-
 #[test]
 fn zenoh_processes_and_in_process_agree_bit_for_bit() {
     let dir = temp();
@@ -70,8 +58,8 @@ fn a_full_run_writes_every_output_and_etgospa_falls_as_the_map_fills() {
         assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "{png} is a PNG");
     }
     let metrics = read(&good.join("metrics.csv"));
-    let etgospa = column(&metrics, "etgospa");
-    let time = column(&metrics, "time_s");
+    let etgospa = csv_column(&metrics, "etgospa");
+    let time = csv_column(&metrics, "time_s");
     assert!(time.windows(2).all(|w| w[0] < w[1]), "time_s increases");
     let tenth = etgospa.len() / 10;
     let mean = |values: &[f64]| values.iter().sum::<f64>() / values.len() as f64;

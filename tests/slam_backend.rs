@@ -14,15 +14,10 @@ fn launch(file: &str, out: &Path, extra: &[&str]) {
 /// (time_s, position_error_m) of every row of metrics.csv, parsed as written (a NaN stays NaN).
 fn position_errors(dir: &Path) -> Vec<(f64, f64)> {
     let csv = read(&dir.join("metrics.csv"));
-    let mut lines = csv.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let column = |name: &str| header.iter().position(|h| *h == name).unwrap();
-    let (t, e) = (column("time_s"), column("position_error_m"));
-    lines
-        .map(|l| {
-            let fields: Vec<&str> = l.split(',').collect();
-            (fields[t].parse().unwrap(), fields[e].parse().unwrap())
-        })
+    let time_s = csv_column(&csv, "time_s");
+    time_s
+        .into_iter()
+        .zip(csv_column(&csv, "position_error_m"))
         .collect()
 }
 
@@ -172,13 +167,7 @@ fn scattered_detections_close_the_lap_with_widened_tolerances() {
 
 /// Each accepted loop edge's `error_m` (metres off the truth), from `dir`/loops.csv.
 fn loop_edge_errors_m(dir: &Path) -> Vec<f64> {
-    let csv = read(&dir.join("loops.csv"));
-    let mut lines = csv.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let column = header.iter().position(|h| *h == "error_m").unwrap();
-    lines
-        .map(|l| l.split(',').nth(column).unwrap().parse().unwrap())
-        .collect()
+    csv_column(&read(&dir.join("loops.csv")), "error_m")
 }
 
 #[test]
