@@ -33,6 +33,13 @@ slam_extra=${SLAM_ARGS:-}
 hall_range=$(seq "$first_hall_seed" $((first_hall_seed + hall_seeds - 1)))
 scene_range=$(seq "$first_scene" $((first_scene + scenes - 1)))
 mkdir -p "$out/runs" "$out/scenes"
+# Runs already in OUT are not run again, so OUT must hold one setting: SLAM_ARGS is recorded there
+# and a different one refused.
+if [ -f "$out/slam_args.txt" ] && [ "$(cat "$out/slam_args.txt")" != "$slam_extra" ]; then
+  echo "$out holds runs made with SLAM_ARGS=\"$(cat "$out/slam_args.txt")\"; use another OUT" >&2
+  exit 2
+fi
+printf '%s\n' "$slam_extra" > "$out/slam_args.txt"
 
 args_of() { # condition -> "SLAM_LAUNCH ORACLE_ARGS ... | launch arguments"
   case $1 in

@@ -78,25 +78,39 @@ impl AssociationNode {
         self.slam.params().loop_closure.oracle_max_error_m > 0.0
     }
 
-    fn on_true_pose(&mut self, truth: &PoseStamped) {
+    fn on_true_pose(&mut self, truth: &PoseStamped) -> Result<(), NodeError> {
         let (x_m, y_m, yaw_rad) = truth.pose.planar();
-        self.truth = Some((truth.header.stamp, Pose2::new(x_m, y_m, yaw_rad)));
+        let pose = Pose2::new(x_m, y_m, yaw_rad);
+        if !pose.is_finite() {
+            // A NaN truth would refuse every loop at that keyframe without a word.
+            return Err(NodeError::invalid_input(
+                GROUND_TRUTH_POSE,
+                format!("pose ({x_m}, {y_m}, {yaw_rad}) is not finite"),
+            ));
+        }
+        self.truth = Some((truth.header.stamp, pose));
+        Ok(())
     }
 
     /// Hands the algorithm the true pose at `stamp` for oracle verification; `None` when it is
-    /// off or the truth of this frame has not arrived (reported once).
+    /// off or the truth of this frame has not arrived (a warning the first time, then debug).
     fn hand_over_truth(&mut self, stamp: Time) {
         let truth = self
             .truth
             .filter(|(at, _)| self.oracle_verification() && *at == stamp)
             .map(|(_, pose)| pose);
-        if self.oracle_verification() && truth.is_none() && !self.warned_no_truth {
-            self.warned_no_truth = true;
-            tracing::warn!(
-                stamp_s = stamp.as_seconds(),
-                "oracle verification is on but {GROUND_TRUTH_POSE} has no pose at this \
-                 frame's stamp: loop matches at its keyframes are refused"
-            );
+        if self.oracle_verification() && truth.is_none() {
+            if self.warned_no_truth {
+                tracing::debug!(stamp_s = stamp.as_seconds(), "no true pose at this stamp");
+            } else {
+                self.warned_no_truth = true;
+                tracing::warn!(
+                    stamp_s = stamp.as_seconds(),
+                    "oracle verification is on but {GROUND_TRUTH_POSE} has no pose at this \
+                     frame's stamp: loop matches at its keyframes are refused (later such \
+                     frames are logged at debug level)"
+                );
+            }
         }
         self.slam.set_true_pose(truth);
     }
@@ -281,10 +295,7 @@ impl Node for AssociationNode {
         match (topic, message) {
             (ODOM, Message::Odometry(odometry)) => self.on_odometry(odometry),
             (DETECTIONS, Message::Detections(detections)) => self.on_detections(detections, outbox),
-            (GROUND_TRUTH_POSE, Message::PoseStamped(truth)) => {
-                self.on_true_pose(truth);
-                Ok(())
-            }
+            (GROUND_TRUTH_POSE, Message::PoseStamped(truth)) => self.on_true_pose(truth),
             _ => Err(NodeError::unexpected(topic, message)),
         }
     }
@@ -345,7 +356,7 @@ mod tests {
     }
 
     #[test]
-    fn oracle_verification_alone_subscribes_to_the_truth_and_keyframes_keep_their_stamps_truth() {
+    fn oracle_verification_alone_subscribes_to_the_truth_and_keyframes_keep_their_own_stamps() {
         assert!(!node().inputs().contains(&GROUND_TRUTH_POSE));
         let mut params = Params::default();
         params.loop_closure.oracle_max_error_m = 0.5;
@@ -384,6 +395,12 @@ mod tests {
             kept[2], None,
             "the truth of another stamp is not this frame's"
         );
+        // A truth that is not finite is refused as bad input, not kept.
+        let nan = true_pose(4.0, Pose2::new(f64::NAN, 0.0, 0.0));
+        assert!(node
+            .on_message(GROUND_TRUTH_POSE, &nan, &mut outbox)
+            .is_err());
+        assert_eq!(node.truth.map(|(at, _)| at), Some(Time::from_seconds(2.0)));
     }
 
     #[test]

@@ -329,12 +329,13 @@ pub struct LoopClosureParams {
     /// A match that waits for confirmation is dropped after this many keyframes.
     pub pending_keyframes: u32,
     /// Research oracle, simulation only: a loop match whose translation is more than this off
-    /// the truth is refused outright (neither accepted nor kept pending), metres. The truth is
-    /// `/ground_truth/pose` at each keyframe's stamp, to which the node then subscribes; a match
-    /// with a keyframe that got none is refused too. Beside the true-pose oracle
-    /// (`launch/true-poses.toml`) it says what loop verification is worth at most: the map a
-    /// verifier that knew the truth would give with the same matches (docs/slam.md). 0: off, the
-    /// back end as it runs on a real sensor. Finite, 0..=1e3.
+    /// the truth is refused outright (neither accepted nor kept pending), metres; headings are
+    /// not judged. The truth is `/ground_truth/pose` at each keyframe's stamp, to which the node
+    /// then subscribes; a match with a keyframe that got none is refused too. Beside the
+    /// true-pose oracle (`launch/true-poses.toml`) it separates verification from matching: the
+    /// map the same matches give when every one that far off is refused, which no verifier
+    /// without the truth can do (docs/slam.md, "The verification oracle"). 0: off, the back end
+    /// as it runs on a real sensor. Finite, 0..=1e3.
     pub oracle_max_error_m: f64,
     /// At every closure, each earlier closure not yet verified is tested against the rest of
     /// the graph (optimised without it): its edges' χ² against that graph's estimate, under the
@@ -448,8 +449,8 @@ impl LoopClosureParams {
         Ok(())
     }
 
-    /// (field, value, min, max) of the real fields of matching and confirmation, which
-    /// [`Self::validate`] checks after [`Self::real_ranges`].
+    /// (field, value, min, max) of the real fields of matching, confirmation and oracle
+    /// verification, which [`Self::validate`] checks after [`Self::real_ranges`].
     fn matching_ranges(&self) -> [(&'static str, f64, f64, f64); 15] {
         [
             (

@@ -317,9 +317,9 @@ impl Association {
         Some((slam.compose(&replacement), true, None))
     }
 
-    /// The true pose (map frame) of the scan that comes next, or `None`: a keyframe made from
-    /// that scan keeps it for oracle verification (`loop_closure.oracle_max_error_m`), which
-    /// refuses a loop match between keyframes without one. Tracking never reads it.
+    /// The true pose (map frame) of the next scan only, or `None`: a keyframe made from that scan
+    /// keeps it for oracle verification (`loop_closure.oracle_max_error_m`), which refuses a
+    /// loop match between keyframes without one. Tracking never reads it.
     pub fn set_true_pose(&mut self, pose: Option<Pose2>) {
         self.next_true_pose = pose;
     }
@@ -340,6 +340,7 @@ impl Association {
         scan_agv_m: &[[f64; 2]],
         std: Option<&[[f64; 2]]>,
     ) -> Result<FrameOutcome, AssociationError> {
+        let true_pose = self.next_true_pose.take();
         let (predicted, odometry_rejected, motion) =
             self.predict_gated().ok_or(AssociationError::NoOdometry)?;
         let scan: Vec<[f64; 2]> = scan_agv_m
@@ -406,7 +407,7 @@ impl Association {
         let mut loop_match = None;
         if let Some(id) = keyframe_id {
             let matched = icp.status.is_accepted();
-            self.add_keyframe(id, pose, scan, &radar_points, matched);
+            self.add_keyframe(id, pose, scan, &radar_points, matched, true_pose);
             if self.params.loop_closure.enabled {
                 if self.cooldown > 0 {
                     self.cooldown -= 1;
@@ -503,6 +504,7 @@ impl Association {
         scan: Vec<[f64; 2]>,
         points: &[RadarPoint],
         matched: bool,
+        true_pose: Option<Pose2>,
     ) {
         // What that scan match knows of the pose (map frame), before the keyframe joins the map.
         let tracking_information = if matched && !self.cells.is_empty() {
@@ -579,7 +581,7 @@ impl Association {
             scatter_m: median_position_std_m(points),
             travelled_m: self.travelled_m,
             covariance,
-            true_pose: self.next_true_pose,
+            true_pose,
         });
         debug_assert!(self.maps_hold_the_window(), "the tracking maps lost count");
     }
@@ -816,6 +818,32 @@ mod tests {
             })
             .map(|p| inverse.transform_point(p))
             .collect()
+    }
+
+    #[test]
+    fn a_true_pose_is_kept_by_the_next_scans_keyframe_only() {
+        let mut slam = Association::new(Params::default()).unwrap();
+        let truth = Pose2::new(5.0, 1.0, 0.3);
+        slam.set_true_pose(Some(truth));
+        let mut keyframes = 0;
+        for k in 0..4 {
+            let agv = Pose2::new(0.5 * f64::from(k), 0.0, 0.0);
+            slam.on_odometry_at(1.0 + f64::from(k), agv).unwrap();
+            keyframes += usize::from(
+                slam.on_scan(&scan_from(&agv))
+                    .unwrap()
+                    .keyframe_id
+                    .is_some(),
+            );
+        }
+        let kept: Vec<Option<Pose2>> = slam
+            .keyframe_records()
+            .iter()
+            .map(|r| r.true_pose)
+            .collect();
+        assert!(keyframes >= 2, "{kept:?}");
+        assert_eq!(kept[0], Some(truth));
+        assert!(kept[1..].iter().all(Option::is_none), "{kept:?}");
     }
 
     #[test]

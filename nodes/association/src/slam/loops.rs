@@ -240,9 +240,6 @@ impl Association {
                         )
                     };
                     if let Some(mut edges) = confirmed {
-                        // A pending partner was admitted when it was matched; its edges are
-                        // re-expressed (`partner_edges`), so they are judged again.
-                        edges.retain(|e| self.oracle_admits(e));
                         tracing::debug!(
                             candidate = j,
                             anchor,
@@ -350,7 +347,9 @@ impl Association {
 
     /// Whether oracle verification (`loop_closure.oracle_max_error_m`) lets `edge` through: always
     /// when it is off; otherwise only when both keyframes carry a true pose and the edge's
-    /// translation is within the limit of theirs, measured as `loops.csv`'s `error_m` is.
+    /// translation (the newer keyframe's position in the older one's frame, as `loops.csv`'s
+    /// `error_m` scores it) is within the limit of theirs. Headings are not judged. A pending
+    /// match was admitted when it was matched, so its partner edges need no second verdict.
     fn oracle_admits(&self, edge: &LoopEdge) -> bool {
         let limit_m = self.params.loop_closure.oracle_max_error_m;
         if limit_m <= 0.0 {
@@ -365,9 +364,7 @@ impl Association {
             );
             return false;
         };
-        let truth = from.between(&to);
-        let off_m = (edge.relative.x_m - truth.x_m).hypot(edge.relative.y_m - truth.y_m);
-        off_m <= limit_m
+        edge.relative.distance_m(&from.between(&to)) <= limit_m
     }
 
     fn apply_loop(&mut self, edges: &[LoopEdge]) {
