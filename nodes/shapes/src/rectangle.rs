@@ -99,16 +99,22 @@ fn nearest_side(uv: [f64; 2], offsets: &Offsets) -> (usize, f64) {
 }
 
 fn assign(uv: &[[f64; 2]], offsets: &Offsets) -> (Vec<usize>, f64) {
-    let mut rss = 0.0;
-    let labels = uv
-        .iter()
-        .map(|&p| {
-            let (k, r) = nearest_side(p, offsets);
-            rss += r * r;
-            k
-        })
-        .collect();
+    let mut labels = Vec::with_capacity(uv.len());
+    let rss = assign_into(uv, offsets, &mut labels);
     (labels, rss)
+}
+
+/// [`assign`] into `labels` (cleared first), returning the RSS, so that [`settle`]'s iterations
+/// reuse one vector.
+fn assign_into(uv: &[[f64; 2]], offsets: &Offsets, labels: &mut Vec<usize>) -> f64 {
+    labels.clear();
+    let mut rss = 0.0;
+    labels.extend(uv.iter().map(|&p| {
+        let (k, r) = nearest_side(p, offsets);
+        rss += r * r;
+        k
+    }));
+    rss
 }
 
 /// Points of each side: count, mean offset, span along the side.
@@ -144,10 +150,12 @@ pub(crate) fn bic(rss_m2: f64, n: usize, parameters: usize, min_std_m: f64) -> f
 /// sides that lose their support and the weaker of two opposite sides that come too close.
 fn settle(uv: &[[f64; 2]], mut offsets: Offsets, params: &Params) -> (Offsets, Vec<usize>, f64) {
     let mut previous: Vec<usize> = Vec::new();
+    let mut labels: Vec<usize> = Vec::with_capacity(uv.len());
     for _ in 0..MAX_ITERATIONS {
-        let (labels, _) = assign(uv, &offsets);
+        let rss = assign_into(uv, &offsets, &mut labels);
         if labels == previous {
-            break;
+            // Settled: these offsets' assignment is the answer.
+            return (offsets, labels, rss);
         }
         let stats = side_stats(uv, &labels);
         let present = offsets.iter().filter(|o| o.is_some()).count();
@@ -168,9 +176,9 @@ fn settle(uv: &[[f64; 2]], mut offsets: Offsets, params: &Params) -> (Offsets, V
                 }
             }
         }
-        previous = labels;
+        std::mem::swap(&mut previous, &mut labels);
     }
-    let (labels, rss) = assign(uv, &offsets);
+    let rss = assign_into(uv, &offsets, &mut labels);
     (offsets, labels, rss)
 }
 
