@@ -123,21 +123,31 @@ fn loop_closure_closes_the_lap_and_modes_agree() {
     // The rebuilt map scores no worse.
     assert!(value(&c, "etgospa") <= value(&o, "etgospa"), "{c} vs {o}");
     // Loop closure and map rebuild are as deterministic across processes as the rest.
-    let (closed, processes) = (dir.path().join("closed"), dir.path().join("processes"));
+    processes_mode_agrees(
+        "launch/paper-ideal.toml",
+        &args,
+        &dir.path().join("closed"),
+        &["summary.json", "metrics.csv"],
+    );
+}
+
+/// Runs `file` with `args` again in processes mode, beside `in_process` (its in-process run's
+/// folder), and checks that `files` are byte-identical.
+fn processes_mode_agrees(file: &str, args: &[&str], in_process: &Path, files: &[&str]) {
+    let processes = in_process.with_file_name("processes");
     let with_processes: Vec<&str> = args
         .iter()
         .copied()
         .chain(["--mode", "processes"])
         .collect();
-    launch("launch/paper-ideal.toml", &processes, &with_processes);
-    assert_eq!(
-        read(&closed.join("summary.json")),
-        read(&processes.join("summary.json"))
-    );
-    assert_eq!(
-        read(&closed.join("metrics.csv")),
-        read(&processes.join("metrics.csv"))
-    );
+    launch(file, &processes, &with_processes);
+    for name in files {
+        assert_eq!(
+            read(&in_process.join(name)),
+            read(&processes.join(name)),
+            "{name}"
+        );
+    }
 }
 
 #[test]
@@ -194,20 +204,12 @@ fn oracle_verification_refuses_loop_edges_off_the_truth_in_either_mode() {
         "{errors:?}"
     );
     // The truth reaches the node over the transport as it does in one process.
-    let processes = dir.path().join("processes");
-    let in_processes: Vec<&str> = with_oracle
-        .iter()
-        .copied()
-        .chain(["--mode", "processes"])
-        .collect();
-    launch("launch/paper-ideal.toml", &processes, &in_processes);
-    for file in ["summary.json", "loops.csv"] {
-        assert_eq!(
-            read(&oracle.join(file)),
-            read(&processes.join(file)),
-            "{file}"
-        );
-    }
+    processes_mode_agrees(
+        "launch/paper-ideal.toml",
+        &with_oracle,
+        &oracle,
+        &["summary.json", "loops.csv"],
+    );
 }
 
 #[test]
