@@ -478,12 +478,6 @@ impl LoopClosureParams {
             ("loop_closure.agreement_deg", self.agreement_deg, 0.0, 180.0),
             ("loop_closure.pair_m", self.pair_m, 0.0, 1e3),
             ("loop_closure.pair_per_m", self.pair_per_m, 0.0, 1.0),
-            (
-                "loop_closure.oracle_max_error_m",
-                self.oracle_max_error_m,
-                0.0,
-                1e3,
-            ),
             ("loop_closure.pair_deg", self.pair_deg, 0.0, 180.0),
             (
                 "loop_closure.standalone_score",
@@ -502,6 +496,12 @@ impl LoopClosureParams {
                 self.superseding_score,
                 0.0,
                 1.0,
+            ),
+            (
+                "loop_closure.oracle_max_error_m",
+                self.oracle_max_error_m,
+                0.0,
+                1e3,
             ),
         ]
     }
