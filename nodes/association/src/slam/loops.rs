@@ -1220,6 +1220,99 @@ mod tests {
         }
     }
 
+    /// Keyframes 1 m apart around a circle of 8 m radius, a little more than one lap, each with
+    /// the exact scan of a fixed, irregular scene of boxes: the last keyframes revisit the
+    /// first. Estimated and true poses are the same, and consecutive keyframes are joined by
+    /// their exact motion.
+    fn one_lap_in_a_scene_of_boxes() -> Association {
+        let radius_m = 8.0;
+        let step_rad = 1.0 / radius_m;
+        let count = (std::f64::consts::TAU / step_rad) as u32 + 8;
+        let boxes: [([f64; 2], [f64; 2]); 6] = [
+            ([0.0, 0.0], [3.0, 1.5]),
+            ([12.0, 3.0], [1.0, 4.0]),
+            ([-11.5, -2.0], [2.0, 2.5]),
+            ([4.0, -13.0], [5.0, 1.0]),
+            ([-5.0, 12.5], [1.5, 1.5]),
+            ([9.0, 10.0], [2.5, 1.0]),
+        ];
+        let mut scene: Vec<[f64; 2]> = Vec::new();
+        for (centre, size) in boxes {
+            let (x0, x1) = (centre[0] - size[0] / 2.0, centre[0] + size[0] / 2.0);
+            let (y0, y1) = (centre[1] - size[1] / 2.0, centre[1] + size[1] / 2.0);
+            let mut t = 0.0;
+            while t < 1.0 {
+                scene.push([x0 + t * (x1 - x0), y0]);
+                scene.push([x0 + t * (x1 - x0), y1]);
+                scene.push([x0, y0 + t * (y1 - y0)]);
+                scene.push([x1, y0 + t * (y1 - y0)]);
+                t += 0.1 / size[0].max(size[1]);
+            }
+        }
+        let mut slam = Association::new(Params::default()).unwrap();
+        for k in 0..count {
+            let angle = f64::from(k) * step_rad;
+            let pose = Pose2::new(
+                radius_m * angle.cos(),
+                radius_m * angle.sin(),
+                angle + std::f64::consts::FRAC_PI_2,
+            );
+            let to_agv = pose.inverse();
+            slam.graph.add_node(pose);
+            slam.records.push(KeyframeRecord {
+                id: k,
+                pose,
+                scan_agv_m: scene.iter().map(|p| to_agv.transform_point(*p)).collect(),
+                scatter_m: 0.0,
+                travelled_m: f64::from(k),
+                covariance: nalgebra::Matrix3::identity(),
+                true_pose: Some(pose),
+            });
+            if k > 0 {
+                let previous = slam.records[k as usize - 1].pose;
+                let step = previous.between(&pose);
+                let edge = Edge::with_std(
+                    k as usize - 1,
+                    k as usize,
+                    step,
+                    0.05,
+                    0.01,
+                    EdgeKind::Odometry,
+                );
+                slam.uncertainty_information.push(edge.information);
+                assert!(slam.graph.add_edge(edge));
+            }
+        }
+        slam
+    }
+
+    #[test]
+    fn a_match_the_oracle_refuses_is_neither_accepted_nor_kept_pending() {
+        // Without the oracle, the revisit closes a loop on its exact scans.
+        let mut slam = one_lap_in_a_scene_of_boxes();
+        let found = slam.close_loop().expect("the revisit closes a loop");
+        assert_eq!(slam.loop_edges().len(), 1);
+        let anchor = found.query;
+        // With the oracle and the true poses where the scans were taken, the same loop closes.
+        let mut slam = one_lap_in_a_scene_of_boxes();
+        slam.params.loop_closure.oracle_max_error_m = 0.5;
+        assert!(
+            slam.close_loop().is_some(),
+            "a right match passes the oracle"
+        );
+        // When the truth puts the revisit 1 m elsewhere, the same match is 1 m off: refused,
+        // and not kept to confirm a later one either.
+        let mut slam = one_lap_in_a_scene_of_boxes();
+        slam.params.loop_closure.oracle_max_error_m = 0.5;
+        for record in &mut slam.records[anchor - 5..] {
+            let truth = record.pose;
+            record.true_pose = Some(Pose2::new(truth.x_m + 1.0, truth.y_m, truth.yaw_rad));
+        }
+        assert!(slam.close_loop().is_none());
+        assert!(slam.loop_edges().is_empty());
+        assert!(slam.pending.is_empty(), "{:?}", slam.pending);
+    }
+
     #[test]
     fn oracle_verification_admits_only_edges_within_its_limit_of_the_truth() {
         let mut slam = in_a_row(13, 0.01);
