@@ -1293,7 +1293,7 @@ mod tests {
         let found = slam.close_loop().expect("the revisit closes a loop");
         assert_eq!(slam.loop_edges().len(), 1);
         let anchor = found.query;
-        // With the oracle and the true poses where the scans were taken, the same loop closes.
+        // With the oracle and the true poses where the scans were taken, the loop closes too.
         let mut slam = one_lap_in_a_scene_of_boxes();
         slam.params.loop_closure.oracle_max_error_m = 0.5;
         assert!(
