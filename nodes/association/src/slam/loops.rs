@@ -1293,6 +1293,13 @@ mod tests {
         let found = slam.close_loop().expect("the revisit closes a loop");
         assert_eq!(slam.loop_edges().len(), 1);
         let anchor = found.query;
+        // The revisit's truth 1 m elsewhere: a match of its exact scans is then 1 m off.
+        let truth_elsewhere = |slam: &mut Association| {
+            for record in &mut slam.records[anchor - 5..] {
+                let truth = record.pose;
+                record.true_pose = Some(Pose2::new(truth.x_m + 1.0, truth.y_m, truth.yaw_rad));
+            }
+        };
         // With the oracle and the true poses where the scans were taken, the loop closes too.
         let mut slam = one_lap_in_a_scene_of_boxes();
         slam.params.loop_closure.oracle_max_error_m = 0.5;
@@ -1304,13 +1311,30 @@ mod tests {
         // and not kept to confirm a later one either.
         let mut slam = one_lap_in_a_scene_of_boxes();
         slam.params.loop_closure.oracle_max_error_m = 0.5;
-        for record in &mut slam.records[anchor - 5..] {
-            let truth = record.pose;
-            record.true_pose = Some(Pose2::new(truth.x_m + 1.0, truth.y_m, truth.yaw_rad));
-        }
+        truth_elsewhere(&mut slam);
         assert!(slam.close_loop().is_none());
         assert!(slam.loop_edges().is_empty());
         assert!(slam.pending.is_empty(), "{:?}", slam.pending);
+        // Where no score is enough to stand alone, the right match waits for a partner; the
+        // refused one does not.
+        for (oracle_m, shifted, waits) in
+            [(0.0, true, true), (0.5, false, true), (0.5, true, false)]
+        {
+            let mut slam = one_lap_in_a_scene_of_boxes();
+            slam.params.loop_closure.standalone_score = 2.0;
+            // One old place per search: a second would confirm the first.
+            slam.params.loop_closure.max_candidates = 1;
+            slam.params.loop_closure.oracle_max_error_m = oracle_m;
+            if shifted {
+                truth_elsewhere(&mut slam);
+            }
+            assert!(slam.close_loop().is_none(), "nothing stands alone");
+            assert_eq!(
+                !slam.pending.is_empty(),
+                waits,
+                "oracle {oracle_m} m, shifted {shifted}"
+            );
+        }
     }
 
     #[test]
