@@ -794,18 +794,24 @@ mod tests {
     /// truly where it is estimated.
     fn keyframes_in_a_row(slam: &mut Association, count: u32) {
         for k in 0..count {
-            let pose = Pose2::new(f64::from(k), 0.0, 0.0);
-            slam.graph.add_node(pose);
-            slam.records.push(KeyframeRecord {
-                id: k,
-                pose,
-                scan_agv_m: Vec::new(),
-                scatter_m: 0.0,
-                travelled_m: f64::from(k),
-                covariance: nalgebra::Matrix3::identity(),
-                true_pose: Some(pose),
-            });
+            push_keyframe(slam, Pose2::new(f64::from(k), 0.0, 0.0), Vec::new());
         }
+    }
+
+    /// The next keyframe (a graph node, not linked) at `pose`, truly there, with the scan
+    /// `scan_agv_m`, one metre of travel after the previous one.
+    fn push_keyframe(slam: &mut Association, pose: Pose2, scan_agv_m: Vec<[f64; 2]>) {
+        let k = slam.records.len() as u32;
+        slam.graph.add_node(pose);
+        slam.records.push(KeyframeRecord {
+            id: k,
+            pose,
+            scan_agv_m,
+            scatter_m: 0.0,
+            travelled_m: f64::from(k),
+            covariance: nalgebra::Matrix3::identity(),
+            true_pose: Some(pose),
+        });
     }
 
     /// A match's information pinned down across y only: it may slide along x.
@@ -1258,16 +1264,8 @@ mod tests {
                 angle + std::f64::consts::FRAC_PI_2,
             );
             let to_agv = pose.inverse();
-            slam.graph.add_node(pose);
-            slam.records.push(KeyframeRecord {
-                id: k,
-                pose,
-                scan_agv_m: scene.iter().map(|p| to_agv.transform_point(*p)).collect(),
-                scatter_m: 0.0,
-                travelled_m: f64::from(k),
-                covariance: nalgebra::Matrix3::identity(),
-                true_pose: Some(pose),
-            });
+            let scan = scene.iter().map(|p| to_agv.transform_point(*p)).collect();
+            push_keyframe(&mut slam, pose, scan);
             if k > 0 {
                 let previous = slam.records[k as usize - 1].pose;
                 let step = previous.between(&pose);
