@@ -45,7 +45,7 @@ struct Recorded {
 
 enum Input {
     Cloud(PointCloud2),
-    Odom(Odometry),
+    Odom(Box<Odometry>),
     Targets(TargetSet),
     Pose(PoseStamped),
 }
@@ -118,7 +118,9 @@ fn read_native(bag: &Path) -> Recorded {
                 frames += 1;
                 Input::Cloud(point_cloud(&d))
             }
-            "/odom" => Input::Odom(msgs::from_cdr(&m.data).unwrap_or_else(|e| decode_error(e))),
+            "/odom" => Input::Odom(Box::new(
+                msgs::from_cdr(&m.data).unwrap_or_else(|e| decode_error(e)),
+            )),
             "/ground_truth/targets" => {
                 Input::Targets(msgs::from_cdr(&m.data).unwrap_or_else(|e| decode_error(e)))
             }
@@ -221,7 +223,7 @@ impl Player {
                     std::thread::sleep(FRAME_PAUSE);
                     r
                 }
-                Input::Odom(o) => self.odom.publish(o.clone()).map_err(|e| e.to_string()),
+                Input::Odom(o) => self.odom.publish((**o).clone()).map_err(|e| e.to_string()),
                 Input::Targets(t) => self.targets.publish(t.clone()).map_err(|e| e.to_string()),
                 Input::Pose(p) => self.pose.publish(p.clone()).map_err(|e| e.to_string()),
             };

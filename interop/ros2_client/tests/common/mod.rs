@@ -154,8 +154,10 @@ pub fn context(domain: u16, port: u16) -> Context {
         ("scouting/multicast/enabled", "false".to_owned()),
         ("listen/endpoints", "[]".to_owned()),
         ("connect/endpoints", format!("[\"tcp/127.0.0.1:{port}\"]")),
-        ("connect/retry/period_init_ms", "100".to_owned()),
-        ("connect/retry/period_max_ms", "500".to_owned()),
+        (
+            "connect/retry",
+            "{period_init_ms: 100, period_max_ms: 500, period_increase_factor: 2}".to_owned(),
+        ),
     ] {
         config
             .insert_json5(key, &value)
