@@ -67,6 +67,7 @@ impl Reporter {
             dropped: self.dropped.clone(),
             restarts: self.restarts.clone(),
             shapes: self.shape_summary(),
+            differs_from_recording: BTreeMap::new(),
         }
     }
 }
@@ -135,6 +136,12 @@ pub struct Summary {
     /// representatives (absent when the run fits no shapes; see `report/shapes.rs`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub shapes: Option<super::ShapeSummary>,
+    /// A replay run with other parameters than the recording (`node.param:=value` or `--seed` on
+    /// the replay's command line): each one that differs, as `{"recorded": .., "replay": ..}`
+    /// (`recorded` null: the recording left it at the node's default). Absent when the replay
+    /// runs the recorded back end as it was.
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub differs_from_recording: BTreeMap<String, serde_json::Value>,
 }
 
 fn toml_to_json(value: &toml::Value) -> serde_json::Value {

@@ -8,8 +8,9 @@
 //! - `DIR/metadata.yaml`: `rosbag2_bagfile_information` version 9 (storage `mcap`, per-topic
 //!   type, `cdr`, QoS as a list, RIHS01 `type_description_hash`, counts, start and duration, one
 //!   `files` entry per storage file), written when the recording finishes; versions 4 to 9 are
-//!   read. `custom_data` carries the recorded run's identity (launch, arguments, seed) so a
-//!   replay can reproduce its `summary.json`.
+//!   read. `custom_data` carries the recorded run's identity (launch, arguments, seed, nrslam
+//!   version) and its resolved launch (every node's kind and parameters), so a replay rebuilds
+//!   the recorded back end and reproduces its `summary.json`.
 //! - `DIR/<DIR name>_0.mcap`, `_1.mcap`, ...: profile `ros2`, one schema per type (`ros2msg`,
 //!   dependencies appended), channels with message encoding `cdr`, messages in chunks
 //!   (uncompressed, zstd or lz4) with message indexes, chunk indexes and statistics in the
@@ -59,6 +60,13 @@ pub const RUN_LAUNCH_KEY: &str = "nrslam.launch";
 pub const RUN_ARGUMENTS_KEY: &str = "nrslam.arguments";
 /// `custom_data` key: the seed of the recorded run.
 pub const RUN_SEED_KEY: &str = "nrslam.seed";
+/// `custom_data` key: the version of nrslam that recorded the run.
+pub const RUN_VERSION_KEY: &str = "nrslam.version";
+/// `custom_data` key: the recorded run's resolved launch, every node that ran with its kind and
+/// its parameters after argument substitution, includes and command-line overrides, as a TOML
+/// document of `[[node]]` tables (`name`, `kind`, `params`): what a replay rebuilds its back end
+/// from (`launch/replay.toml`; docs/bags.md).
+pub const RUN_NODES_KEY: &str = "nrslam.nodes";
 /// Name of the MCAP metadata record that repeats `custom_data` at the start of the file (so a
 /// recovered bag still knows its run).
 pub const MCAP_METADATA_NAME: &str = "nrslam";

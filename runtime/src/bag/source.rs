@@ -24,6 +24,11 @@ pub struct SourceParams {
     /// chunks (each loss is logged).
     #[serde(default)]
     pub recover: bool,
+    /// This bag stands in for a recorded run's front end: the launcher replaces the launch's
+    /// other nodes by the back end recorded in the bag's `nrslam.nodes` (`launch/replay.toml`).
+    /// The node itself plays the same either way.
+    #[serde(default)]
+    pub rebuild_recorded_back_end: bool,
 }
 
 /// Publishes a bag's messages; see the module docs. The messages are streamed from the file (one
@@ -169,6 +174,7 @@ mod tests {
             path: bag.clone(),
             topics: vec![],
             recover: false,
+            rebuild_recorded_back_end: false,
         })
         .unwrap();
         assert_eq!(source.outputs(), [topics::CLOCK, topics::ODOM]);
@@ -193,6 +199,7 @@ mod tests {
             path: bag,
             topics: vec![topics::ODOM.into()],
             recover: false,
+            rebuild_recorded_back_end: false,
         })
         .unwrap();
         assert_eq!(only_odom.outputs(), [topics::ODOM]);

@@ -58,7 +58,7 @@ pub(super) fn recorder(
         dir,
         WriterOptions {
             chunk_size_bytes: args.chunk.bytes()?,
-            custom_data: run_identity(launch, args.seed)?,
+            custom_data: run_identity(launch, args.seed())?,
         },
         args.storage.options()?,
     )

@@ -149,7 +149,7 @@ pub fn reproduce(args: ReproduceArgs) -> Result<()> {
         launch::launch(LaunchArgs {
             file: args.launch_dir.join(file),
             assignments: assignments.clone(),
-            seed: args.seed,
+            seed: Some(args.seed),
             out: Some(out),
             mode: None,
             pacing: crate::args::RateArgs::default(),
@@ -165,6 +165,7 @@ pub fn reproduce(args: ReproduceArgs) -> Result<()> {
                 max_bag_duration: 0.0,
             },
             ros_domain_id: None,
+            external_idle_s: 10.0,
             transport: TransportArgs::default(),
         })?;
         // Figs. 6 and 7 need the metrics only: the trials skip the shapes and the viewers'
