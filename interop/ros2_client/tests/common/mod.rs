@@ -91,15 +91,21 @@ impl Nrslam {
     /// Waits at most `limit` for it to exit; panics (after killing it) if it does not, or if it
     /// fails.
     pub fn wait_success(&mut self, limit: Duration) -> ExitStatus {
+        let status = self.wait(limit);
+        assert!(
+            status.success(),
+            "{} failed ({status}); its log ends:\n{}",
+            self.what,
+            self.log_tail()
+        );
+        status
+    }
+
+    /// Waits at most `limit` for it to exit; panics (after killing it) if it does not.
+    pub fn wait(&mut self, limit: Duration) -> ExitStatus {
         let deadline = Instant::now() + limit;
         loop {
             if let Some(status) = self.child.try_wait().expect("poll nrslam") {
-                assert!(
-                    status.success(),
-                    "{} failed ({status}); its log ends:\n{}",
-                    self.what,
-                    self.log_tail()
-                );
                 return status;
             }
             if Instant::now() > deadline {
