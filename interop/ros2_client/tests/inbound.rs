@@ -11,7 +11,7 @@ use common::msgs::{
     self, Detections, Header, Odometry, PointCloud2, PointField, PoseStamped, TargetSet, FLOAT32,
 };
 use common::{context, free_port, Nrslam};
-use ros2_client::zenoh::{Context, Node, Publisher};
+use ros2_client::zenoh::{Context, Node, Publisher, Subscription};
 use ros2_client::{MessageTypeName, Name, NodeName, NodeOptions, QosProfile};
 use serde::Serialize;
 
@@ -19,9 +19,13 @@ use serde::Serialize;
 const FRAMES: u32 = 120;
 /// Longest any one run may take.
 const RUN_LIMIT: Duration = Duration::from_secs(300);
-/// Pause between two published frames: the inbound graph queues each topic with a bounded depth
-/// (msgs/src/topics.rs) and counts what overflows, so the player must not outrun it.
+/// In the control (nothing answers): the pause after each published frame, so the play lasts
+/// about as long as the real one.
 const FRAME_PAUSE: Duration = Duration::from_millis(40);
+/// Longest the player waits for nrslam's /slam/pose of a frame it published.
+const FRAME_LIMIT: Duration = Duration::from_secs(60);
+/// Frames the player may publish ahead of nrslam's last /slam/pose.
+const FRAMES_IN_FLIGHT: usize = 4;
 
 /// The four inputs of standard-input's external source, with their ROS types.
 const INPUTS: [(&str, &str); 4] = [
@@ -215,20 +219,71 @@ impl Player {
         }
     }
 
-    fn play(&self, recorded: &Recorded) {
+    /// Publishes the recorded inputs in order. With `lockstep` (a ros2-client subscription to
+    /// nrslam's /slam/pose, and nrslam for failure messages) at most FRAMES_IN_FLIGHT frames are
+    /// sent ahead of the last /slam/pose nrslam published: the inbound graph queues each topic
+    /// with a bounded depth (64, msgs/src/topics.rs) and drops what overflows, so the player must
+    /// not outrun it, however slow the build; and it orders the external topics by stamp, so a
+    /// frame may wait for the next one's messages (a window of one frame would deadlock).
+    /// Without, it pauses FRAME_PAUSE after each frame.
+    fn play(
+        &self,
+        recorded: &Recorded,
+        mut lockstep: Option<(&Subscription<PoseStamped>, &mut Nrslam)>,
+    ) {
+        let mut in_flight = std::collections::VecDeque::new();
+        let mut latest_pose: Option<msgs::Time> = None;
         for input in &recorded.messages {
             let result = match input {
-                Input::Cloud(c) => {
-                    let r = self.points.publish(c.clone()).map_err(|e| e.to_string());
-                    std::thread::sleep(FRAME_PAUSE);
-                    r
-                }
+                Input::Cloud(c) => self.points.publish(c.clone()).map_err(|e| e.to_string()),
                 Input::Odom(o) => self.odom.publish((**o).clone()).map_err(|e| e.to_string()),
                 Input::Targets(t) => self.targets.publish(t.clone()).map_err(|e| e.to_string()),
                 Input::Pose(p) => self.pose.publish(p.clone()).map_err(|e| e.to_string()),
             };
             result.unwrap_or_else(|e| panic!("ros2-client could not publish: {e}"));
+            let Input::Cloud(cloud) = input else { continue };
+            let Some((poses, nrslam)) = lockstep.as_mut() else {
+                std::thread::sleep(FRAME_PAUSE);
+                continue;
+            };
+            in_flight.push_back(cloud.header.stamp);
+            if in_flight.len() <= FRAMES_IN_FLIGHT {
+                continue;
+            }
+            let stamp = in_flight.pop_front().unwrap();
+            let deadline = Instant::now() + FRAME_LIMIT;
+            while latest_pose.is_none_or(|t| t < stamp) {
+                match poses.try_take() {
+                    Ok(Some((pose, _))) => latest_pose = Some(pose.header.stamp),
+                    Ok(None) => std::thread::sleep(Duration::from_millis(2)),
+                    Err(e) => panic!(
+                        "ros2-client could not take nrslam's /slam/pose (waiting for the frame \
+                         at {stamp:?}): {e:?}; nrslam running: {}, its log ends:\n{}",
+                        nrslam.is_running(),
+                        nrslam.log_tail()
+                    ),
+                }
+                assert!(
+                    Instant::now() < deadline,
+                    "no /slam/pose from nrslam for the frame at {stamp:?} within \
+                     {FRAME_LIMIT:?}; nrslam running: {}, its log ends:\n{}",
+                    nrslam.is_running(),
+                    nrslam.log_tail()
+                );
+            }
         }
+    }
+
+    /// A subscription to nrslam's /slam/pose (geometry_msgs/PoseStamped) on the player's node.
+    fn slam_poses(&self) -> Subscription<PoseStamped> {
+        let topic = self.node.create_topic(
+            &Name::parse("/slam/pose").expect("topic name"),
+            MessageTypeName::new("geometry_msgs", "PoseStamped"),
+            &QosProfile::default(),
+        );
+        self.node
+            .create_subscription(&topic, None)
+            .expect("a ros2-client subscription")
     }
 }
 
@@ -316,6 +371,7 @@ fn ros2_client_inputs_map_as_well_as_the_native_run() {
     let port = free_port();
     let ctx = context(0, port);
     let player = Player::new(&ctx);
+    let slam_poses = player.slam_poses();
     let inbound_out = tmp.path().join("inbound");
     let mut nrslam = Nrslam::spawn(
         &inbound_args(0, port, &recorded, &inbound_out),
@@ -323,7 +379,7 @@ fn ros2_client_inputs_map_as_well_as_the_native_run() {
     );
     player.wait_for_nrslam(&mut nrslam, Duration::from_secs(60));
     let started = Instant::now();
-    player.play(&recorded);
+    player.play(&recorded, Some((&slam_poses, &mut nrslam)));
     eprintln!(
         "published {} messages ({} frames) in {:.1} s",
         recorded.messages.len(),
@@ -365,8 +421,7 @@ fn ros2_client_inputs_map_as_well_as_the_native_run() {
         (inbound_rmse - native_rmse).abs() <= POSE_RMSE_TOLERANCE_M,
         "pose RMSE through ros2-client {inbound_rmse} m vs native {native_rmse} m"
     );
-    drop(player);
-    drop(ctx);
+    drop((slam_poses, player, ctx));
 
     // 3. Control: nrslam on domain 1 gets nothing of what ros2-client publishes on domain 0.
     let port = free_port();
@@ -383,7 +438,7 @@ fn ros2_client_inputs_map_as_well_as_the_native_run() {
             > 0),
         "ros2-client never connected to nrslam: the control would be vacuous"
     );
-    player.play(&recorded);
+    player.play(&recorded, None);
     assert!(
         nrslam.is_running(),
         "nrslam on domain 1 ended while ros2-client was still publishing on domain 0; its log \

@@ -7,7 +7,7 @@ pub mod msgs;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, ExitStatus, Stdio};
+use std::process::{Child, Command, ExitStatus};
 use std::sync::{Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
@@ -52,7 +52,7 @@ pub fn free_port() -> u16 {
 }
 
 /// A spawned nrslam, killed if still running when dropped (a failing test leaves nothing
-/// behind). Its stderr goes to a file of the test's temporary folder, shown on failure.
+/// behind). Its stdout and stderr go to a file of the test's temporary folder, shown on failure.
 pub struct Nrslam {
     child: Child,
     log: PathBuf,
@@ -66,7 +66,7 @@ impl Nrslam {
             .args(args)
             .current_dir(repo_root())
             .env("RUST_LOG", "warn")
-            .stdout(Stdio::null())
+            .stdout(stderr.try_clone().expect("clone the log file"))
             .stderr(stderr)
             .spawn()
             .expect("spawn nrslam");
