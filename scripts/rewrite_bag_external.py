@@ -19,10 +19,10 @@ from pathlib import Path
 
 
 def with_rosbags(src: Path, dst: Path) -> int:
-    from rosbags.rosbag2 import Reader, Writer
+    from rosbags.rosbag2 import Reader, StoragePlugin, Writer
 
     count = 0
-    with Reader(src) as reader, Writer(dst, version=9, storage_plugin=Writer.StoragePlugin.MCAP) as writer:
+    with Reader(src) as reader, Writer(dst, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
         connections = {}
         for connection in reader.connections:
             connections[connection.id] = writer.add_connection(

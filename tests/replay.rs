@@ -155,7 +155,13 @@ fn true_poses_standard_input_and_a_random_scene_replay_byte_identical() {
     let (run_dir, _, replay_dir, _) = record_and_replay(
         dir.path(),
         "random",
-        &["launch/paper-ideal.toml", &scene, "frames:=30", "--seed", "9"],
+        &[
+            "launch/paper-ideal.toml",
+            &scene,
+            "frames:=30",
+            "--seed",
+            "9",
+        ],
         &[],
     );
     assert_identical("random scene", &run_dir, &replay_dir);
@@ -205,4 +211,33 @@ fn a_bag_without_a_launch_record_replays_with_one_warning() {
     assert_eq!(replay["frames"], 20);
     // paper-ideal's back end is replay.toml's default: the maps agree.
     assert_eq!(replay["etgospa"], summary(&run_dir)["etgospa"]);
+}
+
+#[test]
+fn bags_written_by_rosbags_and_by_the_mcap_package_replay_with_one_warning() {
+    let dir = temp();
+    let fixtures = root().join("tests/fixtures/ros2/bags");
+    let mut etgospa = Vec::new();
+    for (name, bag) in [
+        ("rosbags", fixtures.join("replay_rosbags")),
+        ("mcap", fixtures.join("replay_mcap/replay_mcap_0.mcap")),
+    ] {
+        let out = dir.path().join(name);
+        let output = run_ok(&[
+            "launch",
+            "launch/replay.toml",
+            &format!("bag:={}", bag.display()),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        let warnings: Vec<&str> = stderr.lines().filter(|l| l.contains("warning")).collect();
+        assert_eq!(warnings.len(), 1, "{name}: {stderr}");
+        assert!(warnings[0].contains("no nrslam launch record"), "{stderr}");
+        let replay = summary(&out);
+        assert_eq!(replay["frames"], 20, "{name}");
+        assert_eq!(replay["launch"], "launch/replay.toml", "{name}");
+        etgospa.push(replay["etgospa"].as_f64().expect("scored"));
+    }
+    assert_eq!(etgospa[0], etgospa[1], "the same messages, the same map");
 }

@@ -107,7 +107,9 @@ fn read_metadata(dir: &Path, mode: ReadMode) -> Result<Option<BagInfo>, BagError
         Err(_) => {
             return Err(BagError::NotABag {
                 path: dir.to_owned(),
-                reason: "no metadata.yaml (a recording cut off? try --recover)".into(),
+                reason: "no metadata.yaml (an MCAP file from the mcap tools: name the .mcap \
+                         file itself; a recording cut off: try --recover)"
+                    .into(),
             })
         }
     };
