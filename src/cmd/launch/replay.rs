@@ -15,8 +15,8 @@
 //! differs from the recording.
 
 use super::LaunchArgs;
-use crate::report::{Reporter, Summary};
 use crate::registry;
+use crate::report::{Reporter, Summary};
 use anyhow::{anyhow, bail, Context, Result};
 use nrslam_runtime::bag;
 use nrslam_runtime::launch::{parse_param_assignment, Launch, NodeDecl};
@@ -117,7 +117,10 @@ pub(super) fn run_identity(launch: &Launch, seed: u64) -> Result<BTreeMap<String
 }
 
 /// The recorded run in a bag's `custom_data`; `None` without a launch record.
-fn recorded_run(dir: &std::path::Path, custom: &BTreeMap<String, String>) -> Result<Option<RecordedRun>> {
+fn recorded_run(
+    dir: &std::path::Path,
+    custom: &BTreeMap<String, String>,
+) -> Result<Option<RecordedRun>> {
     let key_error = |key: &str| format!("{}: custom_data {key}", dir.display());
     let (Some(launch), Some(arguments), Some(seed), Some(nodes)) = (
         custom.get(bag::RUN_LAUNCH_KEY),
@@ -133,9 +136,7 @@ fn recorded_run(dir: &std::path::Path, custom: &BTreeMap<String, String>) -> Res
         launch: launch.clone(),
         arguments: serde_json::from_str(arguments)
             .with_context(|| key_error(bag::RUN_ARGUMENTS_KEY))?,
-        seed: seed
-            .parse()
-            .with_context(|| key_error(bag::RUN_SEED_KEY))?,
+        seed: seed.parse().with_context(|| key_error(bag::RUN_SEED_KEY))?,
         nodes: nodes.node,
     }))
 }
@@ -158,7 +159,11 @@ pub(super) fn prepare(launch: Launch, args: &LaunchArgs) -> Result<(Launch, Opti
     let Some(bag_node) = replaying_bag(&launch) else {
         return Ok((launch, None));
     };
-    let path = bag_node.params.get("path").and_then(|p| p.as_str()).unwrap_or("");
+    let path = bag_node
+        .params
+        .get("path")
+        .and_then(|p| p.as_str())
+        .unwrap_or("");
     if path.is_empty() {
         bail!(
             "{}: no bag folder given: name the recorded bag with bag:=DIR",
@@ -316,7 +321,11 @@ fn recorded_back_end(
                 node.kind
             )
         })?;
-        if !built.outputs().iter().any(|t| played.iter().any(|p| p == t)) {
+        if !built
+            .outputs()
+            .iter()
+            .any(|t| played.iter().any(|p| p == t))
+        {
             back_end.push(node.clone());
         }
     }
@@ -439,7 +448,10 @@ mod tests {
         let text = toml::to_string(&nodes).unwrap();
         let back: RecordedNodes = toml::from_str(&text).unwrap();
         assert_eq!(back.node[0].params, params);
-        assert!(back.node[0].params["c"].as_float().unwrap().is_sign_negative());
+        assert!(back.node[0].params["c"]
+            .as_float()
+            .unwrap()
+            .is_sign_negative());
         assert!(back.node[0].params["a"].is_integer() && back.node[0].params["b"].is_float());
     }
 }
