@@ -1,13 +1,54 @@
 //! The argument structs several verbs flatten into theirs (`#[command(flatten)]`), each defined
-//! once: where a zenoh session listens and connects ([`TransportArgs`]), the real-time factor
-//! ([`RateArgs`]) and the output folder of the verbs that write several files
-//! ([`OutputDirArgs`]). Their numeric ranges are in [`crate::flags`].
+//! once: where a zenoh session listens and connects ([`TransportArgs`]), which keys it speaks
+//! ([`RosDomainArgs`]: nrslam's or rmw_zenoh's), the real-time factor ([`RateArgs`]) and the
+//! output folder of the verbs that write several files ([`OutputDirArgs`]). Their numeric ranges
+//! are in [`crate::flags`].
 
 use anyhow::{Context, Result};
 use clap::Args;
 use std::path::{Path, PathBuf};
 
-use crate::flags::{check, RATE};
+use crate::flags::{check, Whole, RATE};
+use nrslam_runtime::transport::KeyStyle;
+
+/// ROS 2 domain ids (`ROS_DOMAIN_ID`), for every verb's `--ros-domain-id`.
+pub(crate) const ROS_DOMAIN_ID: Whole = Whole::new(0, 232, "0 to 232 (ROS 2 domain ids)");
+
+/// `--ros-domain-id` of the verbs that take or give a live graph's topics without being a
+/// launcher: `run`, `echo`, `topics`, `bag record`.
+#[derive(Args, Debug, Clone, Copy, Default)]
+pub struct RosDomainArgs {
+    /// Speak rmw_zenoh in this ROS 2 domain, 0 to 232: subscribe to each topic on
+    /// `<domain>/<topic>/<DDS type>/*`, taking samples whose type hash is the topic's RIHS01 or
+    /// the all-zero placeholder (others are dropped and counted as type_hash_mismatch), so ROS 2
+    /// publishers are heard; `run` also publishes as a ROS 2 node (liveliness tokens, rmw_zenoh's
+    /// attachment). Default: nrslam's own keys (`map`).
+    #[arg(long, value_name = "DOMAIN_ID", value_parser = ROS_DOMAIN_ID.parser::<u32>(), allow_hyphen_values = true)]
+    pub ros_domain_id: Option<u32>,
+}
+
+impl RosDomainArgs {
+    /// Checks `--ros-domain-id` against its range.
+    pub fn validate(&self) -> Result<()> {
+        if let Some(id) = self.ros_domain_id {
+            check("--ros-domain-id", ROS_DOMAIN_ID.check(id))?;
+        }
+        Ok(())
+    }
+
+    /// The key style these flags ask for.
+    pub fn key_style(&self) -> KeyStyle {
+        key_style(self.ros_domain_id)
+    }
+}
+
+/// nrslam's keys, or rmw_zenoh's in ROS domain `ros_domain_id`.
+pub fn key_style(ros_domain_id: Option<u32>) -> KeyStyle {
+    match ros_domain_id {
+        Some(domain_id) => KeyStyle::RmwZenoh { domain_id },
+        None => KeyStyle::Nrslam,
+    }
+}
 
 /// `--rate`, the real-time factor that `launch`, `run` and `bag play` share.
 #[derive(Args, Debug, Clone, Copy, Default)]

@@ -11,6 +11,8 @@
 //! - `transport` (feature `zenoh`): the zenoh session, node adapters and the start barrier.
 //! - `receive` (feature `zenoh`): the one receive path: bounded queues, unusable samples dropped
 //!   and counted, `/diagnostics`.
+//! - `external` (feature `zenoh`): the source node that feeds a launch's `[[external]]` topics
+//!   from zenoh into an in-process graph.
 //! - `supervisor`: node processes watched and respawned as ROS 2 launch does; `supervised`
 //!   (feature `zenoh`): the launcher's receive loop over them, restarting the ones that die.
 //! - [`wiring`]: the checks that a graph's nodes fit together before it runs.
@@ -38,6 +40,8 @@ pub mod wiring;
 
 pub use config::{parse_params, InvalidParam, ParamsError};
 pub use node::{Node, NodeContext, NodeError, NodeResult, Outbox, Tick};
+#[cfg(feature = "zenoh")]
+pub mod external;
 #[cfg(feature = "zenoh")]
 pub mod receive;
 #[cfg(feature = "zenoh")]

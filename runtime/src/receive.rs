@@ -11,6 +11,19 @@
 //! | `stamp_backwards` | older than the last message accepted on the same topic (not on     |
 //! |                   | `/diagnostics`, where every process reports at its own time)       |
 //! | `queue_full`      | a best-effort topic's queue overflowed: the oldest sample went     |
+//! | `type_hash_mismatch` | ROS mode: the key's RIHS01 hash is neither the catalogue type's |
+//! |                   | nor the all-zero placeholder (another type on the topic's name)    |
+//!
+//! Key styles ([`KeyStyle`]): nrslam's own keys (`map`, an empty payload ends the stream), or,
+//! with `--ros-domain-id`, rmw_zenoh's: each topic is subscribed on
+//! `<domain>/<topic>/<DDS type>/*` and the last chunk judged by
+//! [`crate::rmw_zenoh::judge_hash`]: the catalogue type's RIHS01 hash and the all-zero
+//! placeholder that clients without the hash send (the `ros2-client` crate for Odometry,
+//! RadarScan, ...) are taken and then decoded and checked like any sample, nrslam's
+//! end-of-stream key ends the stream, and any other hash is dropped unread and counted as
+//! `type_hash_mismatch`. The attachment is not required (not every client sends one). A
+//! transient-local topic is an `AdvancedSubscriber` with history and late-publisher detection, as
+//! rmw_zenoh subscribes to it, so a latched message published before we joined still arrives.
 //!
 //! Counts are kept per topic and reason ([`Drops`]); the first drop on a topic is logged at once
 //! and later ones at most every [`LOG_INTERVAL`]. With [`BadInput::Fail`] the first unusable
@@ -22,7 +35,9 @@
 //! best-effort topic the oldest sample is dropped and counted. Samples are delivered in arrival
 //! order across topics.
 
-use nrslam_msgs::topics::{self, Reliability};
+use crate::rmw_zenoh::{self, HashVerdict};
+pub use crate::transport::KeyStyle;
+use nrslam_msgs::topics::{self, Durability, Reliability};
 use nrslam_msgs::{Message, Time};
 use std::collections::{BTreeMap, VecDeque};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
@@ -226,6 +241,14 @@ pub enum ReceiveError {
     /// The topic is not in the catalogue.
     #[error("{0}: not in the topic catalogue")]
     UnknownTopic(String),
+    /// A topic's type has no RIHS01 hash to subscribe by (ROS mode).
+    #[error("{topic}: {reason}")]
+    TypeHash {
+        /// Topic.
+        topic: String,
+        /// Why.
+        reason: String,
+    },
     /// Under [`BadInput::Fail`]: the first unusable sample.
     #[error("{topic}: unusable sample ({reason}): {detail}")]
     Unusable {
@@ -255,6 +278,9 @@ struct Queues {
     topics: BTreeMap<&'static str, TopicQueue>,
     arrivals: u64,
     closed: bool,
+    /// Samples refused before queueing (by their key), per (topic, reason): count and the last
+    /// one's detail, taken by the next pop.
+    refused: BTreeMap<(&'static str, &'static str), (u64, String)>,
 }
 
 #[derive(Debug, Default)]
@@ -300,7 +326,21 @@ impl Shared {
         self.arrived.notify_all();
     }
 
-    /// The oldest sample over all topics, with the overflow counts taken since the last call.
+    /// Counts a sample on `topic` refused by its key (not queued, its payload never copied).
+    fn refuse(&self, topic: &'static str, reason: &'static str, detail: String) {
+        let mut queues = self.lock();
+        if queues.closed || !queues.topics.contains_key(topic) {
+            return;
+        }
+        let slot = queues.refused.entry((topic, reason)).or_default();
+        slot.0 = slot.0.saturating_add(1);
+        slot.1 = detail;
+        drop(queues);
+        self.arrived.notify_all();
+    }
+
+    /// The oldest sample over all topics, with the overflow and refusal counts taken since the
+    /// last call.
     fn pop(&self, timeout: Duration) -> Popped {
         let deadline = Instant::now().checked_add(timeout);
         let mut queues = self.lock();
@@ -310,6 +350,15 @@ impl Shared {
                 .iter_mut()
                 .filter(|(_, q)| q.overflowed > 0)
                 .map(|(t, q)| (*t, std::mem::take(&mut q.overflowed)))
+                .collect();
+            let refused: Vec<Refused> = std::mem::take(&mut queues.refused)
+                .into_iter()
+                .map(|((topic, reason), (count, detail))| Refused {
+                    topic,
+                    reason,
+                    count,
+                    detail,
+                })
                 .collect();
             let oldest = queues
                 .topics
@@ -324,12 +373,17 @@ impl Shared {
                     .map(|(_, bytes)| (topic, bytes));
                 drop(queues);
                 self.taken.notify_all();
-                return Popped { sample, overflowed };
+                return Popped {
+                    sample,
+                    overflowed,
+                    refused,
+                };
             }
-            if !overflowed.is_empty() || queues.closed {
+            if !overflowed.is_empty() || !refused.is_empty() || queues.closed {
                 return Popped {
                     sample: None,
                     overflowed,
+                    refused,
                 };
             }
             let now = Instant::now();
@@ -338,6 +392,7 @@ impl Shared {
                     return Popped {
                         sample: None,
                         overflowed,
+                        refused,
                     }
                 }
                 Some(deadline) => deadline - now,
@@ -361,12 +416,28 @@ impl Shared {
 struct Popped {
     sample: Option<(&'static str, Vec<u8>)>,
     overflowed: Vec<(&'static str, u64)>,
+    refused: Vec<Refused>,
+}
+
+/// Samples on one topic refused for one reason by their key.
+struct Refused {
+    topic: &'static str,
+    reason: &'static str,
+    count: u64,
+    detail: String,
+}
+
+/// A declared subscription, kept alive as long as the inbox.
+enum Subscription {
+    Plain(#[allow(dead_code)] zenoh::pubsub::Subscriber<()>),
+    /// A transient-local topic in ROS mode (history, late-publisher detection).
+    Advanced(#[allow(dead_code)] zenoh_ext::AdvancedSubscriber<()>),
 }
 
 /// The subscriptions of one receiver, with their bounded queues, checks and drop counts.
 pub struct Inbox {
     shared: Arc<Shared>,
-    _subscribers: Vec<zenoh::pubsub::Subscriber<()>>,
+    _subscribers: Vec<Subscription>,
     policy: BadInput,
     in_order: bool,
     drops: Drops,
@@ -386,12 +457,24 @@ impl std::fmt::Debug for Inbox {
 }
 
 impl Inbox {
-    /// Subscribes to `topics` (catalogue names) under `namespace`.
+    /// Subscribes to `topics` (catalogue names) under `namespace`, on nrslam's keys.
     pub fn subscribe(
         session: &zenoh::Session,
         namespace: &str,
         topics: &[&'static str],
         options: InboxOptions,
+    ) -> Result<Self, ReceiveError> {
+        Self::subscribe_styled(session, namespace, topics, options, KeyStyle::Nrslam)
+    }
+
+    /// Subscribes to `topics` (catalogue names) under `namespace` (with [`KeyStyle::RmwZenoh`]:
+    /// the ROS namespace), on the keys of `style` (see the module's documentation).
+    pub fn subscribe_styled(
+        session: &zenoh::Session,
+        namespace: &str,
+        topics: &[&'static str],
+        options: InboxOptions,
+        style: KeyStyle,
     ) -> Result<Self, ReceiveError> {
         let shared = Arc::new(Shared::default());
         {
@@ -420,13 +503,19 @@ impl Inbox {
         let mut subscribers = Vec::new();
         for &topic in topics {
             let shared = shared.clone();
-            let subscriber = session
-                .declare_subscriber(topics::key_expr(namespace, topic))
-                .callback(move |sample| {
-                    shared.push(topic, sample.payload().to_bytes().into_owned())
-                })
-                .wait()
-                .map_err(|e| ReceiveError::Zenoh(e.to_string()))?;
+            let subscriber = match style {
+                KeyStyle::Nrslam => session
+                    .declare_subscriber(topics::key_expr(namespace, topic))
+                    .callback(move |sample| {
+                        shared.push(topic, sample.payload().to_bytes().into_owned())
+                    })
+                    .wait()
+                    .map(Subscription::Plain)
+                    .map_err(|e| ReceiveError::Zenoh(format!("subscribing to {topic}: {e}")))?,
+                KeyStyle::RmwZenoh { domain_id } => {
+                    ros_subscription(session, namespace, domain_id, topic, shared)?
+                }
+            };
             subscribers.push(subscriber);
         }
         Ok(Self {
@@ -452,6 +541,18 @@ impl Inbox {
                 self.drops.add(topic, "queue_full", n);
                 self.changed = true;
                 self.log(topic, "queue_full", &format!("{n} oldest samples evicted"));
+            }
+            for refused in popped.refused {
+                self.drops.add(refused.topic, refused.reason, refused.count);
+                self.changed = true;
+                if self.policy == BadInput::Fail {
+                    return Err(ReceiveError::Unusable {
+                        topic: refused.topic.into(),
+                        reason: refused.reason,
+                        detail: refused.detail,
+                    });
+                }
+                self.log(refused.topic, refused.reason, &refused.detail);
             }
             let Some((topic, bytes)) = popped.sample else {
                 if self.shared.lock().closed {
@@ -554,6 +655,79 @@ impl Inbox {
     pub fn take_changed(&mut self) -> bool {
         std::mem::take(&mut self.changed)
     }
+}
+
+/// The subscription of catalogue topic `topic` on rmw_zenoh's keys in ROS domain `domain_id`:
+/// the hash chunk matched by `*` and judged per sample; declared as rmw_zenoh's
+/// `SubscriptionData::init` does (an `AdvancedSubscriber` with history of `depth` samples,
+/// late-publisher detection and, when reliable, heartbeat-based miss recovery for a
+/// transient-local topic).
+fn ros_subscription(
+    session: &zenoh::Session,
+    namespace: &str,
+    domain_id: u32,
+    topic: &'static str,
+    shared: Arc<Shared>,
+) -> Result<Subscription, ReceiveError> {
+    let spec = topics::spec(topic).ok_or_else(|| ReceiveError::UnknownTopic(topic.into()))?;
+    let expected =
+        crate::type_hash::rihs01(spec.type_name).map_err(|e| ReceiveError::TypeHash {
+            topic: topic.into(),
+            reason: e.to_string(),
+        })?;
+    let key = rmw_zenoh::key_expr_with_hash(
+        domain_id,
+        &rmw_zenoh::qualified_topic(namespace, topic),
+        spec.type_name,
+        "*",
+    );
+    let callback = move |sample: zenoh::sample::Sample| {
+        let chunk = sample.key_expr().as_str().rsplit('/').next().unwrap_or("");
+        match rmw_zenoh::judge_hash(chunk, &expected) {
+            HashVerdict::Accept if sample.payload().is_empty() => {
+                // Empty is nrslam's end marker only on its own key: here it is no CDR at all.
+                shared.refuse(topic, "bad_cdr", "empty payload".into());
+            }
+            HashVerdict::Accept => shared.push(topic, sample.payload().to_bytes().into_owned()),
+            HashVerdict::EndOfStream => shared.push(topic, Vec::new()),
+            HashVerdict::Mismatch => shared.refuse(
+                topic,
+                "type_hash_mismatch",
+                format!(
+                    "key hash {chunk:?} is neither {}'s {expected} nor the zero placeholder",
+                    spec.type_name
+                ),
+            ),
+        }
+    };
+    let zerr = |e: zenoh::Error| ReceiveError::Zenoh(format!("subscribing to {key}: {e}"));
+    let qos = rmw_zenoh::EntityQos::from(spec.qos);
+    if spec.qos.durability != Durability::TransientLocal {
+        return session
+            .declare_subscriber(key.clone())
+            .callback(callback)
+            .wait()
+            .map(Subscription::Plain)
+            .map_err(zerr);
+    }
+    use zenoh_ext::{AdvancedSubscriberBuilderExt, HistoryConfig, RecoveryConfig};
+    let depth = rmw_zenoh::advanced_publisher_options(&qos).map_or(1, |(depth, _)| depth);
+    let mut builder = session
+        .declare_subscriber(key.clone())
+        .history(
+            HistoryConfig::default()
+                .detect_late_publishers()
+                .max_samples(depth),
+        )
+        .subscriber_detection();
+    if spec.qos.reliability == Reliability::Reliable {
+        builder = builder.recovery(RecoveryConfig::default().heartbeat());
+    }
+    builder
+        .callback(callback)
+        .wait()
+        .map(Subscription::Advanced)
+        .map_err(zerr)
 }
 
 impl Drop for Inbox {
@@ -707,6 +881,157 @@ mod tests {
         }
         publisher.join().unwrap();
         assert!(inbox.drops().is_empty());
+    }
+
+    /// The key rmw_zenoh (or another client) publishes `topic` on in domain 0, with `hash`.
+    fn ros_key(topic: &str, hash: &str) -> String {
+        let spec = topics::spec(topic).unwrap();
+        crate::rmw_zenoh::key_expr_with_hash(0, topic, spec.type_name, hash)
+    }
+
+    fn odometry(sec: i32) -> Vec<u8> {
+        let mut odometry = nrslam_msgs::Odometry::default();
+        odometry.header.stamp = Time { sec, nanosec: 0 };
+        Message::from(odometry).encode().unwrap()
+    }
+
+    fn put_key(session: &zenoh::Session, key: &str, bytes: Vec<u8>, attachment: bool) {
+        let put = session
+            .put(key.to_owned(), bytes)
+            .congestion_control(zenoh::qos::CongestionControl::Block);
+        let put = match attachment {
+            true => put.attachment(crate::rmw_zenoh::attachment(1, 0, &[7; 16])),
+            false => put,
+        };
+        put.wait().unwrap();
+    }
+
+    #[test]
+    fn ros_keys_take_the_real_and_the_zero_hash_and_count_any_other() {
+        let session = session();
+        let style = KeyStyle::RmwZenoh { domain_id: 0 };
+        let mut inbox = Inbox::subscribe_styled(
+            &session,
+            "",
+            &[topics::ODOM],
+            InboxOptions::default(),
+            style,
+        )
+        .unwrap();
+        let real = crate::type_hash::rihs01("nav_msgs/msg/Odometry").unwrap();
+        let wrong = crate::type_hash::rihs01("geometry_msgs/msg/PoseStamped").unwrap();
+        let zero = crate::rmw_zenoh::PLACEHOLDER_TYPE_HASH;
+        put_key(&session, &ros_key(topics::ODOM, &real), odometry(1), true);
+        put_key(&session, &ros_key(topics::ODOM, zero), odometry(2), false);
+        put_key(&session, &ros_key(topics::ODOM, &wrong), odometry(3), true);
+        put_key(
+            &session,
+            &ros_key(topics::ODOM, "RIHS01_ab"),
+            odometry(4),
+            true,
+        );
+        // Another domain, and nrslam's own key: not subscribed in domain 0's ROS mode.
+        let other_domain =
+            crate::rmw_zenoh::key_expr_with_hash(1, topics::ODOM, "nav_msgs/msg/Odometry", &real);
+        put_key(&session, &other_domain, odometry(5), true);
+        put(&session, topics::ODOM, odometry(6));
+        put_key(&session, &ros_key(topics::ODOM, &real), Vec::new(), true);
+        put_key(&session, &ros_key(topics::ODOM, &real), odometry(7), true);
+        put_key(
+            &session,
+            &ros_key(topics::ODOM, "nrslam_end"),
+            Vec::new(),
+            false,
+        );
+        let stamp = |delivery: Option<Delivery>| match delivery {
+            Some(Delivery::Message {
+                message: Message::Odometry(o),
+                ..
+            }) => o.header.stamp.sec,
+            other => panic!("expected odometry, got {other:?}"),
+        };
+        assert_eq!(stamp(next(&mut inbox)), 1);
+        assert_eq!(stamp(next(&mut inbox)), 2);
+        assert_eq!(stamp(next(&mut inbox)), 7);
+        assert_eq!(
+            next(&mut inbox),
+            Some(Delivery::End {
+                topic: topics::ODOM
+            })
+        );
+        let drops = inbox.drops();
+        assert_eq!(
+            drops.get(topics::ODOM, "type_hash_mismatch"),
+            2,
+            "{drops:?}"
+        );
+        assert_eq!(drops.get(topics::ODOM, "bad_cdr"), 1, "{drops:?}");
+        assert_eq!(drops.total(), 3, "{drops:?}");
+    }
+
+    #[test]
+    fn under_fail_a_wrong_type_hash_is_the_error() {
+        let session = session();
+        let options = InboxOptions {
+            bad_input: BadInput::Fail,
+            ..InboxOptions::default()
+        };
+        let style = KeyStyle::RmwZenoh { domain_id: 0 };
+        let mut inbox =
+            Inbox::subscribe_styled(&session, "", &[topics::ODOM], options, style).unwrap();
+        put_key(
+            &session,
+            &ros_key(topics::ODOM, "RIHS01_ab"),
+            odometry(1),
+            true,
+        );
+        let error = inbox.recv_timeout(Duration::from_secs(5)).unwrap_err();
+        assert!(
+            matches!(
+                error,
+                ReceiveError::Unusable {
+                    reason: "type_hash_mismatch",
+                    ..
+                }
+            ),
+            "{error}"
+        );
+    }
+
+    #[test]
+    fn a_latched_ros_topic_published_before_the_subscription_still_arrives() {
+        let session = session();
+        let node = crate::transport::RosNode::from_catalogue(
+            "radar",
+            &[topics::GROUND_TRUTH_TARGETS],
+            &[],
+        )
+        .unwrap();
+        let mut publisher =
+            crate::transport::TopicPublisher::with_ros_nodes(&session, "", 0, &[node]).unwrap();
+        let targets = nrslam_msgs::TargetSet {
+            header: nrslam_msgs::Header::new(Time { sec: 3, nanosec: 0 }, "map"),
+            ..Default::default()
+        };
+        publisher
+            .publish(topics::GROUND_TRUTH_TARGETS, &targets.into())
+            .unwrap();
+        let style = KeyStyle::RmwZenoh { domain_id: 0 };
+        let mut inbox = Inbox::subscribe_styled(
+            &session,
+            "",
+            &[topics::GROUND_TRUTH_TARGETS],
+            InboxOptions::default(),
+            style,
+        )
+        .unwrap();
+        match next(&mut inbox) {
+            Some(Delivery::Message {
+                message: Message::TargetSet(t),
+                ..
+            }) => assert_eq!(t.header.stamp.sec, 3),
+            other => panic!("expected the latched target set, got {other:?}"),
+        }
     }
 
     #[test]

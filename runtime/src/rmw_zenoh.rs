@@ -54,6 +54,53 @@ pub fn key_expr_with_hash(domain_id: u32, topic: &str, type_name: &str, type_has
     )
 }
 
+/// The type hash the `ros2-client` crate's zenoh backend (and other clients that cannot compute
+/// one) puts in the key of a type it has no hash for: `RIHS01_` and 64 zeros.
+pub const PLACEHOLDER_TYPE_HASH: &str =
+    "RIHS01_0000000000000000000000000000000000000000000000000000000000000000";
+
+/// The last chunk of nrslam's end-of-stream key in ROS mode, where the type hash would be: an
+/// empty payload on `<domain>/<topic>/<DDS type>/nrslam_end` ends the topic's stream for nrslam
+/// subscribers (which match the hash chunk with `*`), while rmw_zenoh subscribers, which match
+/// their exact type hash, never see it (an empty payload is not CDR to them).
+pub const END_OF_STREAM_CHUNK: &str = "nrslam_end";
+
+/// How a receiver judges the hash chunk of a sample's key against the type it expects.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum HashVerdict {
+    /// The expected RIHS01 hash, or the all-zero placeholder: the payload is the type's CDR (the
+    /// receive path still decodes and checks it).
+    Accept,
+    /// nrslam's end-of-stream key ([`END_OF_STREAM_CHUNK`]).
+    EndOfStream,
+    /// Another type's hash (or no hash): not this type's data.
+    Mismatch,
+}
+
+/// Judges `chunk`, the last chunk of a data key, for a subscriber of the type whose hash is
+/// `expected`. The placeholder is accepted because publishers that lack the hash of a standard
+/// type (Odometry, RadarScan, ...) send it with the right CDR; the decoder refuses the payload
+/// if the type is not what the topic carries.
+pub fn judge_hash(chunk: &str, expected: &str) -> HashVerdict {
+    if chunk == expected || chunk == PLACEHOLDER_TYPE_HASH {
+        HashVerdict::Accept
+    } else if chunk == END_OF_STREAM_CHUNK {
+        HashVerdict::EndOfStream
+    } else {
+        HashVerdict::Mismatch
+    }
+}
+
+/// The fully qualified ROS name of graph topic `topic` in the ROS namespace of zenoh key prefix
+/// `namespace` (`robot1`, `/map` → `/robot1/map`; no namespace: `/map`).
+pub fn qualified_topic(namespace: &str, topic: &str) -> String {
+    let topic = topic.trim_matches('/');
+    match namespace.trim_matches('/') {
+        "" => format!("/{topic}"),
+        ns => format!("/{ns}/{topic}"),
+    }
+}
+
 /// The data key expression of `topic` in ROS domain `domain_id` (`TopicInfo::topic_keyexpr_`).
 pub fn data_key_expr(domain_id: u32, topic: &TopicInfo) -> String {
     format!(
@@ -322,6 +369,26 @@ mod tests {
         assert_eq!(
             key_expr(0, "/map", "nav_msgs/msg/OccupancyGrid").unwrap(),
             "0/map/nav_msgs::msg::dds_::OccupancyGrid_/RIHS01_8d348150c12913a31ee0ec170fbf25089e4745d17035792a1ba94d6f0bc0cfc7"
+        );
+    }
+
+    #[test]
+    fn hashes_are_judged_real_placeholder_end_or_mismatch() {
+        let real = type_hash::rihs01("nav_msgs/msg/Odometry").unwrap();
+        assert_eq!(PLACEHOLDER_TYPE_HASH.len(), "RIHS01_".len() + 64);
+        assert_eq!(judge_hash(&real, &real), HashVerdict::Accept);
+        assert_eq!(
+            judge_hash(PLACEHOLDER_TYPE_HASH, &real),
+            HashVerdict::Accept
+        );
+        assert_eq!(judge_hash("nrslam_end", &real), HashVerdict::EndOfStream);
+        let other = type_hash::rihs01("nav_msgs/msg/OccupancyGrid").unwrap();
+        assert_eq!(judge_hash(&other, &real), HashVerdict::Mismatch);
+        assert_eq!(judge_hash("RIHS01_00", &real), HashVerdict::Mismatch);
+        assert_eq!(qualified_topic("", "/odom"), "/odom");
+        assert_eq!(
+            qualified_topic("/robot1/", "/radar/points"),
+            "/robot1/radar/points"
         );
     }
 

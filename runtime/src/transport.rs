@@ -283,8 +283,11 @@ pub enum KeyStyle {
     Nrslam,
     /// rmw_zenoh's, in ROS domain `domain_id` ([`crate::rmw_zenoh`]): data on
     /// `<domain>/<topic>/<DDS type>/<RIHS01 hash>` with rmw_zenoh's attachment, liveliness tokens
-    /// for the nodes and their publishers, transient-local topics cached for late joiners; no
-    /// end-of-stream marker (ROS 2 has none).
+    /// for the nodes and their publishers, transient-local topics cached for late joiners; the
+    /// end of a stream is an empty payload on `<domain>/<topic>/<DDS type>/nrslam_end`, a key
+    /// only nrslam's subscribers match (ROS 2 has no end-of-stream). Received by
+    /// [`Inbox::subscribe_styled`] on `<domain>/<topic>/<DDS type>/*`, the hash judged by
+    /// [`crate::rmw_zenoh::judge_hash`].
     RmwZenoh {
         /// ROS domain id (`ROS_DOMAIN_ID`).
         domain_id: u32,
@@ -439,11 +442,12 @@ impl TopicPublisher {
         self.put(topic, bytes)
     }
 
-    /// Marks the end of `topic`'s stream.
-    /// (With [`KeyStyle::RmwZenoh`]: nothing, ROS 2 has no end-of-stream.)
+    /// Marks the end of `topic`'s stream. With [`KeyStyle::RmwZenoh`] on nrslam's end-of-stream
+    /// key ([`crate::rmw_zenoh::END_OF_STREAM_CHUNK`]): ROS 2 has no end-of-stream, and its
+    /// subscribers never match that key; nrslam's do, so a chain of nodes in one ROS domain ends.
     pub fn end(&mut self, topic: &str) -> Result<(), TransportError> {
-        if self.ros.is_some() {
-            return Ok(());
+        if let Some(graph) = &self.ros {
+            return graph.end(topic);
         }
         self.put(topic, Vec::new())
     }
@@ -523,6 +527,7 @@ pub fn run_node(
             rate,
             inbox: InboxOptions::default(),
             ended: Vec::new(),
+            style: KeyStyle::Nrslam,
         },
     )
 }
@@ -544,6 +549,10 @@ pub struct NodeRun {
     /// Inputs whose streams ended before the node started (a respawned node is told so by its
     /// launcher): nothing more will arrive on them.
     pub ended: Vec<&'static str>,
+    /// Keys of inputs and outputs. With [`KeyStyle::RmwZenoh`] the node is also a ROS 2 node on
+    /// rmw_zenoh (its `NN`, `MP` and `MS` tokens) whose subscriptions take what ROS 2 publishers
+    /// send; the start barrier stays on nrslam's keys.
+    pub style: KeyStyle,
 }
 
 /// [`run_node`] with every option. Returns what the receive path dropped.
@@ -560,11 +569,23 @@ pub fn run_node_with(
         rate,
         inbox: inbox_options,
         ended,
+        style,
     } = run;
     let inputs = node.inputs();
     let outputs = node.outputs();
-    let mut publisher = TopicPublisher::new(session, namespace, &outputs)?;
-    let mut inbox = Inbox::subscribe(session, namespace, &inputs, inbox_options)?;
+    let mut publisher = match style {
+        KeyStyle::Nrslam => TopicPublisher::new(session, namespace, &outputs)?,
+        KeyStyle::RmwZenoh { domain_id } => {
+            // /diagnostics is the node's own publisher too, not a second ROS node's.
+            let mut published = outputs.clone();
+            if !published.contains(&topics::DIAGNOSTICS) {
+                published.push(topics::DIAGNOSTICS);
+            }
+            let ros = RosNode::from_catalogue(name, &published, &inputs)?;
+            TopicPublisher::with_ros_nodes(session, namespace, domain_id, &[ros])?
+        }
+    };
+    let mut inbox = Inbox::subscribe_styled(session, namespace, &inputs, inbox_options, style)?;
     let (_start_subscriber, start) = if inputs.is_empty() && wait_for_start {
         let (sender, receiver) = mpsc::channel();
         let subscriber = session

@@ -1,6 +1,7 @@
 //! Whether a graph's nodes fit together before anything runs: every topic a node names is in the
-//! catalogue, every input has a publisher among the nodes, and a node declared respawnable can
-//! pick its streams up halfway.
+//! catalogue, every input has a publisher among the nodes or is declared external (fed from
+//! outside the launch, `[[external]]`), and a node declared respawnable can pick its streams up
+//! halfway.
 
 use crate::node::Node;
 use nrslam_msgs::topics;
@@ -17,8 +18,26 @@ pub enum WiringError {
         topic: String,
     },
     /// A node subscribes a topic that no node of the graph publishes.
-    #[error("node {node} subscribes to {topic}, which no node of the launch publishes")]
+    #[error(
+        "node {node} subscribes to {topic}, which no node of the launch publishes (declare it \
+         [[external]] if it comes from outside)"
+    )]
     NoPublisher {
+        /// Node instance name.
+        node: String,
+        /// The topic.
+        topic: String,
+    },
+    /// An `[[external]]` topic the catalogue does not have.
+    #[error("external topic {topic} is not in the catalogue")]
+    UnknownExternal {
+        /// The topic.
+        topic: String,
+    },
+    /// An `[[external]]` topic that a node of the launch publishes as well: two streams would
+    /// interleave in one.
+    #[error("external topic {topic} is published by node {node} of the launch as well")]
+    ExternalPublished {
         /// Node instance name.
         node: String,
         /// The topic.
@@ -46,9 +65,27 @@ pub enum WiringError {
     },
 }
 
-/// Checks every node's topics against the catalogue, then every input against the outputs of
-/// the graph's nodes; the first problem in node order is the error.
-pub fn check_wiring(nodes: &[(String, Box<dyn Node>)]) -> Result<(), WiringError> {
+/// The catalogue names of `[[external]]` topics, refused if one is not in the catalogue.
+pub fn external_topics(externals: &[String]) -> Result<Vec<&'static str>, WiringError> {
+    externals
+        .iter()
+        .map(|topic| {
+            topics::spec(topic)
+                .map(|spec| spec.name)
+                .ok_or_else(|| WiringError::UnknownExternal {
+                    topic: topic.clone(),
+                })
+        })
+        .collect()
+}
+
+/// Checks every node's topics against the catalogue, that no node publishes an `externals`
+/// topic, then every input against the outputs of the graph's nodes and `externals`; the first
+/// problem in node order is the error.
+pub fn check_wiring(
+    nodes: &[(String, Box<dyn Node>)],
+    externals: &[&'static str],
+) -> Result<(), WiringError> {
     for (name, node) in nodes {
         for topic in node.inputs().into_iter().chain(node.outputs()) {
             if topics::spec(topic).is_none() {
@@ -58,10 +95,17 @@ pub fn check_wiring(nodes: &[(String, Box<dyn Node>)]) -> Result<(), WiringError
                 });
             }
         }
+        if let Some(topic) = node.outputs().into_iter().find(|t| externals.contains(t)) {
+            return Err(WiringError::ExternalPublished {
+                node: name.clone(),
+                topic: topic.to_owned(),
+            });
+        }
         for topic in node.inputs() {
-            if !nodes
-                .iter()
-                .any(|(_, other)| other.outputs().contains(&topic))
+            if !externals.contains(&topic)
+                && !nodes
+                    .iter()
+                    .any(|(_, other)| other.outputs().contains(&topic))
             {
                 return Err(WiringError::NoPublisher {
                     node: name.clone(),
@@ -91,5 +135,61 @@ pub fn check_respawnable(name: &str, node: &dyn Node) -> Result<(), WiringError>
             topic: topic.to_owned(),
         }),
         None => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::node::{NodeResult, Outbox};
+    use nrslam_msgs::Message;
+
+    /// A node of given inputs and outputs that does nothing.
+    struct Stub(Vec<&'static str>, Vec<&'static str>);
+
+    impl Node for Stub {
+        fn inputs(&self) -> Vec<&'static str> {
+            self.0.clone()
+        }
+        fn outputs(&self) -> Vec<&'static str> {
+            self.1.clone()
+        }
+        fn on_message(&mut self, _: &str, _: &Message, _: &mut Outbox) -> NodeResult {
+            Ok(())
+        }
+    }
+
+    fn graph(
+        inputs: Vec<&'static str>,
+        outputs: Vec<&'static str>,
+    ) -> Vec<(String, Box<dyn Node>)> {
+        vec![("adapter".to_owned(), Box::new(Stub(inputs, outputs)))]
+    }
+
+    #[test]
+    fn an_external_topic_counts_as_published_and_only_from_outside() {
+        let nodes = graph(vec![topics::ODOM], vec![topics::DETECTIONS]);
+        assert_eq!(
+            check_wiring(&nodes, &[]),
+            Err(WiringError::NoPublisher {
+                node: "adapter".into(),
+                topic: topics::ODOM.into()
+            })
+        );
+        assert_eq!(check_wiring(&nodes, &[topics::ODOM]), Ok(()));
+        assert_eq!(
+            check_wiring(&nodes, &[topics::ODOM, topics::DETECTIONS]),
+            Err(WiringError::ExternalPublished {
+                node: "adapter".into(),
+                topic: topics::DETECTIONS.into()
+            })
+        );
+        assert_eq!(external_topics(&["/odom".into()]), Ok(vec![topics::ODOM]));
+        assert_eq!(
+            external_topics(&["/nowhere".into()]),
+            Err(WiringError::UnknownExternal {
+                topic: "/nowhere".into()
+            })
+        );
     }
 }

@@ -20,6 +20,8 @@ pub struct EchoArgs {
     #[arg(long, default_value_t = 0, value_parser = COUNT.parser::<u64>(), allow_hyphen_values = true)]
     pub count: u64,
     #[command(flatten)]
+    pub ros: crate::args::RosDomainArgs,
+    #[command(flatten)]
     pub transport: TransportArgs,
 }
 
@@ -29,7 +31,8 @@ const COUNT: Whole = Whole::new(0, u64::MAX, "0 to 18446744073709551615 messages
 impl EchoArgs {
     /// Every `--count` is allowed (clap refuses what is not a u64).
     pub fn validate(&self) -> Result<()> {
-        flags::check("--count", COUNT.check(self.count)).map(drop)
+        flags::check("--count", COUNT.check(self.count))?;
+        self.ros.validate()
     }
 }
 
@@ -48,11 +51,12 @@ pub fn echo(args: EchoArgs) -> Result<()> {
         )
     })?;
     let session = args.transport.peer_session()?;
-    let mut inbox = Inbox::subscribe(
+    let mut inbox = Inbox::subscribe_styled(
         &session,
         &args.transport.namespace,
         &[spec.name],
         observer_options(&args.transport)?,
+        args.ros.key_style(),
     )?;
     let mut seen = 0u64;
     let stop = crate::cmd::bag::interrupted();

@@ -51,6 +51,8 @@ pub struct RunArgs {
     #[arg(long, value_name = "TOPIC")]
     pub ended: Vec<String>,
     #[command(flatten)]
+    pub ros: crate::args::RosDomainArgs,
+    #[command(flatten)]
     pub transport: TransportArgs,
 }
 
@@ -65,7 +67,7 @@ impl RunArgs {
             "--startup-delay-s",
             STARTUP_DELAY_S.check(self.startup_delay_s),
         )?;
-        Ok(())
+        self.ros.validate()
     }
 }
 
@@ -130,6 +132,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         rate: args.pacing.rate,
         inbox: args.transport.inbox_options()?,
         ended,
+        style: args.ros.key_style(),
     };
     let drops = transport::run_node_with(&session, &args.transport.namespace, &name, node, run)
         .map_err(|e| anyhow!("node '{name}' failed: {e}"))?;

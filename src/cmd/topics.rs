@@ -21,6 +21,8 @@ pub struct TopicsArgs {
     #[arg(long, value_name = "SECONDS", default_value_t = 2.0, value_parser = LISTEN_S.parser(), allow_hyphen_values = true)]
     pub duration_s: f64,
     #[command(flatten)]
+    pub ros: crate::args::RosDomainArgs,
+    #[command(flatten)]
     pub transport: TransportArgs,
 }
 
@@ -30,14 +32,18 @@ const LISTEN_S: Real = Real::closed(1e-3, 3600.0, "0.001 to 3600 s");
 impl TopicsArgs {
     /// Checks `--duration-s`; the error names the flag.
     pub fn validate(&self) -> Result<()> {
-        flags::check("--duration-s", LISTEN_S.check(self.duration_s)).map(drop)
+        flags::check("--duration-s", LISTEN_S.check(self.duration_s))?;
+        self.ros.validate()
     }
 }
 
 /// `nrslam topics`.
 pub fn topics(args: TopicsArgs) -> Result<()> {
     args.validate()?;
-    if args.transport.listen.is_empty() && args.transport.connect.is_empty() {
+    if args.transport.listen.is_empty()
+        && args.transport.connect.is_empty()
+        && args.transport.ros_router.is_none()
+    {
         print_catalogue();
         return Ok(());
     }
@@ -45,11 +51,12 @@ pub fn topics(args: TopicsArgs) -> Result<()> {
     flags::deadline("--duration-s", listen)?;
     let session = args.transport.peer_session()?;
     let names: Vec<&'static str> = topics::CATALOGUE.iter().map(|t| t.name).collect();
-    let mut inbox = Inbox::subscribe(
+    let mut inbox = Inbox::subscribe_styled(
         &session,
         &args.transport.namespace,
         &names,
         observer_options(&args.transport)?,
+        args.ros.key_style(),
     )?;
     let deadline = flags::deadline("--duration-s", listen)?;
     let mut counts: BTreeMap<&'static str, u64> = BTreeMap::new();

@@ -4,7 +4,9 @@
 
 use super::include::{self, IncludeDecl};
 use super::substitute::{expand_arguments, substitute};
-use super::{location, type_name, typed_like, Argument, Header, LaunchError, NodeDecl};
+use super::{
+    location, type_name, typed_like, Argument, ExternalDecl, Header, LaunchError, NodeDecl,
+};
 use serde::Deserialize;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -67,6 +69,9 @@ pub(super) struct Expanded {
     pub exported: BTreeMap<String, Exported>,
     /// Names of the given values that an argument of this file or of one it includes took.
     pub consumed: BTreeSet<String>,
+    /// Topics fed from outside whose `when` holds: included files' first, then the file's own,
+    /// each once.
+    pub externals: Vec<String>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -79,6 +84,8 @@ struct RawLaunch {
     node: Vec<NodeDecl>,
     #[serde(default)]
     include: Vec<IncludeDecl>,
+    #[serde(default)]
+    external: Vec<ExternalDecl>,
 }
 
 /// The folder of `path`, `.` for a bare file name.
@@ -125,6 +132,8 @@ pub(super) fn expand_file(
             problem: problem.to_string(),
         })?;
     let own = own_nodes(path, &dir, raw.node, &valued.arguments, &resolved)?;
+    let own_externals = own_externals(path, &raw.external, &valued.arguments)?;
+    let mut externals: Vec<String> = Vec::new();
     let mut declared_nodes: Vec<String> = own.declared.clone();
     let mut nodes = Vec::new();
     let mut exported = valued.exported;
@@ -145,6 +154,7 @@ pub(super) fn expand_file(
             continue;
         };
         consumed.extend(included.consumed);
+        externals.extend(included.externals);
         for (name, argument) in included.exported {
             include::merge_exported(path, &decl.file, &mut exported, name, argument)?;
         }
@@ -175,13 +185,43 @@ pub(super) fn expand_file(
         nodes.extend(included.nodes);
     }
     nodes.extend(own.nodes);
+    externals.extend(own_externals);
+    let mut seen = BTreeSet::new();
+    externals.retain(|topic| seen.insert(topic.clone()));
     Ok(Expanded {
         header: raw.launch.unwrap_or_default(),
         nodes,
         declared_nodes,
         exported,
         consumed,
+        externals,
     })
+}
+
+/// The file's `[[external]]` topics whose `when` holds (each `when` checked as a node's is).
+fn own_externals(
+    path: &Path,
+    externals: &[ExternalDecl],
+    arguments: &BTreeMap<String, toml::Value>,
+) -> Result<Vec<String>, LaunchError> {
+    let mut out = Vec::new();
+    for external in externals {
+        let error = |problem: String| LaunchError::External {
+            path: path.to_owned(),
+            topic: external.topic.clone(),
+            problem,
+        };
+        if !external.topic.starts_with('/') || external.topic.len() < 2 {
+            return Err(error(
+                "`topic` must be a topic name starting with '/', e.g. \"/odom\"".into(),
+            ));
+        }
+        check_when(&external.when, arguments).map_err(error)?;
+        if when_holds(&external.when, arguments) {
+            out.push(external.topic.clone());
+        }
+    }
+    Ok(out)
 }
 
 /// Values the file's declared arguments from `given`, else their defaults.

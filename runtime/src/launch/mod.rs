@@ -44,6 +44,10 @@
 //! adds another launch file's nodes, passing it arguments (its arguments the includer does not
 //! set become the includer's), with `[include.params.NODE]` changing its nodes' parameters and
 //! `drop` removing nodes; `node.param:=value` on the command line sets one node parameter.
+//!
+//! `[[external]] topic = "/odom"` (with an optional `when`, as a node's) declares a topic fed
+//! from outside the launch: it counts as published when the wiring is checked
+//! ([`crate::wiring::check_wiring`]).
 
 mod file;
 mod include;
@@ -112,6 +116,19 @@ pub struct Argument {
     /// resolves against the current directory, the default against the launch file's folder.
     #[serde(default)]
     pub path: bool,
+}
+
+/// `[[external]]`: a topic the launch's nodes take from outside it (a ROS 2 publisher, `nrslam
+/// run`, `nrslam bag play`): it counts as published for the wiring check, and an in-process
+/// launch feeds it from its zenoh session.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExternalDecl {
+    /// Topic name, e.g. `/odom` (a catalogue topic; checked with the wiring).
+    pub topic: String,
+    /// Declared only when each named argument has one of the listed values, as a node's `when`.
+    #[serde(default)]
+    pub when: BTreeMap<String, Vec<String>>,
 }
 
 /// A node of the graph.
@@ -201,6 +218,9 @@ pub struct Launch {
     /// The nodes, parameters substituted: included files' nodes first, in include order, then
     /// the file's own.
     pub nodes: Vec<NodeDecl>,
+    /// Topics fed from outside the launch (`[[external]]` whose `when` holds, included files'
+    /// too), each once.
+    pub externals: Vec<String>,
 }
 
 /// Why a launch file could not be used. The message names the file and the field.
@@ -261,6 +281,16 @@ pub enum LaunchError {
         file: String,
         /// The included file's error (naming that file).
         source: Box<LaunchError>,
+    },
+    /// An `[[external]]` declaration problem.
+    #[error("{path}: external {topic}: {problem}")]
+    External {
+        /// File.
+        path: PathBuf,
+        /// The topic as written.
+        topic: String,
+        /// What is wrong.
+        problem: String,
     },
     /// A command-line `node.param:=value` that cannot be applied.
     #[error("{path}: {assignment}: {problem}")]
@@ -398,6 +428,7 @@ impl Launch {
                 .collect(),
             arguments,
             nodes,
+            externals: expanded.externals,
         })
     }
 }

@@ -309,3 +309,54 @@ fn unknown_fields_and_duplicates_are_refused_with_a_line() {
         &["undeclared argument \"y\""],
     );
 }
+
+const EXTERNAL_FILE: &str = r#"
+[arguments.source]
+default = "bag"
+[[external]]
+topic = "/odom"
+when = { source = ["external"] }
+[[external]]
+topic = "/radar/points"
+[[external]]
+topic = "/radar/points"
+[[node]]
+name = "mapper"
+kind = "mapper"
+"#;
+
+#[test]
+fn externals_follow_their_when_and_are_listed_once() {
+    let parse = |overrides: &[String]| {
+        Launch::parse(Path::new("launch/test.toml"), EXTERNAL_FILE, overrides).unwrap()
+    };
+    assert_eq!(parse(&[]).externals, vec!["/radar/points"]);
+    assert_eq!(
+        parse(&["source:=external".into()]).externals,
+        vec!["/odom", "/radar/points"]
+    );
+}
+
+#[test]
+fn a_bad_external_is_refused_naming_it() {
+    let refused = |text: &str| {
+        Launch::parse(Path::new("launch/test.toml"), text, &[])
+            .unwrap_err()
+            .to_string()
+    };
+    let node = "[[node]]\nname = \"mapper\"\nkind = \"mapper\"\n";
+    let error = refused(&format!("[[external]]\ntopic = \"odom\"\n{node}"));
+    assert!(
+        error.contains("external odom: `topic` must be a topic name starting with '/'"),
+        "{error}"
+    );
+    let error = refused(&format!(
+        "[[external]]\ntopic = \"/odom\"\nwhen = {{ nope = [\"x\"] }}\n{node}"
+    ));
+    assert!(
+        error.contains("external /odom: `when` names undeclared argument \"nope\""),
+        "{error}"
+    );
+    let error = refused(&format!("[[external]]\ntopic = \"/odom\"\nqos = 1\n{node}"));
+    assert!(error.contains("unknown field `qos`"), "{error}");
+}

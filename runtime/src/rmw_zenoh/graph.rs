@@ -136,11 +136,7 @@ impl RosGraph {
 
     /// The fully qualified ROS name of graph topic `topic` (`/map` → `/robot1/map`).
     pub fn qualified(&self, topic: &str) -> String {
-        let topic = topic.trim_matches('/');
-        match self.namespace.as_str() {
-            "/" => format!("/{topic}"),
-            ns => format!("{ns}/{topic}"),
-        }
+        super::qualified_topic(&self.namespace, topic)
     }
 
     fn next_id(&mut self) -> usize {
@@ -290,6 +286,25 @@ impl RosGraph {
             Outlet::Plain(p) => p.put(bytes).attachment(attachment).wait().map_err(zerr),
             Outlet::Advanced(p) => p.put(bytes).attachment(attachment).wait().map_err(zerr),
         }
+    }
+
+    /// Marks the end of graph topic `topic`'s stream for nrslam subscribers: an empty payload on
+    /// its key with [`super::END_OF_STREAM_CHUNK`] in place of the type hash, which rmw_zenoh
+    /// subscribers (exact hash) do not match. Nothing if the topic has no publisher here.
+    pub fn end(&self, topic: &str) -> Result<(), TransportError> {
+        let Some(publisher) = self.publishers.get(topic) else {
+            return Ok(());
+        };
+        let prefix = publisher
+            .key_expr
+            .rsplit_once('/')
+            .map_or(publisher.key_expr.as_str(), |(prefix, _)| prefix);
+        let key = format!("{prefix}/{}", super::END_OF_STREAM_CHUNK);
+        self.session
+            .put(key, Vec::<u8>::new())
+            .congestion_control(CongestionControl::Block)
+            .wait()
+            .map_err(|e| TransportError::Zenoh(format!("{topic}: end of stream: {e}")))
     }
 
     /// Whether every data publisher has at least one matching subscriber.

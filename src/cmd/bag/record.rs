@@ -83,6 +83,8 @@ pub struct RecordArgs {
     #[command(flatten)]
     pub storage: StorageArgs,
     #[command(flatten)]
+    pub ros: crate::args::RosDomainArgs,
+    #[command(flatten)]
     pub transport: TransportArgs,
 }
 
@@ -94,15 +96,17 @@ pub fn record(args: RecordArgs) -> Result<()> {
             args.duration_s
         );
     }
+    args.ros.validate()?;
     let wanted = catalogue_topics(&args.topics)?;
     let chunk_size_bytes = args.chunk.bytes()?;
     let storage = args.storage.options()?;
     let session = args.transport.peer_session()?;
-    let mut inbox = Inbox::subscribe(
+    let mut inbox = Inbox::subscribe_styled(
         &session,
         &args.transport.namespace,
         &wanted,
         args.transport.inbox_options()?,
+        args.ros.key_style(),
     )?;
     let mut writer = BagWriter::create_with(
         &args.dir,

@@ -1,7 +1,7 @@
 //! The command line of `nrslam launch` and its range checks.
 
 use crate::args::TransportArgs;
-use crate::flags::{self, Whole};
+use crate::flags::{self, Real};
 use anyhow::Result;
 use clap::Args;
 use nrslam_runtime::launch::Mode;
@@ -31,7 +31,8 @@ pub struct LaunchArgs {
     #[command(flatten)]
     pub pacing: crate::args::RateArgs,
     /// How long node processes may take to come up, in seconds, 1 to 604800 (a week)
-    /// (processes mode).
+    /// (processes mode); in-process with `[[external]]` topics: how long to wait for the first
+    /// external message before giving up.
     #[arg(long, value_name = "SECONDS", default_value_t = 30, value_parser = flags::TIMEOUT_S.parser::<u64>(), allow_hyphen_values = true)]
     pub start_timeout_s: u64,
     /// Record the run into this new rosbag2 folder (metadata.yaml + MCAP, log times = simulated
@@ -46,17 +47,27 @@ pub struct LaunchArgs {
     /// With --record: chunk compression and file splitting, as `nrslam bag record`.
     #[command(flatten)]
     pub storage: crate::cmd::bag::StorageArgs,
-    /// With --listen/--connect: publish the mirrored topics as rmw_zenoh does in this ROS domain
-    /// (key `<domain>/<topic>/<type>/<RIHS01 hash>` plus rmw_zenoh's attachment), so ROS 2 nodes on
-    /// rmw_zenoh receive them without a bridge (in-process mode). 0 to 232, ROS 2's range.
+    /// With --listen/--connect/--ros-router: publish the topics as rmw_zenoh does in this ROS
+    /// domain (key `<domain>/<topic>/<type>/<RIHS01 hash>` plus rmw_zenoh's attachment), so ROS 2
+    /// nodes on rmw_zenoh receive them without a bridge, and take the launch file's `[[external]]`
+    /// topics from ROS 2 publishers (`<domain>/<topic>/<type>/*`, type hash checked); with
+    /// --mode processes every node process does both. 0 to 232, ROS 2's range.
     #[arg(long, value_name = "DOMAIN_ID", value_parser = ROS_DOMAIN_ID.parser::<u32>(), allow_hyphen_values = true)]
     pub ros_domain_id: Option<u32>,
+    /// In-process with `[[external]]` topics: the run ends this many seconds (0.001 to 86400)
+    /// after the last external message when not every external topic was ended by nrslam's
+    /// end-of-stream marker (ROS 2 publishers send none). Counted from the first message; before
+    /// it, --start-timeout-s applies.
+    #[arg(long, value_name = "SECONDS", default_value_t = 10.0, value_parser = EXTERNAL_IDLE_S.parser(), allow_hyphen_values = true)]
+    pub external_idle_s: f64,
     #[command(flatten)]
     pub transport: TransportArgs,
 }
 
-/// ROS 2 domain ids.
-pub(crate) const ROS_DOMAIN_ID: Whole = Whole::new(0, 232, "0 to 232 (ROS 2 domain ids)");
+pub(crate) use crate::args::ROS_DOMAIN_ID;
+
+/// `--external-idle-s`.
+pub(crate) const EXTERNAL_IDLE_S: Real = Real::closed(1e-3, 86_400.0, "0.001 to 86400 s");
 
 impl LaunchArgs {
     /// Checks every numeric flag against its range (clap's parsers check them too; this covers
@@ -66,6 +77,10 @@ impl LaunchArgs {
         if let Some(id) = self.ros_domain_id {
             flags::check("--ros-domain-id", ROS_DOMAIN_ID.check(id))?;
         }
+        flags::check(
+            "--external-idle-s",
+            EXTERNAL_IDLE_S.check(self.external_idle_s),
+        )?;
         self.chunk.bytes()?;
         Ok(())
     }

@@ -3,7 +3,7 @@
 use crate::registry;
 use anyhow::{anyhow, Result};
 use nrslam_runtime::launch::Launch;
-use nrslam_runtime::wiring::check_wiring;
+use nrslam_runtime::wiring::{check_wiring, external_topics};
 use nrslam_runtime::{Node, NodeContext};
 
 /// The nodes of a launch, built and wired.
@@ -12,6 +12,8 @@ pub(crate) struct Built {
     pub nodes: Vec<(String, Box<dyn Node>)>,
     /// Frames the radar will produce, when known.
     pub expected_frames: Option<u64>,
+    /// Topics fed from outside the launch (`[[external]]`).
+    pub externals: Vec<&'static str>,
 }
 
 /// Builds every node of the launch (validating all parameters) and checks the wiring against the
@@ -36,9 +38,12 @@ pub(crate) fn build_all(launch: &Launch, seed: u64) -> Result<Built> {
             expected_frames.or_else(|| registry::expected_frames(&decl.kind, &decl.params, &ctx));
         nodes.push((decl.name.clone(), node));
     }
-    check_wiring(&nodes).map_err(|e| anyhow!("{}: {e}", launch.path.display()))?;
+    let wiring = |e| anyhow!("{}: {e}", launch.path.display());
+    let externals = external_topics(&launch.externals).map_err(wiring)?;
+    check_wiring(&nodes, &externals).map_err(wiring)?;
     Ok(Built {
         nodes,
         expected_frames,
+        externals,
     })
 }

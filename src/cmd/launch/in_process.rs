@@ -1,13 +1,16 @@
-//! The in-process run: every node in this process, with an optional zenoh mirror of the topics.
+//! The in-process run: every node in this process, with an optional zenoh mirror of the topics
+//! and, for a launch with `[[external]]` topics, a source node that feeds them from zenoh.
 
 use super::build::Built;
 use super::recorder::Recorder;
 use super::{progress, LaunchArgs};
 use crate::report::Reporter;
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use indicatif::ProgressBar;
 use nrslam_msgs::{topics, Message};
 use nrslam_runtime::compose::{anyhow_free, Graph, Observer};
+use nrslam_runtime::external::{ExternalSource, ExternalTimeouts};
+use nrslam_runtime::receive::Inbox;
 use nrslam_runtime::transport::{self, KeyStyle, Pacer, RosNode, SessionMode, TopicPublisher};
 use std::time::Duration;
 
@@ -19,6 +22,8 @@ struct RunObserver {
     mirror: Option<TopicPublisher>,
     pacer: Pacer,
     recorder: Option<Recorder>,
+    /// Topics fed from outside: not mirrored back onto the keys they came from.
+    externals: Vec<&'static str>,
 }
 
 impl Observer for RunObserver {
@@ -35,7 +40,9 @@ impl Observer for RunObserver {
             ));
         }
         if let Some(mirror) = &mut self.mirror {
-            mirror.publish(topic, message)?;
+            if !self.externals.contains(&topic) {
+                mirror.publish(topic, message)?;
+            }
         }
         if let Some(recorder) = &mut self.recorder {
             recorder.take(topic, message).map_err(
@@ -48,7 +55,9 @@ impl Observer for RunObserver {
     fn end(&mut self, topic: &'static str) {
         self.reporter.ended.push(topic);
         if let Some(mirror) = &mut self.mirror {
-            let _ = mirror.end(topic);
+            if !self.externals.contains(&topic) {
+                let _ = mirror.end(topic);
+            }
         }
     }
 }
@@ -62,12 +71,42 @@ pub(super) fn run_in_process(
         && args.transport.connect.is_empty()
         && args.transport.ros_router.is_none()
     {
+        if !built.externals.is_empty() {
+            bail!(
+                "the launch takes {} from outside ([[external]]): give --listen ENDPOINT, \
+                 --connect ENDPOINT or --ros-router ENDPOINT for its publishers to reach it",
+                built.externals.join(", ")
+            );
+        }
         None
     } else {
         Some(
             transport::open(&args.transport.config(SessionMode::Peer))
                 .context("opening the zenoh session")?,
         )
+    };
+    // Subscribed before the ROS tokens are declared: whoever sees a subscription token (MS) may
+    // publish at once.
+    let external = match &session {
+        Some(session) if !built.externals.is_empty() => {
+            let inbox = Inbox::subscribe_styled(
+                session,
+                &args.transport.namespace,
+                &built.externals,
+                args.transport.inbox_options()?,
+                crate::args::key_style(args.ros_domain_id),
+            )?;
+            let timeouts = ExternalTimeouts {
+                first: crate::flags::seconds("--start-timeout-s", args.start_timeout_s as f64)?,
+                idle: crate::flags::seconds("--external-idle-s", args.external_idle_s)?,
+            };
+            Some(ExternalSource::new(
+                inbox,
+                built.externals.clone(),
+                timeouts,
+            ))
+        }
+        _ => None,
     };
     let mirror = match &session {
         Some(session) => {
@@ -90,16 +129,29 @@ pub(super) fn run_in_process(
         }
         None => None,
     };
+    let mut nodes = built.nodes;
+    let mut external_drops = None;
+    if let Some(source) = external {
+        external_drops = Some(source.drops());
+        nodes.push((EXTERNAL_NODE.to_owned(), Box::new(source)));
+    }
     let mut observer = RunObserver {
         reporter: Reporter::default(),
         bar: progress(built.expected_frames),
         mirror,
         pacer: Pacer::new(args.pacing.rate),
         recorder,
+        externals: built.externals,
     };
-    let result = Graph::new(built.nodes).run(&mut observer);
+    let result = Graph::new(nodes).run(&mut observer);
     observer.bar.finish_and_clear();
     result?;
+    if let Some(drops) = external_drops {
+        let drops = drops.lock().map(|d| d.clone()).unwrap_or_default();
+        observer
+            .reporter
+            .note_drops("nrslam/launch/external", &drops);
+    }
     if let Some(recorder) = observer.recorder.take() {
         recorder.finish()?;
     }
@@ -108,3 +160,6 @@ pub(super) fn run_in_process(
     }
     Ok(observer.reporter)
 }
+
+/// The instance name of the source node of the external topics (in errors).
+const EXTERNAL_NODE: &str = "external";

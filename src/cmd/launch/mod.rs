@@ -16,7 +16,7 @@ use self::in_process::run_in_process;
 use self::processes::run_processes;
 use self::recorder::recorder;
 use self::replay::replayed_run;
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use nrslam_runtime::launch::{Launch, Mode};
 use std::path::PathBuf;
@@ -50,11 +50,6 @@ pub fn launch(args: LaunchArgs) -> Result<()> {
                 .unwrap_or_else(|| "run".into()),
         )
     });
-    if args.ros_domain_id.is_some() && mode == Mode::Processes {
-        bail!(
-            "--ros-domain-id: only in-process launches mirror their topics (use --mode in-process)"
-        );
-    }
     let built = build_all(&launch, args.seed)?;
     let recorder = match &args.record {
         Some(dir) => Some(recorder(&args, &launch, &built, dir)?),

@@ -68,6 +68,10 @@ fn node_args(
     ] {
         out.extend([flag.into(), value.into()]);
     }
+    if let Some(domain_id) = args.ros_domain_id {
+        // Each node process is then a ROS 2 node on rmw_zenoh, and so are its topics' keys.
+        out.extend(["--ros-domain-id".into(), domain_id.to_string().into()]);
+    }
     if let Some(file) = &args.transport.zenoh_config {
         out.push("--zenoh-config".into());
         out.push(
@@ -115,11 +119,12 @@ pub(super) fn run_processes(
     transport_args.listen.push(endpoint.clone());
     let session = transport::open(&transport_args.config(SessionMode::Router))
         .context("opening the launcher's zenoh router")?;
-    let mut inbox = Inbox::subscribe(
+    let mut inbox = Inbox::subscribe_styled(
         &session,
         &args.transport.namespace,
         &listened,
         args.transport.inbox_options()?,
+        crate::args::key_style(args.ros_domain_id),
     )?;
     let specs = process_specs(args, launch, policies, out, &endpoint)?;
     let mut supervisor = Supervisor::start(specs)?;
