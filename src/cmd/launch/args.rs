@@ -17,9 +17,10 @@ pub struct LaunchArgs {
     /// TOML, e.g. association.scan_matching:=false mapper.resolution_m:=0.2). See docs/launch.md.
     #[arg(value_name = "NAME:=VALUE")]
     pub assignments: Vec<String>,
-    /// Run seed: every random stream of every node derives from it (0 to 2^64 − 1).
-    #[arg(long, default_value_t = 1, value_parser = flags::SEED.parser::<u64>(), allow_hyphen_values = true)]
-    pub seed: u64,
+    /// Run seed: every random stream of every node derives from it (0 to 2^64 − 1). Default 1;
+    /// replaying a bag that carries its launch record (launch/replay.toml): the recorded seed.
+    #[arg(long, value_parser = flags::SEED.parser::<u64>(), allow_hyphen_values = true)]
+    pub seed: Option<u64>,
     /// Output folder (created): summary.json, metrics.csv, map.png, segments.png, run.json.
     /// Default: out/<launch file name>.
     #[arg(long, value_name = "DIR")]
@@ -70,6 +71,11 @@ pub(crate) use crate::args::ROS_DOMAIN_ID;
 pub(crate) const EXTERNAL_IDLE_S: Real = Real::closed(1e-3, 86_400.0, "0.001 to 86400 s");
 
 impl LaunchArgs {
+    /// The run seed: `--seed`, else 1.
+    pub fn seed(&self) -> u64 {
+        self.seed.unwrap_or(1)
+    }
+
     /// Checks every numeric flag against its range (clap's parsers check them too; this covers
     /// `LaunchArgs` built in code, e.g. by `nrslam reproduce`). The error names the flag.
     pub fn validate(&self) -> Result<()> {

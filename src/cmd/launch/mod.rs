@@ -15,7 +15,6 @@ pub(crate) use self::build::build_all;
 use self::in_process::run_in_process;
 use self::processes::run_processes;
 use self::recorder::recorder;
-use self::replay::replayed_run;
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use nrslam_runtime::launch::{Launch, Mode};
@@ -38,9 +37,14 @@ fn progress(frames: Option<u64>) -> ProgressBar {
 }
 
 /// `nrslam launch`.
-pub fn launch(args: LaunchArgs) -> Result<()> {
+pub fn launch(mut args: LaunchArgs) -> Result<()> {
     args.validate()?;
     let launch = Launch::load(&args.file, &args.assignments)?;
+    let (launch, replayed) = replay::prepare(launch, &args)?;
+    if let Some(replay) = &replayed {
+        // Node processes and the recorder take the replay's seed from here.
+        args.seed = Some(replay.seed);
+    }
     let mode = args.mode.unwrap_or(launch.mode);
     let out = args.out.clone().unwrap_or_else(|| {
         PathBuf::from("out").join(
@@ -50,12 +54,11 @@ pub fn launch(args: LaunchArgs) -> Result<()> {
                 .unwrap_or_else(|| "run".into()),
         )
     });
-    let built = build_all(&launch, args.seed)?;
+    let built = build_all(&launch, args.seed())?;
     let recorder = match &args.record {
         Some(dir) => Some(recorder(&args, &launch, &built, dir)?),
         None => None,
     };
-    let replayed = replayed_run(&launch)?;
     let started = Instant::now();
     let mut reporter = match mode {
         Mode::InProcess => run_in_process(&args, built, recorder)?,
@@ -64,11 +67,11 @@ pub fn launch(args: LaunchArgs) -> Result<()> {
     reporter.score_as(&launch);
     let mut summary = reporter.summary(
         &launch.arguments,
-        args.seed,
+        args.seed(),
         &launch.path.display().to_string(),
     );
-    if let Some((_, identity)) = &replayed {
-        identity.apply(&mut summary);
+    if let Some(replay) = &replayed {
+        replay.apply(&mut summary);
     }
     reporter.write_all(&out, &summary)?;
     let mut run_info = serde_json::json!({
@@ -76,8 +79,8 @@ pub fn launch(args: LaunchArgs) -> Result<()> {
         "wall_time_s": started.elapsed().as_secs_f64(),
         "rate": args.pacing.rate,
     });
-    if let Some((bag, _)) = &replayed {
-        run_info["replayed_bag"] = serde_json::Value::from(bag.display().to_string());
+    if let Some(replay) = &replayed {
+        run_info["replayed_bag"] = serde_json::Value::from(replay.bag.display().to_string());
         run_info["replay_launch"] = serde_json::Value::from(launch.path.display().to_string());
     }
     std::fs::write(

@@ -59,7 +59,7 @@ fn node_args(
         base_dir.as_os_str().to_owned(),
     ]);
     for (flag, value) in [
-        ("--seed", args.seed.to_string()),
+        ("--seed", args.seed().to_string()),
         ("--connect", endpoint.to_owned()),
         ("--namespace", args.transport.namespace.clone()),
         ("--rate", args.pacing.rate.to_string()),

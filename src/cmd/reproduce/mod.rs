@@ -149,7 +149,7 @@ pub fn reproduce(args: ReproduceArgs) -> Result<()> {
         launch::launch(LaunchArgs {
             file: args.launch_dir.join(file),
             assignments: assignments.clone(),
-            seed: args.seed,
+            seed: Some(args.seed),
             out: Some(out),
             mode: None,
             pacing: crate::args::RateArgs::default(),
