@@ -7,7 +7,7 @@ mod common;
 use std::collections::{BTreeMap, BTreeSet};
 use std::time::{Duration, Instant};
 
-use common::msgs::{self, OccupancyGrid, PoseStamped, TFMessage};
+use common::msgs::{self, OccupancyGrid, PoseStamped, TFMessage, TargetSet};
 use common::{context, free_port, Nrslam};
 use ros2_client::zenoh::{Context, Node, Subscription};
 use ros2_client::{
@@ -121,6 +121,7 @@ struct Seen {
     maps: Vec<(OccupancyGrid, MessageInfo)>,
     poses: Vec<(PoseStamped, MessageInfo)>,
     tfs: Vec<(TFMessage, MessageInfo)>,
+    targets: Vec<(TargetSet, MessageInfo)>,
     errors: Vec<TakeError>,
     node_names: BTreeSet<String>,
     max_peers: usize,
@@ -137,6 +138,10 @@ fn watch_paper_ideal(domain: u16, tmp: &std::path::Path, record: bool) -> Seen {
     let map_sub = subscribe::<OccupancyGrid>(&node, "/map", "nav_msgs/msg/OccupancyGrid");
     let pose_sub = subscribe::<PoseStamped>(&node, "/slam/pose", "geometry_msgs/msg/PoseStamped");
     let tf_sub = subscribe::<TFMessage>(&node, "/tf", "tf2_msgs/msg/TFMessage");
+    // Latched (transient local) on nrslam's side; ros2-client 0.12.1's subscriptions are plain
+    // zenoh subscribers whatever their QoS, so this one, made before nrslam starts, takes it live.
+    let targets_sub =
+        subscribe::<TargetSet>(&node, "/ground_truth/targets", "nrslam_msgs/msg/TargetSet");
 
     let mut args: Vec<String> = [
         "launch",
@@ -173,6 +178,12 @@ fn watch_paper_ideal(domain: u16, tmp: &std::path::Path, record: bool) -> Seen {
         drain("/map", &map_sub, &mut seen.maps, &mut seen.errors);
         drain("/slam/pose", &pose_sub, &mut seen.poses, &mut seen.errors);
         drain("/tf", &tf_sub, &mut seen.tfs, &mut seen.errors);
+        drain(
+            "/ground_truth/targets",
+            &targets_sub,
+            &mut seen.targets,
+            &mut seen.errors,
+        );
     };
     while nrslam.is_running() {
         assert!(
@@ -305,6 +316,7 @@ fn ros2_client_discovers_the_graph_and_decodes_map_pose_and_tf() {
         ("/map", seen.maps.len()),
         ("/slam/pose", seen.poses.len()),
         ("/tf", seen.tfs.len()),
+        ("/ground_truth/targets", seen.targets.len()),
     ]);
     let mid_stream: Vec<&TakeError> = seen
         .errors
@@ -449,6 +461,35 @@ fn ros2_client_discovers_the_graph_and_decodes_map_pose_and_tf() {
         );
     }
     check_attachments("/tf", &seen.tfs);
+
+    // /ground_truth/targets: nrslam_msgs/TargetSet from nrslam's transient-local (zenoh-ext
+    // advanced) publisher, decoded with this crate's struct from msgs/msg/*.msg, equal to the
+    // recorded one: the hall's 10 targets, each with an outline and samples.
+    let recorded: TargetSet = msgs::from_cdr(
+        bag_of("/ground_truth/targets")
+            .first()
+            .expect("/ground_truth/targets in the bag"),
+    )
+    .expect("decode the bag's /ground_truth/targets");
+    assert_eq!(
+        seen.targets.len(),
+        1,
+        "/ground_truth/targets: one latched message expected"
+    );
+    let targets = &seen.targets[0].0;
+    assert_eq!(
+        targets, &recorded,
+        "/ground_truth/targets differs from the record"
+    );
+    assert_eq!(targets.targets.len(), 10, "the hall has 10 targets");
+    assert!(
+        targets
+            .targets
+            .iter()
+            .all(|t| t.outline.len() >= 3 && !t.samples.is_empty()),
+        "a target without outline or samples: {targets:?}"
+    );
+    check_attachments("/ground_truth/targets", &seen.targets);
 }
 
 #[test]
@@ -484,9 +525,14 @@ fn another_domain_sees_no_node_and_no_message() {
         "domain 1 sees entities of domain 0: {foreign:#?}"
     );
     assert_eq!(
-        (seen.maps.len(), seen.poses.len(), seen.tfs.len()),
-        (0, 0, 0),
-        "domain 1 received domain 0's messages (/map, /slam/pose, /tf)"
+        (
+            seen.maps.len(),
+            seen.poses.len(),
+            seen.tfs.len(),
+            seen.targets.len()
+        ),
+        (0, 0, 0, 0),
+        "domain 1 received domain 0's messages (/map, /slam/pose, /tf, /ground_truth/targets)"
     );
 }
 
