@@ -19,8 +19,9 @@ use serde::Serialize;
 const FRAMES: u32 = 120;
 /// Longest any one run may take.
 const RUN_LIMIT: Duration = Duration::from_secs(300);
-/// In the control (nothing answers): the pause after each published frame, so the play lasts
-/// about as long as the real one.
+/// In the control (nothing answers): the pause after each published frame, so that nrslam
+/// listens through a play of some seconds (120 × 40 ms), within its 20 s wait for a first
+/// message.
 const FRAME_PAUSE: Duration = Duration::from_millis(40);
 /// Longest the player waits for nrslam's /slam/pose of a frame it published.
 const FRAME_LIMIT: Duration = Duration::from_secs(60);
