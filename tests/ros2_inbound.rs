@@ -221,3 +221,27 @@ fn ros2_publishers_in_the_domain_feed_the_graph_and_others_are_not_heard() {
     assert!(!out.path().join("summary.json").exists());
     let _ = session.close().wait();
 }
+
+#[test]
+fn a_processes_launch_in_a_ros_domain_ends_and_matches_the_plain_one() {
+    // Each node process speaks rmw_zenoh (the launcher hears only rmw_zenoh keys then), and the
+    // streams end through nrslam's end-of-stream key: the run ends, with the same summary.
+    let run = |extra: &[&str]| {
+        let out = temp();
+        let mut args = vec![
+            "launch",
+            "launch/paper-ideal.toml",
+            "frames:=20",
+            "--mode",
+            "processes",
+            "--out",
+            out.path().to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        run_ok(&args);
+        read(&out.path().join("summary.json"))
+    };
+    let ros = run(&["--ros-domain-id", "7"]);
+    assert!(ros.contains("\"frames\": 20"), "{ros}");
+    assert_eq!(ros, run(&[]));
+}
