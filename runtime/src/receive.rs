@@ -432,6 +432,12 @@ enum Subscription {
     Plain(#[allow(dead_code)] zenoh::pubsub::Subscriber<()>),
     /// A transient-local topic in ROS mode (history, late-publisher detection).
     Advanced(#[allow(dead_code)] zenoh_ext::AdvancedSubscriber<()>),
+    /// A topic in ROS mode: its data subscription and the one on nrslam's end-of-stream key
+    /// ([`rmw_zenoh::END_OF_STREAM_CHUNK`], a verbatim chunk no wildcard matches).
+    WithEnd(
+        Box<Subscription>,
+        #[allow(dead_code)] zenoh::pubsub::Subscriber<()>,
+    ),
 }
 
 /// The subscriptions of one receiver, with their bounded queues, checks and drop counts.
@@ -681,6 +687,7 @@ fn ros_subscription(
         spec.type_name,
         "*",
     );
+    let end_shared = shared.clone();
     let callback = move |sample: zenoh::sample::Sample| {
         let chunk = sample.key_expr().as_str().rsplit('/').next().unwrap_or("");
         match rmw_zenoh::judge_hash(chunk, &expected) {
@@ -689,6 +696,8 @@ fn ros_subscription(
                 shared.refuse(topic, "bad_cdr", "empty payload".into());
             }
             HashVerdict::Accept => shared.push(topic, sample.payload().to_bytes().into_owned()),
+            // The end marker's verbatim key never matches `*`: only a publisher that puts it
+            // in the hash chunk by hand gets here. Its own subscriber (below) handles it.
             HashVerdict::EndOfStream => shared.push(topic, Vec::new()),
             HashVerdict::Mismatch => shared.refuse(
                 topic,
@@ -700,6 +709,29 @@ fn ros_subscription(
             ),
         }
     };
+    let end_key = rmw_zenoh::key_expr_with_hash(
+        domain_id,
+        &rmw_zenoh::qualified_topic(namespace, topic),
+        spec.type_name,
+        rmw_zenoh::END_OF_STREAM_CHUNK,
+    );
+    let end = session
+        .declare_subscriber(end_key.clone())
+        .callback(move |_| end_shared.push(topic, Vec::new()))
+        .wait()
+        .map_err(|e| ReceiveError::Zenoh(format!("subscribing to {end_key}: {e}")))?;
+    let data = ros_data_subscription(session, key, spec, callback)?;
+    Ok(Subscription::WithEnd(Box::new(data), end))
+}
+
+/// The data subscription of a topic in ROS mode on `key`, as rmw_zenoh declares it for the
+/// topic's QoS.
+fn ros_data_subscription(
+    session: &zenoh::Session,
+    key: String,
+    spec: &topics::TopicSpec,
+    callback: impl Fn(zenoh::sample::Sample) + Send + Sync + 'static,
+) -> Result<Subscription, ReceiveError> {
     let zerr = |e: zenoh::Error| ReceiveError::Zenoh(format!("subscribing to {key}: {e}"));
     let qos = rmw_zenoh::EntityQos::from(spec.qos);
     if spec.qos.durability != Durability::TransientLocal {
@@ -939,7 +971,7 @@ mod tests {
         put_key(&session, &ros_key(topics::ODOM, &real), odometry(7), true);
         put_key(
             &session,
-            &ros_key(topics::ODOM, "nrslam_end"),
+            &ros_key(topics::ODOM, crate::rmw_zenoh::END_OF_STREAM_CHUNK),
             Vec::new(),
             false,
         );

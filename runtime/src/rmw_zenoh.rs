@@ -60,10 +60,12 @@ pub const PLACEHOLDER_TYPE_HASH: &str =
     "RIHS01_0000000000000000000000000000000000000000000000000000000000000000";
 
 /// The last chunk of nrslam's end-of-stream key in ROS mode, where the type hash would be: an
-/// empty payload on `<domain>/<topic>/<DDS type>/nrslam_end` ends the topic's stream for nrslam
-/// subscribers (which match the hash chunk with `*`), while rmw_zenoh subscribers, which match
-/// their exact type hash, never see it (an empty payload is not CDR to them).
-pub const END_OF_STREAM_CHUNK: &str = "nrslam_end";
+/// empty payload on `<domain>/<topic>/<DDS type>/@nrslam_end` ends the topic's stream for nrslam
+/// subscribers. It is a zenoh *verbatim* chunk (it starts with `@`): only a key expression with
+/// that very chunk matches it, never `*` or `**`. So neither rmw_zenoh_cpp's subscribers (exact
+/// type hash) nor the `ros2-client` crate's (`*` in the hash chunk) ever receive it, while
+/// nrslam's subscribers declare a second subscriber on exactly that key.
+pub const END_OF_STREAM_CHUNK: &str = "@nrslam_end";
 
 /// How a receiver judges the hash chunk of a sample's key against the type it expects.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -381,7 +383,10 @@ mod tests {
             judge_hash(PLACEHOLDER_TYPE_HASH, &real),
             HashVerdict::Accept
         );
-        assert_eq!(judge_hash("nrslam_end", &real), HashVerdict::EndOfStream);
+        assert_eq!(
+            judge_hash(END_OF_STREAM_CHUNK, &real),
+            HashVerdict::EndOfStream
+        );
         let other = type_hash::rihs01("nav_msgs/msg/OccupancyGrid").unwrap();
         assert_eq!(judge_hash(&other, &real), HashVerdict::Mismatch);
         assert_eq!(judge_hash("RIHS01_00", &real), HashVerdict::Mismatch);

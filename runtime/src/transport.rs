@@ -284,7 +284,7 @@ pub enum KeyStyle {
     /// rmw_zenoh's, in ROS domain `domain_id` ([`crate::rmw_zenoh`]): data on
     /// `<domain>/<topic>/<DDS type>/<RIHS01 hash>` with rmw_zenoh's attachment, liveliness tokens
     /// for the nodes and their publishers, transient-local topics cached for late joiners; the
-    /// end of a stream is an empty payload on `<domain>/<topic>/<DDS type>/nrslam_end`, a key
+    /// end of a stream is an empty payload on `<domain>/<topic>/<DDS type>/@nrslam_end`, a key
     /// only nrslam's subscribers match (ROS 2 has no end-of-stream). Received by
     /// [`Inbox::subscribe_styled`] on `<domain>/<topic>/<DDS type>/*`, the hash judged by
     /// [`crate::rmw_zenoh::judge_hash`].
