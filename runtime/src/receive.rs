@@ -435,7 +435,7 @@ enum Subscription {
     /// A topic in ROS mode: its data subscription and the one on nrslam's end-of-stream key
     /// ([`rmw_zenoh::END_OF_STREAM_CHUNK`], a verbatim chunk no wildcard matches).
     WithEnd(
-        Box<Subscription>,
+        #[allow(dead_code)] Box<Subscription>,
         #[allow(dead_code)] zenoh::pubsub::Subscriber<()>,
     ),
 }
