@@ -342,9 +342,6 @@ fn number(summary: &serde_json::Value, key: &str, which: &str) -> f64 {
 }
 
 #[test]
-#[ignore = "needs nrslam's external source (launch/standard-input.toml source:=external \
-            evaluate:=true, launch --external-idle-s), not yet committed: it passes against the \
-            working tree of 2026-12-07 01:22 (README.md); run with --include-ignored"]
 fn ros2_client_inputs_map_as_well_as_the_native_run() {
     let _serial = common::serial();
     let tmp = tempfile::tempdir().expect("temporary folder");
