@@ -241,3 +241,30 @@ fn bags_written_by_rosbags_and_by_the_mcap_package_replay_with_one_warning() {
     }
     assert_eq!(etgospa[0], etgospa[1], "the same messages, the same map");
 }
+
+#[test]
+fn a_recording_without_what_the_back_end_needs_is_refused_by_name() {
+    let dir = temp();
+    let bag_dir = dir.path().join("bag");
+    run_ok(&[
+        "launch",
+        "launch/paper-ideal.toml",
+        "frames:=5",
+        "--out",
+        dir.path().join("run").to_str().unwrap(),
+        "--record",
+        bag_dir.to_str().unwrap(),
+        "--record-topics",
+        "/radar/detections",
+        "/odom",
+        "/clock",
+    ]);
+    let output = run(&[
+        "launch",
+        "launch/replay.toml",
+        &format!("bag:={}", bag_dir.display()),
+        "--out",
+        dir.path().join("replay").to_str().unwrap(),
+    ]);
+    assert_one_line_failure(&output, &["/ground_truth/targets", "evaluator", "--record"]);
+}

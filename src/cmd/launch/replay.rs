@@ -242,9 +242,13 @@ pub(super) fn prepare(launch: Launch, args: &LaunchArgs) -> Result<(Launch, Opti
     let played: Vec<String> = if listed.is_empty() {
         in_bag
     } else {
-        listed.into_iter().filter(|t| in_bag.contains(t)).collect()
+        listed
+            .iter()
+            .filter(|t| in_bag.contains(t))
+            .cloned()
+            .collect()
     };
-    let back_end = recorded_back_end(&launch, &played, &recorded, seed)?;
+    let back_end = recorded_back_end(&launch, &listed, &played, &recorded, seed)?;
     let text = replay_launch_text(&launch, bag_node, &played, &back_end)?;
     let params: Vec<String> = args
         .assignments
@@ -297,9 +301,11 @@ fn bag_topics(dir: &std::path::Path, recover: bool) -> Result<Vec<String>> {
 }
 
 /// The recorded nodes the replay rebuilds: neither a source nor a publisher of a topic the bag
-/// node plays (`played`).
+/// node plays (`played`, those of `listed` the bag holds). A rebuilt node that needs a listed
+/// topic the bag does not hold is refused by name: the recording left it out.
 fn recorded_back_end(
     launch: &Launch,
+    listed: &[String],
     played: &[String],
     recorded: &RecordedRun,
     seed: u64,
@@ -321,13 +327,26 @@ fn recorded_back_end(
                 node.kind
             )
         })?;
-        if !built
+        if built
             .outputs()
             .iter()
             .any(|t| played.iter().any(|p| p == t))
         {
-            back_end.push(node.clone());
+            continue;
         }
+        let missing = built
+            .inputs()
+            .into_iter()
+            .find(|t| listed.iter().any(|l| l == t) && !played.iter().any(|p| p == t));
+        if let Some(topic) = missing {
+            bail!(
+                "the bag holds no {topic}, which the recorded node {} ({}) needs: record it too \
+                 (launch --record without --record-topics records every topic)",
+                node.name,
+                node.kind
+            );
+        }
+        back_end.push(node.clone());
     }
     if back_end.is_empty() {
         bail!(
