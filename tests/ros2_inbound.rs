@@ -10,7 +10,7 @@
 mod common;
 
 use common::*;
-use nrslam_msgs::Message;
+use nrslam_msgs::{Header, Message, TFMessage, Transform, TransformStamped};
 use nrslam_runtime::bag::{Bag, ReadMode};
 use nrslam_runtime::rmw_zenoh;
 use std::path::Path;
@@ -20,9 +20,28 @@ use zenoh::Wait;
 
 const POINTS_TYPE: &str = "sensor_msgs/msg/PointCloud2";
 
-/// (topic, CDR) of the fixture's scans and poses-as-odometry, in stamp order (a pose before the
-/// scan of its stamp, as a driver's odometry would come).
-fn sequence() -> Vec<(&'static str, Vec<u8>)> {
+/// How the test's driver publishes the vehicle pose.
+#[derive(Clone, Copy, PartialEq)]
+enum PoseAs {
+    /// nav_msgs/msg/Odometry on /odom (zero placeholder hash, as ros2-client sends it).
+    Odometry,
+    /// The odom → base_link transform on /tf (tf2_msgs/msg/TFMessage, real hash), beside a
+    /// map → odom one the adapter must ignore.
+    Tf,
+}
+
+impl PoseAs {
+    fn topic(self) -> &'static str {
+        match self {
+            PoseAs::Odometry => "/odom",
+            PoseAs::Tf => "/tf",
+        }
+    }
+}
+
+/// (topic, CDR) of the fixture's scans and poses (as odometry or /tf), in stamp order (a pose
+/// before the scan of its stamp, as a driver's odometry would come).
+fn sequence(pose_as: PoseAs) -> Vec<(&'static str, Vec<u8>)> {
     let bag = Bag::open(
         &root().join("tests/fixtures/ros2/bags/v9_plain"),
         ReadMode::Strict,
@@ -39,9 +58,30 @@ fn sequence() -> Vec<(&'static str, Vec<u8>)> {
                 out.push((cloud.header.stamp, 1, "/radar/points", message.data))
             }
             Message::PoseStamped(pose) => {
-                let odometry = nrslam_sensor_adapter::odometry_of(&pose);
-                let bytes = Message::from(odometry).encode().unwrap();
-                out.push((pose.header.stamp, 0, "/odom", bytes));
+                let message = match pose_as {
+                    PoseAs::Odometry => Message::from(nrslam_sensor_adapter::odometry_of(&pose)),
+                    PoseAs::Tf => {
+                        let (x, y, yaw) = pose.pose.planar();
+                        let transform =
+                            |parent: &str, child: &str, t: Transform| TransformStamped {
+                                header: Header::new(pose.header.stamp, parent),
+                                child_frame_id: child.to_owned(),
+                                transform: t,
+                            };
+                        Message::TFMessage(TFMessage {
+                            transforms: vec![
+                                transform("map", "odom", Transform::from_planar(0.0, 0.0, 0.0)),
+                                transform("odom", "base_link", Transform::from_planar(x, y, yaw)),
+                            ],
+                        })
+                    }
+                };
+                out.push((
+                    pose.header.stamp,
+                    0,
+                    pose_as.topic(),
+                    message.encode().unwrap(),
+                ));
             }
             other => panic!("unexpected {}", other.type_name()),
         }
@@ -53,7 +93,7 @@ fn sequence() -> Vec<(&'static str, Vec<u8>)> {
 
 /// `nrslam launch launch/standard-input.toml source:=external input:=point_cloud2` in ROS domain
 /// `domain`, listening on `port`, writing into `out`; stderr into `out/stderr.txt`.
-fn launch(domain: u32, port: u16, out: &Path, start_timeout_s: u64) -> Child {
+fn launch(domain: u32, port: u16, out: &Path, start_timeout_s: u64, pose_as: PoseAs) -> Child {
     let stderr = std::fs::File::create(out.join("stderr.txt")).unwrap();
     nrslam()
         .args([
@@ -62,6 +102,11 @@ fn launch(domain: u32, port: u16, out: &Path, start_timeout_s: u64) -> Child {
             "source:=external",
             "input:=point_cloud2",
             "viz:=false",
+            if pose_as == PoseAs::Tf {
+                "pose:=tf"
+            } else {
+                "pose:=odom"
+            },
             "--ros-domain-id",
             &domain.to_string(),
             "--listen",
@@ -91,7 +136,7 @@ fn connect(port: u16) -> zenoh::Session {
 
 /// Waits until the graph's subscription tokens (`MS`) of /radar/points and /odom are seen in
 /// `domain`: the subscribers behind them are declared by then.
-fn wait_for_subscriptions(session: &zenoh::Session, domain: u32) {
+fn wait_for_subscriptions(session: &zenoh::Session, domain: u32, pose_as: PoseAs) {
     let deadline = Instant::now() + Duration::from_secs(60);
     loop {
         let replies = session
@@ -110,7 +155,8 @@ fn wait_for_subscriptions(session: &zenoh::Session, domain: u32) {
                 .iter()
                 .any(|t| t.contains("/MS/") && t.contains(topic))
         };
-        if subscribed("/%radar%points/") && subscribed("/%odom/") {
+        let pose_token = format!("/{}/", pose_as.topic().replace('/', "%"));
+        if subscribed("/%radar%points/") && subscribed(&pose_token) {
             return;
         }
         assert!(
@@ -123,14 +169,17 @@ fn wait_for_subscriptions(session: &zenoh::Session, domain: u32) {
 
 /// Publishes the sequence in ROS domain 0 as an rmw_zenoh publisher would, plus one scan under
 /// another type's hash (to be dropped and counted).
-fn publish(session: &zenoh::Session) {
+fn publish(session: &zenoh::Session, pose_as: PoseAs) {
     let points_key = rmw_zenoh::key_expr(0, "/radar/points", POINTS_TYPE).unwrap();
-    let odom_key = rmw_zenoh::key_expr_with_hash(
-        0,
-        "/odom",
-        "nav_msgs/msg/Odometry",
-        rmw_zenoh::PLACEHOLDER_TYPE_HASH,
-    );
+    let pose_key = match pose_as {
+        PoseAs::Odometry => rmw_zenoh::key_expr_with_hash(
+            0,
+            "/odom",
+            "nav_msgs/msg/Odometry",
+            rmw_zenoh::PLACEHOLDER_TYPE_HASH,
+        ),
+        PoseAs::Tf => rmw_zenoh::key_expr(0, "/tf", "tf2_msgs/msg/TFMessage").unwrap(),
+    };
     let wrong_key = rmw_zenoh::key_expr(0, "/radar/points", "nav_msgs/msg/Odometry")
         .unwrap()
         .replace(
@@ -148,13 +197,13 @@ fn publish(session: &zenoh::Session) {
             .wait()
             .unwrap();
     };
-    for (index, (topic, bytes)) in sequence().into_iter().enumerate() {
+    for (index, (topic, bytes)) in sequence(pose_as).into_iter().enumerate() {
         if index == 3 {
             put(&wrong_key, bytes.clone());
         }
         put(
-            if topic == "/odom" {
-                &odom_key
+            if topic == pose_as.topic() {
+                &pose_key
             } else {
                 &points_key
             },
@@ -184,10 +233,10 @@ fn ros2_publishers_in_the_domain_feed_the_graph_and_others_are_not_heard() {
     // Domain 0: the graph takes the sequence and maps the wall.
     let out = temp();
     let port = free_port();
-    let mut child = launch(0, port, out.path(), 60);
+    let mut child = launch(0, port, out.path(), 60, PoseAs::Odometry);
     let session = connect(port);
-    wait_for_subscriptions(&session, 0);
-    publish(&session);
+    wait_for_subscriptions(&session, 0, PoseAs::Odometry);
+    publish(&session, PoseAs::Odometry);
     let status = wait(&mut child, Duration::from_secs(120));
     let stderr = read(&out.path().join("stderr.txt"));
     assert!(status.success(), "launch failed: {stderr}");
@@ -207,10 +256,10 @@ fn ros2_publishers_in_the_domain_feed_the_graph_and_others_are_not_heard() {
     // Domain 1: the same publications (in domain 0) reach nothing, and the run says so.
     let out = temp();
     let port = free_port();
-    let mut child = launch(1, port, out.path(), 5);
+    let mut child = launch(1, port, out.path(), 5, PoseAs::Odometry);
     let session = connect(port);
-    wait_for_subscriptions(&session, 1);
-    publish(&session);
+    wait_for_subscriptions(&session, 1, PoseAs::Odometry);
+    publish(&session, PoseAs::Odometry);
     let status = wait(&mut child, Duration::from_secs(60));
     let stderr = read(&out.path().join("stderr.txt"));
     assert!(!status.success(), "domain 1 heard domain 0: {stderr}");
@@ -220,6 +269,33 @@ fn ros2_publishers_in_the_domain_feed_the_graph_and_others_are_not_heard() {
     );
     assert!(!out.path().join("summary.json").exists());
     let _ = session.close().wait();
+}
+
+/// Runs standard-input with the pose published `pose_as` in domain 0; its summary.json.
+fn inbound_summary(pose_as: PoseAs) -> serde_json::Value {
+    let out = temp();
+    let port = free_port();
+    let mut child = launch(0, port, out.path(), 60, pose_as);
+    let session = connect(port);
+    wait_for_subscriptions(&session, 0, pose_as);
+    publish(&session, pose_as);
+    let status = wait(&mut child, Duration::from_secs(120));
+    let stderr = read(&out.path().join("stderr.txt"));
+    assert!(status.success(), "launch failed: {stderr}");
+    let _ = session.close().wait();
+    summary(out.path())
+}
+
+#[test]
+fn the_vehicle_pose_can_come_from_tf_as_well_as_from_odometry() {
+    // The same poses as odom -> base_link on /tf (with a map -> odom the adapter must skip): the
+    // same keyframes and map as with Odometry on /odom.
+    let tf = inbound_summary(PoseAs::Tf);
+    let odometry = inbound_summary(PoseAs::Odometry);
+    assert!(tf["keyframes"].as_u64().unwrap() > 0, "{tf}");
+    for field in ["keyframes", "occupied_cells", "estimated_targets"] {
+        assert_eq!(tf[field], odometry[field], "{field}: {tf} vs {odometry}");
+    }
 }
 
 #[test]

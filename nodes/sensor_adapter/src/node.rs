@@ -3,9 +3,14 @@
 //!
 //! Inputs are declared pose first, so that for a frame whose pose and scan share a stamp the
 //! association gets the odometry before the detections, as from the simulated radar.
+//!
+//! The pose comes as a `PoseStamped` topic or from `/tf`: a ROS 2 robot's localisation publishes
+//! `odom → base_link` there (REP 105), and each transform to `tf_child_frame` is one pose.
 
 use nrslam_msgs::topics::{DETECTIONS, ODOM};
-use nrslam_msgs::{Header, Message, Odometry, PoseStamped, PoseWithCovariance};
+use nrslam_msgs::{
+    Header, Message, Odometry, Point, Pose, PoseStamped, PoseWithCovariance, TransformStamped,
+};
 use nrslam_runtime::{Node, NodeContext, NodeError, NodeResult, Outbox};
 
 use crate::convert::{Converter, Counts};
@@ -22,6 +27,7 @@ pub struct SensorAdapterNode {
     input: Input,
     topic: &'static str,
     pose_topic: Option<&'static str>,
+    tf_child_frame: String,
     converter: Converter,
     totals: Counts,
 }
@@ -40,6 +46,7 @@ impl SensorAdapterNode {
             input: params.input,
             topic: params.input_topic()?,
             pose_topic: params.pose_input()?,
+            tf_child_frame: params.tf_child_frame.clone(),
             converter: Converter::new(params),
             totals: Counts::default(),
         })
@@ -71,6 +78,23 @@ pub fn odometry_of(pose: &PoseStamped) -> Odometry {
     }
 }
 
+/// The pose a transform stands for: the child frame's origin and orientation in the parent's,
+/// stamped as the transform.
+pub fn pose_of(transform: &TransformStamped) -> PoseStamped {
+    let t = &transform.transform;
+    PoseStamped {
+        header: transform.header.clone(),
+        pose: Pose {
+            position: Point {
+                x: t.translation.x,
+                y: t.translation.y,
+                z: t.translation.z,
+            },
+            orientation: t.rotation,
+        },
+    }
+}
+
 impl Node for SensorAdapterNode {
     fn inputs(&self) -> Vec<&'static str> {
         self.pose_topic.into_iter().chain([self.topic]).collect()
@@ -88,6 +112,15 @@ impl Node for SensorAdapterNode {
         let (detections, counts) = match (message, self.input) {
             (Message::PoseStamped(pose), _) if Some(topic) == self.pose_topic => {
                 outbox.publish(ODOM, odometry_of(pose));
+                return Ok(());
+            }
+            (Message::TFMessage(tf), _) if Some(topic) == self.pose_topic => {
+                // Other transforms on /tf (map → odom, the sensor's mount) are not the pose.
+                for transform in &tf.transforms {
+                    if transform.child_frame_id == self.tf_child_frame {
+                        outbox.publish(ODOM, odometry_of(&pose_of(transform)));
+                    }
+                }
                 return Ok(());
             }
             (Message::RadarScan(scan), Input::RadarScan) if topic == self.topic => {
@@ -231,5 +264,53 @@ mod tests {
         };
         let err = build(bad, &ctx).err().expect("refused");
         assert!(err.to_string().contains("yaw_rad"), "{err}");
+    }
+
+    #[test]
+    fn tf_transforms_to_the_vehicle_frame_are_its_poses_and_others_are_not() {
+        use nrslam_msgs::topics::TF;
+        use nrslam_msgs::{TFMessage, Transform};
+        let mut node = SensorAdapterNode::new(&params(Input::PointCloud2, TF)).unwrap();
+        assert_eq!(node.inputs(), vec![TF, RADAR_POINTS]);
+        assert_eq!(node.outputs(), vec![ODOM, DETECTIONS]);
+        let stamp = Time::from_seconds(3.0);
+        let transform = |parent: &str, child: &str, x_m: f64, yaw_rad: f64| TransformStamped {
+            header: Header::new(stamp, parent),
+            child_frame_id: child.into(),
+            transform: Transform::from_planar(x_m, -1.0, yaw_rad),
+        };
+        let tf = TFMessage {
+            transforms: vec![
+                transform("map", "odom", 5.0, 0.1),
+                transform("odom", "base_link", 2.0, 0.3),
+                transform("base_link", "radar", 0.4, 0.0),
+            ],
+        };
+        let mut outbox = Outbox::new();
+        node.on_message(TF, &tf.into(), &mut outbox).unwrap();
+        let out: Vec<_> = outbox.drain().collect();
+        assert_eq!(out.len(), 1, "only odom -> base_link is the pose: {out:?}");
+        let (ODOM, Message::Odometry(odom)) = &out[0] else {
+            panic!("{:?}", out[0])
+        };
+        let (x, y, yaw) = odom.pose.pose.planar();
+        assert_eq!((x, y), (2.0, -1.0));
+        assert!((yaw - 0.3).abs() < 1e-12, "{yaw}");
+        assert_eq!(odom.header.stamp, stamp);
+
+        let mut other = params(Input::PointCloud2, TF);
+        other.tf_child_frame = "radar".into();
+        let mut node = SensorAdapterNode::new(&other).unwrap();
+        node.on_message(
+            TF,
+            &Message::TFMessage(TFMessage {
+                transforms: vec![transform("base_link", "radar", 0.4, 0.0)],
+            }),
+            &mut outbox,
+        )
+        .unwrap();
+        assert_eq!(outbox.drain().count(), 1);
+        other.tf_child_frame = String::new();
+        assert!(SensorAdapterNode::new(&other).is_err());
     }
 }

@@ -35,10 +35,15 @@ pub struct Params {
     /// `radar_scan`, `/radar/points` or `/radar/detections_cloud` for `point_cloud2`). Empty: the
     /// input's usual topic (`/radar/scan`, `/radar/points`). Default empty.
     pub topic: String,
-    /// A `geometry_msgs/msg/PoseStamped` topic of the vehicle's pose (e.g.
-    /// `/ground_truth/pose`), republished as `/odom` for the association; empty: the adapter
-    /// publishes no odometry (another node must). Default empty.
+    /// The vehicle's pose, republished as `/odom` for the association: a
+    /// `geometry_msgs/msg/PoseStamped` topic (e.g. `/ground_truth/pose`), or `/tf`
+    /// (`tf2_msgs/msg/TFMessage`), whose transforms with child frame `tf_child_frame` are taken as
+    /// the pose (their parent frame as the odometry frame); empty: the adapter publishes no
+    /// odometry (another node must). Default empty.
     pub pose_topic: String,
+    /// With `pose_topic = "/tf"`: the vehicle's frame, whose transform from its parent is the
+    /// pose (REP 105's `base_link`, child of `odom`). Default `base_link`.
+    pub tf_child_frame: String,
     /// Sensor position on the vehicle, forward of the vehicle's reference point (m), |x| ≤ 100.
     /// Default 0.
     pub x_m: f64,
@@ -70,6 +75,7 @@ impl Default for Params {
             input: Input::RadarScan,
             topic: String::new(),
             pose_topic: String::new(),
+            tf_child_frame: "base_link".to_owned(),
             x_m: 0.0,
             y_m: 0.0,
             yaw_rad: 0.0,
@@ -115,10 +121,11 @@ impl Params {
         }
         match topics::spec(&self.pose_topic) {
             Some(spec) if spec.type_name == "geometry_msgs/msg/PoseStamped" => Ok(Some(spec.name)),
+            Some(spec) if spec.name == topics::TF => Ok(Some(spec.name)),
             _ => Err(invalid(
                 "pose_topic",
                 format!("{:?}", self.pose_topic),
-                "empty or a catalogue topic of type geometry_msgs/msg/PoseStamped \
+                "empty, /tf, or a catalogue topic of type geometry_msgs/msg/PoseStamped \
                  (/ground_truth/pose)",
             )),
         }
@@ -128,6 +135,13 @@ impl Params {
     pub fn validate(&self) -> Result<(), InvalidParam> {
         self.input_topic()?;
         self.pose_input()?;
+        if self.tf_child_frame.is_empty() || self.tf_child_frame.len() > 256 {
+            return Err(invalid(
+                "tf_child_frame",
+                format!("{:?}", self.tf_child_frame),
+                "a frame name of 1 to 256 bytes (base_link)",
+            ));
+        }
         for (field, value) in [("x_m", self.x_m), ("y_m", self.y_m)] {
             if !(value.is_finite() && value.abs() <= MAX_OFFSET_M) {
                 return Err(invalid(field, format!("{value} m"), "-100..=100 (metres)"));
