@@ -34,6 +34,8 @@ pub struct ExternalSource {
     timeouts: ExternalTimeouts,
     started: Option<Instant>,
     last: Option<Instant>,
+    /// Topics that delivered at least one message.
+    heard: Vec<&'static str>,
     drops: Arc<Mutex<Drops>>,
 }
 
@@ -47,6 +49,7 @@ impl ExternalSource {
             timeouts,
             started: None,
             last: None,
+            heard: Vec::new(),
             drops: Arc::default(),
         }
     }
@@ -62,6 +65,21 @@ impl ExternalSource {
                 *drops = self.inbox.drops().clone();
             }
         }
+    }
+}
+
+impl ExternalSource {
+    /// An external topic that has delivered nothing, and has not ended, a start timeout after the
+    /// first wait while others deliver: every node waiting on it would hold the other topics'
+    /// messages in memory for as long as the run lasts, so the run stops and names it.
+    fn silent_topic(&self, started: Instant) -> Option<&'static str> {
+        if self.heard.is_empty() || started.elapsed() < self.timeouts.first {
+            return None;
+        }
+        self.open
+            .iter()
+            .copied()
+            .find(|topic| !self.heard.contains(topic))
     }
 }
 
@@ -87,9 +105,22 @@ impl Node for ExternalSource {
     /// idle period passed.
     fn tick(&mut self, outbox: &mut Outbox) -> Result<Tick, NodeError> {
         let started = *self.started.get_or_insert_with(Instant::now);
+        // Idle time is time spent waiting here: while the graph computed (a loop closure, say),
+        // messages queued up, and the run must not end with them unread.
+        let entered = Instant::now();
         loop {
+            if let Some(silent) = self.silent_topic(started) {
+                return Err(NodeError::algorithm(TopicNeverArrived {
+                    topic: silent,
+                    seconds: self.timeouts.first.as_secs_f64(),
+                    heard: self.heard.join(", "),
+                }));
+            }
             let left = match self.last {
-                Some(last) => self.timeouts.idle.saturating_sub(last.elapsed()),
+                Some(last) => self
+                    .timeouts
+                    .idle
+                    .saturating_sub(last.max(entered).elapsed()),
                 None => self.timeouts.first.saturating_sub(started.elapsed()),
             };
             if left.is_zero() {
@@ -110,6 +141,9 @@ impl Node for ExternalSource {
             match delivery.map_err(NodeError::algorithm)? {
                 Some(Delivery::Message { topic, message, .. }) => {
                     self.last = Some(Instant::now());
+                    if !self.heard.contains(&topic) {
+                        self.heard.push(topic);
+                    }
                     outbox.publish(topic, message);
                     return Ok(Tick::More);
                 }
@@ -129,11 +163,26 @@ impl Node for ExternalSource {
 #[derive(Debug, thiserror::Error)]
 #[error(
     "no message on the external topics ({topics}) within {seconds} s: is the publisher running, \
-     in the same ROS domain (--ros-domain-id) and reachable (--listen, --connect, --ros-router)?"
+     in the same ROS domain (--ros-domain-id), reachable (--listen, --connect, --ros-router), and \
+     publishing the catalogue's type (`nrslam topics`; another type's hash is counted as \
+     type_hash_mismatch)?"
 )]
 struct NothingArrived {
     topics: String,
     seconds: f64,
+}
+
+/// One external topic stayed silent while others delivered.
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "external topic {topic} delivered nothing within {seconds} s while {heard} did: the nodes \
+     that need it would hold every other message; is it published, with the catalogue's type \
+     (`nrslam topics`), in the same ROS domain?"
+)]
+struct TopicNeverArrived {
+    topic: &'static str,
+    seconds: f64,
+    heard: String,
 }
 
 #[cfg(test)]
@@ -229,6 +278,60 @@ mod tests {
         let error = silent.tick(&mut outbox).unwrap_err().to_string();
         assert!(
             error.contains("no message on the external topics (/odom) within 0.2 s"),
+            "{error}"
+        );
+    }
+
+    #[test]
+    fn time_spent_outside_the_source_is_not_idle_time() {
+        // A downstream step longer than the idle period: the queued message is still read.
+        let session = transport::open(&TransportConfig::default()).unwrap();
+        let mut source = source(&session, 200);
+        session.put("clock", clock(1)).wait().unwrap();
+        let mut outbox = Outbox::new();
+        assert_eq!(source.tick(&mut outbox).unwrap(), Tick::More);
+        session.put("clock", clock(2)).wait().unwrap();
+        std::thread::sleep(Duration::from_millis(400));
+        assert_eq!(source.tick(&mut outbox).unwrap(), Tick::More);
+        assert_eq!(source.tick(&mut outbox).unwrap(), Tick::Done);
+        let stamps: Vec<i32> = outbox.drain().map(|(_, m)| m.stamp().sec).collect();
+        assert_eq!(stamps, vec![1, 2]);
+    }
+
+    #[test]
+    fn a_topic_silent_while_others_deliver_stops_the_run_by_name() {
+        let session = transport::open(&TransportConfig::default()).unwrap();
+        let inbox = Inbox::subscribe(
+            &session,
+            "",
+            &[topics::CLOCK, topics::ODOM],
+            InboxOptions::default(),
+        )
+        .unwrap();
+        let mut source = ExternalSource::new(
+            inbox,
+            vec![topics::CLOCK, topics::ODOM],
+            ExternalTimeouts {
+                first: Duration::from_millis(300),
+                idle: Duration::from_secs(60),
+            },
+        );
+        let mut outbox = Outbox::new();
+        let mut error = None;
+        for sec in 1..100 {
+            session.put("clock", clock(sec)).wait().unwrap();
+            match source.tick(&mut outbox) {
+                Ok(Tick::More) => std::thread::sleep(Duration::from_millis(20)),
+                Ok(Tick::Done) => panic!("ended without /odom"),
+                Err(e) => {
+                    error = Some(e.to_string());
+                    break;
+                }
+            }
+        }
+        let error = error.expect("the silent /odom stops the run");
+        assert!(
+            error.contains("external topic /odom delivered nothing") && error.contains("/clock"),
             "{error}"
         );
     }
