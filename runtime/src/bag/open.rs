@@ -285,6 +285,15 @@ impl Bag {
         self.stream(Some(topics.to_vec()), false)
     }
 
+    /// The bag's topics: [`Bag::topics`] when the summary or metadata.yaml has them, else (a
+    /// recovered recording) from one [`Bag::survey`] pass over the files.
+    pub fn known_topics(&self) -> Result<Vec<TopicSummary>, BagError> {
+        match self.topics() {
+            Some(topics) => Ok(topics),
+            None => Ok(self.survey()?.topics),
+        }
+    }
+
     /// One pass over the files that counts messages per topic without handing them out.
     pub fn survey(&self) -> Result<ReadReport, BagError> {
         let mut stream = self.stream(None, true)?;

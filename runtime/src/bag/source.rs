@@ -52,10 +52,7 @@ impl BagSource {
             ReadMode::Strict
         };
         let bag = Bag::open(&params.path, mode)?;
-        let recorded = match bag.topics() {
-            Some(topics) => topics,
-            None => bag.survey()?.topics,
-        };
+        let recorded = bag.known_topics()?;
         super::reader::check_topics(&params.topics, &recorded)?;
         let mut outputs: Vec<&'static str> = Vec::new();
         for topic in &recorded {

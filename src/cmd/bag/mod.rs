@@ -114,7 +114,8 @@ pub(crate) fn interrupted() -> Arc<AtomicBool> {
     flag
 }
 
-fn open_bag(dir: &Path, recover: bool) -> Result<Bag> {
+/// Opens the bag at `dir`, strictly or (`recover`) reading a cut-off or damaged one.
+pub(crate) fn open_bag(dir: &Path, recover: bool) -> Result<Bag> {
     let mode = if recover {
         ReadMode::Recover
     } else {

@@ -145,10 +145,7 @@ pub fn play(args: PlayArgs) -> Result<()> {
     let bag = open_bag(&args.dir, args.recover)?;
     // The topics to play, known before publishing: from the summary or metadata.yaml, else (a
     // recovered recording) from one pass over the file.
-    let recorded = match bag.topics() {
-        Some(topics) => topics,
-        None => bag.survey()?.topics,
-    };
+    let recorded = bag.known_topics()?;
     let played = select(&args, &bag, &recorded)?;
     let session = args.transport.peer_session()?;
     let style = match args.ros_domain_id {

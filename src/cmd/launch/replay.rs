@@ -287,16 +287,7 @@ pub(super) fn prepare(launch: Launch, args: &LaunchArgs) -> Result<(Launch, Opti
 
 /// The topics a bag holds.
 fn bag_topics(dir: &std::path::Path, recover: bool) -> Result<Vec<String>> {
-    let mode = if recover {
-        bag::ReadMode::Recover
-    } else {
-        bag::ReadMode::Strict
-    };
-    let opened = bag::Bag::open(dir, mode)?;
-    let topics = match opened.topics() {
-        Some(topics) => topics,
-        None => opened.survey()?.topics,
-    };
+    let topics = crate::cmd::bag::open_bag(dir, recover)?.known_topics()?;
     Ok(topics.into_iter().map(|t| t.name).collect())
 }
 
