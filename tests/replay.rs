@@ -48,6 +48,23 @@ fn assert_identical(name: &str, run_dir: &Path, replay_dir: &Path) {
     assert!(!replay.contains("differs_from_recording"), "{name}");
 }
 
+/// Replays `bag`, which carries no launch record, into `out`: its summary.json and the one
+/// warning line the replay must print.
+fn replay_without_record(bag: &Path, out: &Path) -> (serde_json::Value, String) {
+    let output = run_ok(&[
+        "launch",
+        "launch/replay.toml",
+        &format!("bag:={}", bag.display()),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    let warnings: Vec<&str> = stderr.lines().filter(|l| l.contains("warning")).collect();
+    assert_eq!(warnings.len(), 1, "{}: {stderr}", bag.display());
+    assert!(warnings[0].contains("no nrslam launch record"), "{stderr}");
+    (summary(out), warnings[0].to_owned())
+}
+
 #[test]
 fn the_paper_5g_back_end_with_its_loop_closure_is_rebuilt_from_the_bag() {
     let dir = temp();
@@ -191,22 +208,8 @@ fn a_bag_without_a_launch_record_replays_with_one_warning() {
     metadata.rosbag2_bagfile_information.custom_data.clear();
     std::fs::write(&path, metadata.to_yaml().unwrap()).unwrap();
 
-    let replay_dir = dir.path().join("replay");
-    let output = run_ok(&[
-        "launch",
-        "launch/replay.toml",
-        &format!("bag:={}", bag_dir.display()),
-        "--out",
-        replay_dir.to_str().unwrap(),
-    ]);
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    let warnings: Vec<&str> = stderr.lines().filter(|l| l.contains("warning")).collect();
-    assert_eq!(warnings.len(), 1, "{stderr}");
-    assert!(
-        warnings[0].contains("no nrslam launch record") && warnings[0].contains("association"),
-        "{stderr}"
-    );
-    let replay = summary(&replay_dir);
+    let (replay, warning) = replay_without_record(&bag_dir, &dir.path().join("replay"));
+    assert!(warning.contains("association"), "{warning}");
     assert_eq!(replay["launch"], "launch/replay.toml");
     assert_eq!(replay["frames"], 20);
     // paper-ideal's back end is replay.toml's default: the maps agree.
@@ -222,19 +225,7 @@ fn bags_written_by_rosbags_and_by_the_mcap_package_replay_with_one_warning() {
         ("rosbags", fixtures.join("replay_rosbags")),
         ("mcap", fixtures.join("replay_mcap/replay_mcap_0.mcap")),
     ] {
-        let out = dir.path().join(name);
-        let output = run_ok(&[
-            "launch",
-            "launch/replay.toml",
-            &format!("bag:={}", bag.display()),
-            "--out",
-            out.to_str().unwrap(),
-        ]);
-        let stderr = String::from_utf8_lossy(&output.stderr);
-        let warnings: Vec<&str> = stderr.lines().filter(|l| l.contains("warning")).collect();
-        assert_eq!(warnings.len(), 1, "{name}: {stderr}");
-        assert!(warnings[0].contains("no nrslam launch record"), "{stderr}");
-        let replay = summary(&out);
+        let (replay, _) = replay_without_record(&bag, &dir.path().join(name));
         assert_eq!(replay["frames"], 20, "{name}");
         assert_eq!(replay["launch"], "launch/replay.toml", "{name}");
         etgospa.push(replay["etgospa"].as_f64().expect("scored"));
