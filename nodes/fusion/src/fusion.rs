@@ -1,0 +1,745 @@
+//! The fusion algorithm: several agents' keyframes into one pose graph and one map frame.
+//!
+//! The paper's SLAM system (its Fig. 2) names four modules; this is the one it leaves to future
+//! work ("multi-point cooperative sensing will be adopted to improve the SLAM performance"). Each
+//! agent is either an AGV, which runs its own chain (radar, estimator, association) and sends its
+//! keyframes in its own frame, or a fixed sensing station, whose surveyed pose is in the map frame.
+//!
+//! - **Frames.** An AGV with a known start pose (`known_start_agvs`) and every station are
+//!   *aligned* from the start: their frame is the map's. Any other AGV's frame is unknown; it is
+//!   found by place recognition and the AGV is merged once `confirmations` matches agree on it.
+//! - **Place recognition.** Every `match_every_keyframes` keyframes, an AGV's query (its last
+//!   `query_keyframes` keyframes in the middle one's frame, as the single-AGV loop closure builds
+//!   it) is matched with the loop closure's correlative branch-and-bound search, ICP refinement and
+//!   verification ([`nrslam_association::match_loop`]). An unaligned AGV searches the whole
+//!   aligned map at once (every rotation, the map's extent): one search per query, however many
+//!   agents and keyframes the map holds. An aligned AGV searches only other agents' points near
+//!   its fused pose, within `local_radius_m`: these matches become inter-agent edges.
+//! - **Pose graph.** One graph over every aligned keyframe of every agent: each AGV's consecutive
+//!   keyframes joined by the motion its own SLAM estimated (its intra-agent loops are already in
+//!   that estimate, and are added as edges too), inter-agent and station edges from the matches,
+//!   stations fixed at their surveyed poses and known-start AGVs' first keyframes fixed. It is
+//!   re-solved ([`PoseGraph::optimise`]) when its structure changes (an edge, a merge, an agent's
+//!   own loop closure); otherwise a new keyframe is chained onto its predecessor's fused pose.
+//!
+//! Everything is deterministic: agents are visited in index order and the matcher breaks ties.
+
+use nrslam_association::pose_graph::RobustKernel;
+use nrslam_association::{match_loop, Edge, EdgeKind, OptimiserSettings, Pose2, PoseGraph};
+
+use crate::params::Params;
+
+/// What kind of sensing point an agent is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AgentKind {
+    /// A moving AGV with its own SLAM; `known_start`: its frame is the map's.
+    Agv {
+        /// Its odometry starts at its true pose in the map frame.
+        known_start: bool,
+    },
+    /// A fixed station at a surveyed pose in the map frame.
+    Station,
+}
+
+/// One keyframe of one agent.
+#[derive(Debug, Clone)]
+struct AgentKeyframe {
+    /// The agent's own id for it.
+    local_id: u32,
+    /// Its pose in the agent's frame, the agent's latest estimate.
+    local_pose: Pose2,
+    /// Detections in the sensor body frame (m).
+    points_body_m: Vec<[f64; 2]>,
+    /// Its pose in the map frame once the agent is aligned.
+    fused: Option<Pose2>,
+    /// Its id in the fused graph once published.
+    global_id: Option<u32>,
+}
+
+/// A verified match between agents: an edge of the fused graph.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InterEdge {
+    /// Agent and keyframe index of the older end (the matched map's keyframe).
+    pub from: (usize, usize),
+    /// Agent and keyframe index of the query keyframe.
+    pub to: (usize, usize),
+    /// Pose of `to` in `from`'s frame.
+    pub relative: Pose2,
+}
+
+/// A candidate frame of an unaligned agent, waiting for a second match to confirm it.
+#[derive(Debug, Clone, Copy)]
+struct Candidate {
+    /// Map-from-agent transform the match implies.
+    frame: Pose2,
+    edge: InterEdge,
+}
+
+#[derive(Debug, Clone)]
+struct Agent {
+    kind: AgentKind,
+    keyframes: Vec<AgentKeyframe>,
+    /// Map-from-agent transform; `None` until aligned.
+    frame: Option<Pose2>,
+    candidates: Vec<Candidate>,
+    /// The agent's own loop edges: (older local id, newer local id, relative pose).
+    loops: Vec<(u32, u32, Pose2)>,
+    /// Keyframes added since the last query.
+    since_query: u32,
+    /// Station frames since the last station keyframe.
+    station_frames: u32,
+}
+
+/// Counters of what fusion did, for the run's report and the benches.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct FusionStats {
+    /// Whole-map searches of unaligned agents.
+    pub global_searches: u64,
+    /// Local searches of aligned agents for inter-agent edges.
+    pub local_searches: u64,
+    /// Query points scored against a submap, summed over searches (what the search costs).
+    pub query_points_scored: u64,
+    /// Verified matches of an unaligned agent (candidates of its frame).
+    pub candidates: u64,
+    /// Agents merged into the map frame by place recognition.
+    pub merges: u64,
+    /// Inter-agent (and station) edges in the graph.
+    pub inter_edges: u64,
+    /// Pose-graph solves.
+    pub optimisations: u64,
+}
+
+/// What one input changed, for the node to publish.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Update {
+    /// Keyframes newly placed in the map frame, (agent, keyframe index), in publication order.
+    pub published: Vec<(usize, usize)>,
+    /// The fused poses of earlier keyframes moved (the graph was re-solved).
+    pub corrected: bool,
+}
+
+/// The fusion state.
+#[derive(Debug, Clone)]
+pub struct Fusion {
+    params: Params,
+    agents: Vec<Agent>,
+    edges: Vec<InterEdge>,
+    next_global_id: u32,
+    /// Pose-graph solves so far: the published revision.
+    revision: u32,
+    stats: FusionStats,
+}
+
+/// Why an input was refused (the node drops and counts it).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum FusionError {
+    /// No agent with this index.
+    #[error("no agent {0}")]
+    UnknownAgent(usize),
+    /// A pose or point is NaN or infinite.
+    #[error("non-finite {0}")]
+    NonFinite(&'static str),
+    /// A keyframe id not after the agent's last one.
+    #[error("keyframe id {id} is not after the agent's last one ({last})")]
+    OutOfOrder {
+        /// The refused id.
+        id: u32,
+        /// The last accepted id.
+        last: u32,
+    },
+    /// The input is for the other kind of agent.
+    #[error("agent {0} is not of the kind this input is for")]
+    WrongKind(usize),
+}
+
+impl Fusion {
+    /// Fusion of `params.agvs` AGVs (agents 0..agvs) then `params.stations` stations.
+    pub fn new(params: Params) -> Self {
+        let agv = |i: u32| AgentKind::Agv {
+            known_start: params.known_start_agvs.contains(&(i + 1)),
+        };
+        let agents = (0..params.agvs)
+            .map(agv)
+            .chain((0..params.stations).map(|_| AgentKind::Station))
+            .map(|kind| Agent {
+                kind,
+                keyframes: Vec::new(),
+                frame: match kind {
+                    AgentKind::Agv { known_start: false } => None,
+                    _ => Some(Pose2::new(0.0, 0.0, 0.0)),
+                },
+                candidates: Vec::new(),
+                loops: Vec::new(),
+                since_query: 0,
+                station_frames: 0,
+            })
+            .collect();
+        Fusion {
+            params,
+            agents,
+            edges: Vec::new(),
+            next_global_id: 0,
+            revision: 0,
+            stats: FusionStats::default(),
+        }
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &Params {
+        &self.params
+    }
+
+    /// Number of agents (AGVs then stations).
+    pub fn agent_count(&self) -> usize {
+        self.agents.len()
+    }
+
+    /// What fusion did so far.
+    pub fn stats(&self) -> FusionStats {
+        self.stats
+    }
+
+    /// Pose-graph revision: changes whenever published poses were corrected.
+    pub fn revision(&self) -> u32 {
+        self.revision
+    }
+
+    /// The inter-agent edges in the graph.
+    pub fn inter_edges(&self) -> &[InterEdge] {
+        &self.edges
+    }
+
+    /// Whether `agent`'s frame is known in the map frame.
+    pub fn is_aligned(&self, agent: usize) -> bool {
+        self.agents.get(agent).is_some_and(|a| a.frame.is_some())
+    }
+
+    /// Map-from-agent transform of `agent`, once aligned.
+    pub fn frame_of(&self, agent: usize) -> Option<Pose2> {
+        self.agents.get(agent).and_then(|a| a.frame)
+    }
+
+    /// Global id and fused pose of keyframe `index` of `agent`, once published.
+    pub fn fused_keyframe(&self, agent: usize, index: usize) -> Option<(u32, Pose2)> {
+        let k = self.agents.get(agent)?.keyframes.get(index)?;
+        Some((k.global_id?, k.fused?))
+    }
+
+    /// Every published keyframe as (global id, fused pose), ascending id.
+    pub fn fused_poses(&self) -> Vec<(u32, Pose2)> {
+        let mut all: Vec<(u32, Pose2)> = self
+            .agents
+            .iter()
+            .flat_map(|a| a.keyframes.iter())
+            .filter_map(|k| Some((k.global_id?, k.fused?)))
+            .collect();
+        all.sort_by_key(|(id, _)| *id);
+        all
+    }
+
+    /// Each inter-agent edge as (global id from, global id to, relative pose), once both ends are
+    /// published.
+    pub fn published_edges(&self) -> Vec<(u32, u32, Pose2)> {
+        self.edges
+            .iter()
+            .filter_map(|e| {
+                let (from, _) = self.fused_keyframe(e.from.0, e.from.1)?;
+                let (to, _) = self.fused_keyframe(e.to.0, e.to.1)?;
+                Some((from, to, e.relative))
+            })
+            .collect()
+    }
+
+    /// `local_pose` of `agent` (in its own frame, e.g. its latest SLAM pose) in the map frame:
+    /// carried by the correction of its newest keyframe. `None` until the agent is aligned.
+    pub fn corrected_pose(&self, agent: usize, local_pose: Pose2) -> Option<Pose2> {
+        let a = self.agents.get(agent)?;
+        let frame = a.frame?;
+        match a.keyframes.iter().rev().find(|k| k.fused.is_some()) {
+            Some(k) => Some(k.fused?.compose(&k.local_pose.between(&local_pose))),
+            None => Some(frame.compose(&local_pose)),
+        }
+    }
+
+    /// An AGV keyframe: `local_pose` in the agent's frame, detections in its body frame.
+    pub fn add_keyframe(
+        &mut self,
+        agent: usize,
+        local_id: u32,
+        local_pose: Pose2,
+        points_body_m: Vec<[f64; 2]>,
+    ) -> Result<Update, FusionError> {
+        let a = self
+            .agents
+            .get(agent)
+            .ok_or(FusionError::UnknownAgent(agent))?;
+        if a.kind == AgentKind::Station {
+            return Err(FusionError::WrongKind(agent));
+        }
+        check_input(&local_pose, &points_body_m)?;
+        if let Some(last) = a.keyframes.last() {
+            if local_id <= last.local_id {
+                return Err(FusionError::OutOfOrder {
+                    id: local_id,
+                    last: last.local_id,
+                });
+            }
+        }
+        let mut update = Update::default();
+        let index = self.push_keyframe(agent, local_id, local_pose, points_body_m);
+        if self.agents[agent].frame.is_some() {
+            self.place_new(agent, index, &mut update);
+        }
+        let a = &mut self.agents[agent];
+        a.since_query += 1;
+        if a.since_query >= self.params.match_every_keyframes
+            && a.keyframes.len() >= self.params.query_keyframes as usize
+        {
+            a.since_query = 0;
+            if a.frame.is_some() {
+                self.match_aligned(agent, &mut update);
+            } else {
+                self.match_unaligned(agent, &mut update);
+            }
+        }
+        Ok(update)
+    }
+
+    /// An AGV's own estimate of its keyframes (its `/slam/keyframe_poses`): local ids, poses and
+    /// its loop edges (older id, newer id, relative pose). A changed estimate re-solves the graph.
+    pub fn set_local_poses(
+        &mut self,
+        agent: usize,
+        poses: &[(u32, Pose2)],
+        loops: &[(u32, u32, Pose2)],
+    ) -> Result<Update, FusionError> {
+        let a = self
+            .agents
+            .get_mut(agent)
+            .ok_or(FusionError::UnknownAgent(agent))?;
+        if a.kind == AgentKind::Station {
+            return Err(FusionError::WrongKind(agent));
+        }
+        if poses.iter().any(|(_, p)| !p.is_finite()) || loops.iter().any(|(_, _, p)| !p.is_finite())
+        {
+            return Err(FusionError::NonFinite("keyframe pose"));
+        }
+        let mut moved = false;
+        for (id, pose) in poses {
+            if let Ok(i) = a.keyframes.binary_search_by_key(id, |k| k.local_id) {
+                let k = &mut a.keyframes[i];
+                if k.local_pose.distance_m(pose) > 1e-6 || k.local_pose.rotation_to_rad(pose) > 1e-9
+                {
+                    k.local_pose = *pose;
+                    moved = true;
+                }
+            }
+        }
+        let loops_changed = a.loops != loops;
+        a.loops = loops.to_vec();
+        let mut update = Update::default();
+        if (moved || loops_changed) && a.frame.is_some() {
+            self.optimise();
+            update.corrected = true;
+        }
+        Ok(update)
+    }
+
+    /// One frame of a station: its surveyed pose (map frame) and detections in its body frame.
+    /// Every `station_keyframe_every` frames this is a keyframe, published at once (a station is
+    /// aligned by its survey).
+    pub fn add_station_frame(
+        &mut self,
+        agent: usize,
+        pose: Pose2,
+        points_body_m: Vec<[f64; 2]>,
+    ) -> Result<Update, FusionError> {
+        let every = self.params.station_keyframe_every;
+        let a = self
+            .agents
+            .get_mut(agent)
+            .ok_or(FusionError::UnknownAgent(agent))?;
+        if a.kind != AgentKind::Station {
+            return Err(FusionError::WrongKind(agent));
+        }
+        check_input(&pose, &points_body_m)?;
+        let mut update = Update::default();
+        let due = a.station_frames % every == 0;
+        a.station_frames += 1;
+        if due {
+            let local_id = a.keyframes.last().map_or(0, |k| k.local_id + 1);
+            let index = self.push_keyframe(agent, local_id, pose, points_body_m);
+            self.place_new(agent, index, &mut update);
+        }
+        Ok(update)
+    }
+
+    fn push_keyframe(
+        &mut self,
+        agent: usize,
+        local_id: u32,
+        local_pose: Pose2,
+        points_body_m: Vec<[f64; 2]>,
+    ) -> usize {
+        let a = &mut self.agents[agent];
+        a.keyframes.push(AgentKeyframe {
+            local_id,
+            local_pose,
+            points_body_m,
+            fused: None,
+            global_id: None,
+        });
+        a.keyframes.len() - 1
+    }
+
+    /// Places keyframe `index` of an aligned agent: chained onto its predecessor's fused pose.
+    fn place_new(&mut self, agent: usize, index: usize, update: &mut Update) {
+        let a = &mut self.agents[agent];
+        let Some(frame) = a.frame else { return };
+        let fused = match index.checked_sub(1).map(|p| &a.keyframes[p]) {
+            Some(AgentKeyframe {
+                fused: Some(prev_fused),
+                local_pose: prev_local,
+                ..
+            }) if a.kind != AgentKind::Station => {
+                prev_fused.compose(&prev_local.between(&a.keyframes[index].local_pose))
+            }
+            _ => frame.compose(&a.keyframes[index].local_pose),
+        };
+        let k = &mut a.keyframes[index];
+        k.fused = Some(fused);
+        k.global_id = Some(self.next_global_id);
+        self.next_global_id += 1;
+        update.published.push((agent, index));
+    }
+
+    /// The query of `agent`'s newest keyframes: (anchor keyframe index, points in its frame).
+    fn query(&self, agent: usize) -> (usize, Vec<[f64; 2]>) {
+        let a = &self.agents[agent];
+        let last = a.keyframes.len() - 1;
+        let first = (last + 1).saturating_sub(self.params.query_keyframes as usize);
+        let anchor = (first + last) / 2;
+        let to_anchor = a.keyframes[anchor].local_pose.inverse();
+        let points = a.keyframes[first..=last]
+            .iter()
+            .flat_map(|k| {
+                let pose = to_anchor.compose(&k.local_pose);
+                k.points_body_m
+                    .iter()
+                    .map(move |p| pose.transform_point(*p))
+            })
+            .collect();
+        (anchor, points)
+    }
+
+    /// Points of every aligned agent but `except`, map frame, each with its (agent, keyframe);
+    /// only keyframes within `range_m` of `near` when given.
+    fn aligned_points(
+        &self,
+        except: usize,
+        near: Option<(Pose2, f64)>,
+    ) -> (Vec<[f64; 2]>, Vec<(usize, usize)>) {
+        let mut points = Vec::new();
+        let mut owners = Vec::new();
+        for (i, a) in self.agents.iter().enumerate() {
+            if i == except || a.frame.is_none() {
+                continue;
+            }
+            for (j, k) in a.keyframes.iter().enumerate() {
+                let Some(fused) = k.fused else { continue };
+                if let Some((centre, range_m)) = near {
+                    if fused.distance_m(&centre) > range_m {
+                        continue;
+                    }
+                }
+                for p in &k.points_body_m {
+                    points.push(fused.transform_point(*p));
+                    owners.push((i, j));
+                }
+            }
+        }
+        (points, owners)
+    }
+
+    /// The keyframe an edge from a match at `pose` (map frame) hangs on: the owner of the most
+    /// submap points, nearest to `pose` among its keyframes.
+    fn edge_anchor(&self, owners: &[(usize, usize)], pose: &Pose2) -> Option<(usize, usize)> {
+        let mut best: Option<(f64, (usize, usize))> = None;
+        let mut seen: Vec<(usize, usize)> = owners.to_vec();
+        seen.dedup();
+        for (i, j) in seen {
+            let fused = self.agents[i].keyframes[j].fused?;
+            let d = fused.distance_m(pose);
+            if best.is_none_or(|(bd, _)| d < bd) {
+                best = Some((d, (i, j)));
+            }
+        }
+        best.map(|(_, owner)| owner)
+    }
+
+    fn matcher_scan_params(&self) -> nrslam_association::Params {
+        nrslam_association::Params {
+            max_correspondence_m: self.params.matcher.refine_correspondence_m,
+            ..self.params.scan.clone()
+        }
+    }
+
+    /// An unaligned agent searches the whole aligned map for its newest place.
+    fn match_unaligned(&mut self, agent: usize, update: &mut Update) {
+        let (points, owners) = self.aligned_points(agent, None);
+        if points.is_empty() {
+            return;
+        }
+        let (anchor, query) = self.query(agent);
+        let (lo, hi) = bounds(&points);
+        let centre = Pose2::new(0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.0);
+        let half_diagonal_m = 0.5 * ((hi[0] - lo[0]).hypot(hi[1] - lo[1]));
+        let radius_m = (half_diagonal_m + self.params.submap_range_m)
+            .min(self.params.max_global_radius_m)
+            .max(self.params.matcher.search_step_m);
+        let matcher = nrslam_association::LoopClosureParams {
+            max_search_rotation_deg: 180.0,
+            ..self.params.matcher.clone()
+        };
+        self.stats.global_searches += 1;
+        self.stats.query_points_scored += query.len() as u64;
+        let found = match match_loop(
+            &query,
+            &points,
+            centre,
+            radius_m,
+            &matcher,
+            &self.matcher_scan_params(),
+        ) {
+            Ok(found) => found,
+            Err(reason) => {
+                tracing::debug!(agent, anchor, ?reason, "global match rejected");
+                return;
+            }
+        };
+        let Some(owner) = self.edge_anchor(&owners, &found.relative) else {
+            return;
+        };
+        let a = &self.agents[agent];
+        let frame = found
+            .relative
+            .compose(&a.keyframes[anchor].local_pose.inverse());
+        let owner_fused = self.agents[owner.0].keyframes[owner.1]
+            .fused
+            .expect("owners are fused");
+        let candidate = Candidate {
+            frame,
+            edge: InterEdge {
+                from: owner,
+                to: (agent, anchor),
+                relative: owner_fused.between(&found.relative),
+            },
+        };
+        self.stats.candidates += 1;
+        tracing::debug!(agent, anchor, ?frame, ?found, "frame candidate");
+        let (agree_m, agree_rad) = (self.params.agree_m, self.params.agree_deg.to_radians());
+        let a = &mut self.agents[agent];
+        let agreeing: Vec<Candidate> = a
+            .candidates
+            .iter()
+            .filter(|c| {
+                c.edge.to.1 != anchor
+                    && c.frame.distance_m(&frame) <= agree_m
+                    && c.frame.rotation_to_rad(&frame) <= agree_rad
+            })
+            .copied()
+            .collect();
+        a.candidates.push(candidate);
+        if agreeing.len() + 1 < self.params.confirmations as usize {
+            return;
+        }
+        // Merged: the agent's keyframes enter the map frame, the agreeing matches the graph.
+        a.frame = Some(frame);
+        a.candidates.clear();
+        self.stats.merges += 1;
+        for c in agreeing.iter().chain(std::iter::once(&candidate)) {
+            self.edges.push(c.edge);
+            self.stats.inter_edges += 1;
+        }
+        for index in 0..self.agents[agent].keyframes.len() {
+            self.place_new(agent, index, update);
+        }
+        self.optimise();
+        update.corrected = true;
+        tracing::info!(agent, ?frame, "agent merged into the map frame");
+    }
+
+    /// An aligned agent matches its newest place against the other agents' points near it.
+    fn match_aligned(&mut self, agent: usize, update: &mut Update) {
+        let (anchor, query) = self.query(agent);
+        let Some(predicted) = self.agents[agent].keyframes[anchor].fused else {
+            return;
+        };
+        let (points, owners) =
+            self.aligned_points(agent, Some((predicted, self.params.submap_range_m)));
+        if points.len() < self.params.matcher.min_points as usize {
+            return;
+        }
+        self.stats.local_searches += 1;
+        self.stats.query_points_scored += query.len() as u64;
+        let found = match match_loop(
+            &query,
+            &points,
+            predicted,
+            self.params.local_radius_m,
+            &self.params.matcher,
+            &self.matcher_scan_params(),
+        ) {
+            Ok(found) => found,
+            Err(reason) => {
+                tracing::debug!(agent, anchor, ?reason, "inter-agent match rejected");
+                return;
+            }
+        };
+        let Some(owner) = self.edge_anchor(&owners, &found.relative) else {
+            return;
+        };
+        let owner_fused = self.agents[owner.0].keyframes[owner.1]
+            .fused
+            .expect("owners are fused");
+        self.edges.push(InterEdge {
+            from: owner,
+            to: (agent, anchor),
+            relative: owner_fused.between(&found.relative),
+        });
+        self.stats.inter_edges += 1;
+        self.optimise();
+        update.corrected = true;
+    }
+
+    /// Re-solves the graph of every aligned keyframe and stores the fused poses.
+    fn optimise(&mut self) {
+        let p = &self.params;
+        let mut graph = PoseGraph::new();
+        let mut node_of: Vec<Vec<Option<usize>>> = Vec::with_capacity(self.agents.len());
+        for a in &self.agents {
+            let nodes = a
+                .keyframes
+                .iter()
+                .map(|k| k.fused.map(|f| graph.add_node(f)))
+                .collect();
+            node_of.push(nodes);
+        }
+        for (a, nodes) in self.agents.iter().zip(&node_of) {
+            match a.kind {
+                AgentKind::Station => {
+                    for n in nodes.iter().flatten() {
+                        graph.set_fixed(*n, true);
+                    }
+                }
+                AgentKind::Agv { known_start } => {
+                    if known_start {
+                        if let Some(Some(first)) = nodes.first() {
+                            graph.set_fixed(*first, true);
+                        }
+                    }
+                    for (j, pair) in a.keyframes.windows(2).enumerate() {
+                        let (Some(from), Some(to)) = (nodes[j], nodes[j + 1]) else {
+                            continue;
+                        };
+                        let motion = pair[0].local_pose.between(&pair[1].local_pose);
+                        let length_m = motion.x_m.hypot(motion.y_m);
+                        let std_m = (p.chain_std_per_m * length_m).max(p.chain_min_std_m);
+                        let std_deg = (p.chain_std_deg_per_m * length_m).max(p.chain_min_std_deg);
+                        graph.add_edge(Edge::with_std(
+                            from,
+                            to,
+                            motion,
+                            std_m,
+                            std_deg.to_radians(),
+                            EdgeKind::Odometry,
+                        ));
+                    }
+                    let by_id = |id: u32| {
+                        a.keyframes
+                            .binary_search_by_key(&id, |k| k.local_id)
+                            .ok()
+                            .and_then(|i| nodes[i])
+                    };
+                    for (older, newer, relative) in &a.loops {
+                        if let (Some(from), Some(to)) = (by_id(*older), by_id(*newer)) {
+                            graph.add_edge(Edge::with_std(
+                                from,
+                                to,
+                                *relative,
+                                p.inter_std_m,
+                                p.inter_std_deg.to_radians(),
+                                EdgeKind::Loop,
+                            ));
+                        }
+                    }
+                }
+            }
+        }
+        for e in &self.edges {
+            if let (Some(from), Some(to)) = (node_of[e.from.0][e.from.1], node_of[e.to.0][e.to.1]) {
+                graph.add_edge(Edge::with_std(
+                    from,
+                    to,
+                    e.relative,
+                    p.inter_std_m,
+                    p.inter_std_deg.to_radians(),
+                    EdgeKind::Loop,
+                ));
+            }
+        }
+        // Without any fixed node the map frame would float: fix the first node (the first
+        // aligned agent's first keyframe), which is where the map frame was defined.
+        if !(0..graph.nodes().len()).any(|n| graph.is_fixed(n)) && !graph.nodes().is_empty() {
+            graph.set_fixed(0, true);
+        }
+        let settings = OptimiserSettings {
+            loop_kernel: RobustKernel::Cauchy,
+            ..OptimiserSettings::default()
+        };
+        let report = graph.optimise(&settings);
+        self.stats.optimisations += 1;
+        tracing::debug!(?report, "fused graph solved");
+        for (a, nodes) in self.agents.iter_mut().zip(&node_of) {
+            for (k, n) in a.keyframes.iter_mut().zip(nodes) {
+                if let Some(n) = n {
+                    k.fused = Some(graph.nodes()[*n]);
+                }
+            }
+            // The agent's frame follows its first keyframe, so that keyframes not yet placed
+            // (none today) and its corrected pose stay consistent.
+            if let (Some(first), Some(_)) = (a.keyframes.first(), a.frame) {
+                if let Some(fused) = first.fused {
+                    a.frame = Some(fused.compose(&first.local_pose.inverse()));
+                }
+            }
+        }
+        self.revision += 1;
+    }
+}
+
+fn check_input(pose: &Pose2, points: &[[f64; 2]]) -> Result<(), FusionError> {
+    if !pose.is_finite() {
+        return Err(FusionError::NonFinite("pose"));
+    }
+    if points
+        .iter()
+        .any(|p| !(p[0].is_finite() && p[1].is_finite()))
+    {
+        return Err(FusionError::NonFinite("detection"));
+    }
+    Ok(())
+}
+
+/// Lower-left and upper-right corners of `points` (which is not empty).
+fn bounds(points: &[[f64; 2]]) -> ([f64; 2], [f64; 2]) {
+    points.iter().fold(
+        ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
+        |(lo, hi), p| {
+            (
+                [lo[0].min(p[0]), lo[1].min(p[1])],
+                [hi[0].max(p[0]), hi[1].max(p[1])],
+            )
+        },
+    )
+}

@@ -1,0 +1,208 @@
+//! Parameters of the fusion node.
+
+use nrslam_association::LoopClosureParams;
+use nrslam_runtime::InvalidParam;
+use serde::{Deserialize, Serialize};
+
+/// Most agents of each kind one fusion node takes (its inputs grow linearly with them).
+pub const MAX_AGENTS: u32 = 32;
+
+/// Fusion parameters (TOML table of the node in the launch file).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Params {
+    /// AGVs fused, namespaces `agv1` … `agvN` (0–32). Each sends `/agvN/slam/keyframe`,
+    /// `/agvN/slam/keyframe_poses` and `/agvN/slam/pose`.
+    pub agvs: u32,
+    /// Fixed sensing stations fused, namespaces `station1` … `stationM` (0–32). Each sends
+    /// `/stationM/radar/detections` and its surveyed pose on `/stationM/odom`.
+    pub stations: u32,
+    /// AGVs (1-based) whose odometry starts at their true pose in the map frame (a known start
+    /// pose: their frame is the map's). The others' start is unknown to everyone and found by
+    /// place recognition. Default `[1]`: the first AGV defines the map frame, as the single-AGV
+    /// runs do; with stations, `[]` lets the surveyed stations alone anchor the map.
+    pub known_start_agvs: Vec<u32>,
+    /// A station's detections become a keyframe every this many of its frames (1–1000): a fixed
+    /// sensor sees the same place every frame, and every keyframe costs the mapper an update.
+    pub station_keyframe_every: u32,
+    /// An AGV's keyframes are matched against the other agents every this many keyframes
+    /// (1–1000): fewer searches and less CPU against later merges and fewer inter-agent edges.
+    pub match_every_keyframes: u32,
+    /// Keyframes of an AGV that make one query (1–50): the newest and those before it.
+    pub query_keyframes: u32,
+    /// Widest translation an unaligned AGV's global search covers about the centre of the
+    /// aligned map (m, 1–200): the map's half-diagonal plus a sensor range, capped here.
+    pub max_global_radius_m: f64,
+    /// Translation window of an aligned AGV's search for inter-agent edges about its fused
+    /// pose (m, 0.25–20).
+    pub local_radius_m: f64,
+    /// Points of other agents within this distance of an aligned query's pose make its submap
+    /// (m, 1–200): about the sensor's maximum range.
+    pub submap_range_m: f64,
+    /// Matches of an unaligned AGV that must agree on its frame before it is merged (1–10):
+    /// one verified match can still be wrong where the hall repeats itself.
+    pub confirmations: u32,
+    /// Two alignments agree when their frames differ by at most this (m, > 0) …
+    pub agree_m: f64,
+    /// … and this (degrees, > 0).
+    pub agree_deg: f64,
+    /// Std of an inter-agent or station edge's translation (m, > 0).
+    pub inter_std_m: f64,
+    /// Std of an inter-agent or station edge's heading (degrees, > 0).
+    pub inter_std_deg: f64,
+    /// Std of the motion between an AGV's consecutive keyframes, per metre between them and at
+    /// least `chain_min_std_m` (fraction, > 0): how much fusion may bend an agent's own map.
+    pub chain_std_per_m: f64,
+    /// Floor of that std (m, > 0).
+    pub chain_min_std_m: f64,
+    /// Heading std of the motion between consecutive keyframes, per metre (degrees/m, > 0).
+    pub chain_std_deg_per_m: f64,
+    /// Floor of that heading std (degrees, > 0).
+    pub chain_min_std_deg: f64,
+    /// The matcher and its verification (the single-AGV loop closure's; `enabled`, the search
+    /// radii and candidate selection are not used here: fusion chooses its own windows).
+    pub matcher: LoopClosureParams,
+    /// The scan-matching parameters the matcher's ICP refinement takes (the association's).
+    pub scan: nrslam_association::Params,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        let association = nrslam_association::Params::default();
+        let matcher = LoopClosureParams {
+            // Inter-agent views of one place come from different directions and distances more
+            // often than one AGV's revisit does; the 5G launch's looser verification is used.
+            inlier_distance_m: 1.0,
+            min_inlier_ratio: 0.40,
+            ..association.loop_closure.clone()
+        };
+        Self {
+            agvs: 1,
+            stations: 0,
+            known_start_agvs: vec![1],
+            station_keyframe_every: 10,
+            match_every_keyframes: 2,
+            query_keyframes: 5,
+            max_global_radius_m: 40.0,
+            local_radius_m: 2.0,
+            submap_range_m: 25.0,
+            confirmations: 2,
+            agree_m: 0.5,
+            agree_deg: 2.0,
+            inter_std_m: 0.15,
+            inter_std_deg: 1.0,
+            chain_std_per_m: 0.02,
+            chain_min_std_m: 0.02,
+            chain_std_deg_per_m: 0.3,
+            chain_min_std_deg: 0.2,
+            matcher,
+            scan: association,
+        }
+    }
+}
+
+impl Params {
+    /// Checks every field; the error names it and its allowed range.
+    pub fn validate(&self) -> Result<(), InvalidParam> {
+        InvalidParam::check_count("agvs", self.agvs, 0, MAX_AGENTS)?;
+        InvalidParam::check_count("stations", self.stations, 0, MAX_AGENTS)?;
+        if self.agvs + self.stations == 0 {
+            return Err(InvalidParam::new(
+                "agvs",
+                "0 AGVs and 0 stations",
+                "at least one agent (agvs + stations >= 1)",
+            ));
+        }
+        for &agv in &self.known_start_agvs {
+            InvalidParam::check_count("known_start_agvs", agv, 1, self.agvs.max(1))?;
+        }
+        InvalidParam::check_count(
+            "station_keyframe_every",
+            self.station_keyframe_every,
+            1,
+            1000,
+        )?;
+        InvalidParam::check_count("match_every_keyframes", self.match_every_keyframes, 1, 1000)?;
+        InvalidParam::check_count("query_keyframes", self.query_keyframes, 1, 50)?;
+        InvalidParam::check_range("max_global_radius_m", self.max_global_radius_m, 1.0, 200.0)?;
+        InvalidParam::check_range("local_radius_m", self.local_radius_m, 0.25, 20.0)?;
+        InvalidParam::check_range("submap_range_m", self.submap_range_m, 1.0, 200.0)?;
+        InvalidParam::check_count("confirmations", self.confirmations, 1, 10)?;
+        for (field, value) in [
+            ("agree_m", self.agree_m),
+            ("agree_deg", self.agree_deg),
+            ("inter_std_m", self.inter_std_m),
+            ("inter_std_deg", self.inter_std_deg),
+            ("chain_std_per_m", self.chain_std_per_m),
+            ("chain_min_std_m", self.chain_min_std_m),
+            ("chain_std_deg_per_m", self.chain_std_deg_per_m),
+            ("chain_min_std_deg", self.chain_min_std_deg),
+        ] {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(InvalidParam::new(
+                    field,
+                    format!("{value}"),
+                    "finite and > 0",
+                ));
+            }
+        }
+        self.scan.validate().map_err(|e| InvalidParam {
+            field: format!("scan.{}", e.field),
+            ..e
+        })?;
+        let matcher = nrslam_association::Params {
+            loop_closure: self.matcher.clone(),
+            ..self.scan.clone()
+        };
+        matcher.validate().map_err(|e| InvalidParam {
+            field: e.field.replacen("loop_closure.", "matcher.", 1),
+            ..e
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_valid() {
+        Params::default().validate().unwrap();
+    }
+
+    #[test]
+    fn each_bad_field_is_named() {
+        let cases = nrslam_runtime::one_bad_field!(Params {
+            agvs: [33],
+            stations: [33],
+            known_start_agvs: [vec![0], vec![2]],
+            station_keyframe_every: [0],
+            match_every_keyframes: [0],
+            query_keyframes: [0, 51],
+            max_global_radius_m: [0.5, f64::NAN],
+            local_radius_m: [0.0],
+            submap_range_m: [f64::INFINITY],
+            confirmations: [0],
+            agree_m: [0.0],
+            agree_deg: [-1.0],
+            inter_std_m: [f64::NAN],
+            inter_std_deg: [0.0],
+            chain_std_per_m: [0.0],
+            chain_min_std_m: [0.0],
+            chain_std_deg_per_m: [0.0],
+            chain_min_std_deg: [0.0],
+        });
+        nrslam_runtime::config::assert_each_refused_by_name(cases, Params::validate);
+    }
+
+    #[test]
+    fn no_agent_at_all_is_refused() {
+        let p = Params {
+            agvs: 0,
+            stations: 0,
+            known_start_agvs: vec![],
+            ..Params::default()
+        };
+        assert!(p.validate().unwrap_err().to_string().contains("agvs"));
+    }
+}
