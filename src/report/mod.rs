@@ -8,6 +8,7 @@
 
 use nrslam_msgs::topics;
 
+mod agents;
 mod loops;
 mod metrics_csv;
 mod reporter;
@@ -16,6 +17,7 @@ mod summary;
 #[cfg(test)]
 mod tests;
 
+pub use agents::{AgentSummary, AgentTrack};
 pub use loops::{LOOP_EDGE_CHI2_99, LOOP_EDGE_WRONG_M};
 // Kept at its old path, `crate::report::ScoredLoopEdge`, though nothing outside this module
 // names it yet.

@@ -51,6 +51,8 @@ pub struct Reporter {
     /// The evaluator's parameters (the launch's, else the paper's), for the final ET-GOPSA of
     /// each choice of representatives in `summary.json`.
     pub evaluator: nrslam_evaluator::Params,
+    /// Poses of each agent of a cooperative run, by namespace (`agv1`, `station2`, ...).
+    pub agents: BTreeMap<String, super::AgentTrack>,
 }
 
 impl Reporter {
@@ -109,7 +111,7 @@ impl Reporter {
             (topics::SLAM_POSE, Message::PoseStamped(p)) => {
                 self.slam_path.push((p.pose.position.x, p.pose.position.y))
             }
-            _ => {}
+            _ => super::agents::take(&mut self.agents, topic, message),
         }
     }
 

@@ -68,6 +68,11 @@ impl Reporter {
             restarts: self.restarts.clone(),
             shapes: self.shape_summary(),
             differs_from_recording: BTreeMap::new(),
+            agents: self
+                .agents
+                .iter()
+                .map(|(name, track)| (name.clone(), track.summary()))
+                .collect(),
         }
     }
 }
@@ -142,6 +147,10 @@ pub struct Summary {
     /// runs the recorded back end as it was.
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub differs_from_recording: BTreeMap<String, serde_json::Value>,
+    /// Each agent of a cooperative run (namespaced `ground_truth/pose`, `slam/pose`,
+    /// `fusion/pose`): its pose error on its own and fused (absent for a single-AGV run).
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub agents: BTreeMap<String, super::AgentSummary>,
 }
 
 fn toml_to_json(value: &toml::Value) -> serde_json::Value {

@@ -5,7 +5,7 @@
 //! agent is either an AGV, which runs its own chain (radar, estimator, association) and sends its
 //! keyframes in its own frame, or a fixed sensing station, whose surveyed pose is in the map frame.
 //!
-//! - **Frames.** An AGV with a known start pose (`known_start_agvs`) and every station are
+//! - **Frames.** An AGV with a known start pose (the first `known_starts`) and every station are
 //!   *aligned* from the start: their frame is the map's. Any other AGV's frame is unknown; it is
 //!   found by place recognition and the AGV is merged once `confirmations` matches agree on it.
 //! - **Place recognition.** Every `match_every_keyframes` keyframes, an AGV's query (its last
@@ -156,7 +156,7 @@ impl Fusion {
     /// Fusion of `params.agvs` AGVs (agents 0..agvs) then `params.stations` stations.
     pub fn new(params: Params) -> Self {
         let agv = |i: u32| AgentKind::Agv {
-            known_start: params.known_start_agvs.contains(&(i + 1)),
+            known_start: i < params.known_starts,
         };
         let agents = (0..params.agvs)
             .map(agv)

@@ -17,11 +17,13 @@ pub struct Params {
     /// Fixed sensing stations fused, namespaces `station1` … `stationM` (0–32). Each sends
     /// `/stationM/radar/detections` and its surveyed pose on `/stationM/odom`.
     pub stations: u32,
-    /// AGVs (1-based) whose odometry starts at their true pose in the map frame (a known start
-    /// pose: their frame is the map's). The others' start is unknown to everyone and found by
-    /// place recognition. Default `[1]`: the first AGV defines the map frame, as the single-AGV
-    /// runs do; with stations, `[]` lets the surveyed stations alone anchor the map.
-    pub known_start_agvs: Vec<u32>,
+    /// The first this many AGVs (`agv1` … `agvK`) start at a known pose: their odometry starts
+    /// at their true pose in the map frame, so their frame is the map's. The others' start is
+    /// unknown to everyone and found by place recognition. Default 1: the first AGV defines the
+    /// map frame, as the single-AGV runs do; with stations, 0 lets the surveyed stations alone
+    /// anchor the map. 0 to `agvs`, and with no station at least 1 (something must anchor the
+    /// map frame).
+    pub known_starts: u32,
     /// A station's detections become a keyframe every this many of its frames (1–1000): a fixed
     /// sensor sees the same place every frame, and every keyframe costs the mapper an update.
     pub station_keyframe_every: u32,
@@ -79,7 +81,7 @@ impl Default for Params {
         Self {
             agvs: 1,
             stations: 0,
-            known_start_agvs: vec![1],
+            known_starts: 1,
             station_keyframe_every: 10,
             match_every_keyframes: 2,
             query_keyframes: 5,
@@ -113,8 +115,13 @@ impl Params {
                 "at least one agent (agvs + stations >= 1)",
             ));
         }
-        for &agv in &self.known_start_agvs {
-            InvalidParam::check_count("known_start_agvs", agv, 1, self.agvs.max(1))?;
+        InvalidParam::check_count("known_starts", self.known_starts, 0, self.agvs)?;
+        if self.known_starts == 0 && self.stations == 0 {
+            return Err(InvalidParam::new(
+                "known_starts",
+                "0 with no station: nothing anchors the map frame",
+                ">= 1 when stations = 0",
+            ));
         }
         InvalidParam::check_count(
             "station_keyframe_every",
@@ -175,7 +182,7 @@ mod tests {
         let cases = nrslam_runtime::one_bad_field!(Params {
             agvs: [33],
             stations: [33],
-            known_start_agvs: [vec![0], vec![2]],
+            known_starts: [2],
             station_keyframe_every: [0],
             match_every_keyframes: [0],
             query_keyframes: [0, 51],
@@ -200,7 +207,7 @@ mod tests {
         let p = Params {
             agvs: 0,
             stations: 0,
-            known_start_agvs: vec![],
+            known_starts: 0,
             ..Params::default()
         };
         assert!(p.validate().unwrap_err().to_string().contains("agvs"));

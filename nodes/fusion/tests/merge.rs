@@ -139,7 +139,7 @@ fn agents_that_never_see_the_same_targets_are_never_merged() {
         .collect();
     // Both starts known: the second AGV's frame is the map's, so the map is the union.
     let mut fusion = Fusion::new(Params {
-        known_start_agvs: vec![1, 2],
+        known_starts: 2,
         ..two_agvs()
     });
     run(

@@ -1,0 +1,169 @@
+//! Per-agent poses of a cooperative run (several AGVs and stations, each under its namespace):
+//! how well each AGV knew where it was on its own, and once fused into the common map frame.
+
+use super::StampKey;
+use nrslam_msgs::{topics, Message};
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// (x_m, y_m, yaw_rad).
+type Planar = (f64, f64, f64);
+
+/// The poses one agent published, by stamp.
+#[derive(Debug, Default, Clone)]
+pub struct AgentTrack {
+    /// `/<ns>/ground_truth/pose`.
+    pub truth: BTreeMap<StampKey, Planar>,
+    /// `/<ns>/slam/pose`: its own SLAM, in its own frame.
+    pub own: BTreeMap<StampKey, Planar>,
+    /// `/<ns>/fusion/pose`: corrected into the map frame by the fusion node.
+    pub fused: BTreeMap<StampKey, Planar>,
+}
+
+/// One agent's line in `summary.json`.
+#[derive(Debug, Serialize, PartialEq)]
+pub struct AgentSummary {
+    /// Frames with a true pose.
+    pub frames: u64,
+    /// Frames with a fused pose (the agent merged into the map frame).
+    pub fused_frames: u64,
+    /// Seconds from the agent's first true pose to its first fused pose (`None`: never merged).
+    pub merged_after_s: Option<f64>,
+    /// RMSE (m) of its own SLAM pose over every frame, its frame put on the truth's by the first
+    /// pose (an AGV whose start is unknown to the others knows its start in its own frame).
+    pub own_pose_rmse_m: Option<f64>,
+    /// The same over the frames that have a fused pose (m): what fusion is compared with.
+    pub own_pose_rmse_fused_frames_m: Option<f64>,
+    /// RMSE (m) of its fused pose against the truth, map frame.
+    pub fused_pose_rmse_m: Option<f64>,
+}
+
+/// The namespace of a namespaced pose topic this module tracks, and which track it feeds.
+fn classify(topic: &str) -> Option<(&str, &'static str)> {
+    let base = topics::base_name(topic)?;
+    if base == topic {
+        return None;
+    }
+    let tracked = [
+        topics::GROUND_TRUTH_POSE,
+        topics::SLAM_POSE,
+        topics::FUSION_POSE,
+    ];
+    if !tracked.contains(&base) {
+        return None;
+    }
+    let namespace = topic.strip_suffix(base)?.trim_start_matches('/');
+    Some((namespace, base))
+}
+
+/// Takes `message` on `topic` into `agents` if it is an agent's pose.
+pub fn take(agents: &mut BTreeMap<String, AgentTrack>, topic: &str, message: &Message) {
+    let (Some((namespace, base)), Message::PoseStamped(p)) = (classify(topic), message) else {
+        return;
+    };
+    let track = agents.entry(namespace.to_owned()).or_default();
+    let stamp = (p.header.stamp.sec, p.header.stamp.nanosec);
+    let pose = p.pose.planar();
+    let into = match base {
+        topics::GROUND_TRUTH_POSE => &mut track.truth,
+        topics::SLAM_POSE => &mut track.own,
+        _ => &mut track.fused,
+    };
+    into.insert(stamp, pose);
+}
+
+fn compose(a: Planar, b: Planar) -> Planar {
+    let (s, c) = a.2.sin_cos();
+    (a.0 + c * b.0 - s * b.1, a.1 + s * b.0 + c * b.1, a.2 + b.2)
+}
+
+fn inverse(a: Planar) -> Planar {
+    let (s, c) = a.2.sin_cos();
+    (-(c * a.0 + s * a.1), s * a.0 - c * a.1, -a.2)
+}
+
+fn rms(squared: &[f64]) -> Option<f64> {
+    (!squared.is_empty()).then(|| (squared.iter().sum::<f64>() / squared.len() as f64).sqrt())
+}
+
+fn seconds(stamp: StampKey) -> f64 {
+    f64::from(stamp.0) + f64::from(stamp.1) * 1e-9
+}
+
+impl AgentTrack {
+    /// The agent's summary.
+    pub fn summary(&self) -> AgentSummary {
+        // Its own frame on the truth's, by the first frame that has both.
+        let first = self
+            .own
+            .iter()
+            .find_map(|(stamp, own)| Some((*own, *self.truth.get(stamp)?)));
+        let to_truth = first.map(|(own, truth)| compose(truth, inverse(own)));
+        let own_error = |stamp: &StampKey| {
+            let own = *self.own.get(stamp)?;
+            let truth = self.truth.get(stamp)?;
+            let aligned = compose(to_truth?, own);
+            Some((aligned.0 - truth.0).powi(2) + (aligned.1 - truth.1).powi(2))
+        };
+        let own_all: Vec<f64> = self.own.keys().filter_map(own_error).collect();
+        let own_fused: Vec<f64> = self.fused.keys().filter_map(own_error).collect();
+        let fused: Vec<f64> = self
+            .fused
+            .iter()
+            .filter_map(|(stamp, f)| {
+                let truth = self.truth.get(stamp)?;
+                Some((f.0 - truth.0).powi(2) + (f.1 - truth.1).powi(2))
+            })
+            .collect();
+        AgentSummary {
+            frames: self.truth.len() as u64,
+            fused_frames: self.fused.len() as u64,
+            merged_after_s: match (self.truth.keys().next(), self.fused.keys().next()) {
+                (Some(start), Some(merged)) => Some(seconds(*merged) - seconds(*start)),
+                _ => None,
+            },
+            own_pose_rmse_m: rms(&own_all),
+            own_pose_rmse_fused_frames_m: rms(&own_fused),
+            fused_pose_rmse_m: rms(&fused),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nrslam_msgs::{Header, Pose, PoseStamped, Time};
+
+    fn pose(stamp_s: f64, x: f64, y: f64, yaw: f64) -> Message {
+        Message::PoseStamped(PoseStamped {
+            header: Header::new(Time::from_seconds(stamp_s), "map"),
+            pose: Pose::from_planar(x, y, yaw),
+        })
+    }
+
+    #[test]
+    fn an_agent_in_its_own_frame_is_scored_after_aligning_its_first_pose() {
+        let mut agents = BTreeMap::new();
+        // Truth starts at (10, 5) heading +y; the AGV's own frame starts at the origin.
+        for k in 0..4 {
+            let t = f64::from(k);
+            take(&mut agents, "/agv2/ground_truth/pose", &pose(t, 10.0, 5.0 + t, 1.5707963267948966));
+            // Its own estimate: exact for 3 frames, then 1 m off sideways.
+            let off = if k == 3 { 1.0 } else { 0.0 };
+            take(&mut agents, "/agv2/slam/pose", &pose(t, t, off, 0.0));
+            if k >= 2 {
+                take(&mut agents, "/agv2/fusion/pose", &pose(t, 10.0, 5.0 + t, 0.0));
+            }
+        }
+        // Not agents' topics: ignored.
+        take(&mut agents, "/slam/pose", &pose(0.0, 1.0, 1.0, 0.0));
+        take(&mut agents, "/agv2/map", &pose(0.0, 1.0, 1.0, 0.0));
+        assert_eq!(agents.keys().collect::<Vec<_>>(), vec!["agv2"]);
+        let s = agents["agv2"].summary();
+        assert_eq!((s.frames, s.fused_frames), (4, 2));
+        assert!((s.merged_after_s.unwrap() - 2.0).abs() < 1e-9);
+        assert!((s.own_pose_rmse_m.unwrap() - 0.5).abs() < 1e-9, "{s:?}");
+        assert!((s.own_pose_rmse_fused_frames_m.unwrap() - 0.5f64.sqrt()).abs() < 1e-9);
+        assert!(s.fused_pose_rmse_m.unwrap() < 1e-9);
+    }
+}
