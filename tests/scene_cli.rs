@@ -142,3 +142,104 @@ fn scene_flags_are_checked() {
     }
     assert!(!work.path().join("s.toml").exists());
 }
+
+#[test]
+fn agvs_and_stations_are_added_without_changing_the_scene() {
+    let work = temp();
+    let base = [
+        "scene",
+        "--random",
+        "--seed",
+        "8",
+        "--laps",
+        "1",
+        "--targets",
+        "6",
+    ];
+    run_ok_in(work.path(), &[&base[..], &["--out", "one.toml"]].concat());
+    run_ok_in(
+        work.path(),
+        &[
+            &base[..],
+            &["--agvs", "1", "--stations", "0", "--out", "same.toml"],
+        ]
+        .concat(),
+    );
+    let output = run_ok_in(
+        work.path(),
+        &[
+            &base[..],
+            &[
+                "--agvs",
+                "3",
+                "--stations",
+                "2",
+                "--out",
+                "multi.toml",
+                "--png",
+                "multi.png",
+            ],
+        ]
+        .concat(),
+    );
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        stdout.starts_with("wrote multi.toml: 6 targets")
+            && stdout
+                .trim_end()
+                .ends_with("3 AGVs on the loop, 2 stations on the walls"),
+        "{stdout}"
+    );
+    let body = |name: &str| -> String {
+        read(&work.path().join(name))
+            .lines()
+            .filter(|line| !line.starts_with('#'))
+            .collect::<Vec<_>>()
+            .join("\n")
+    };
+    // --agvs 1 --stations 0 is the scene without them, to the byte.
+    assert_eq!(body("same.toml"), body("one.toml"));
+    let one = body("one.toml");
+    assert!(one.contains("[trajectory]") && !one.contains("[[agv]]"));
+    let multi = read(&work.path().join("multi.toml"));
+    assert!(
+        multi.contains("--agvs 3 --stations 2 --out multi.toml"),
+        "{multi}"
+    );
+    assert!(
+        multi.contains("#   agvs = 3\n#   stations = 2\n"),
+        "{multi}"
+    );
+    let body_multi = body("multi.toml");
+    assert_eq!(body_multi.matches("[[agv]]").count(), 3);
+    assert_eq!(body_multi.matches("[[station]]").count(), 2);
+    assert!(!body_multi.contains("\n[trajectory]"));
+    // The targets and the hall are those of the one-AGV scene.
+    let targets = |text: &str| text[text.find("[[targets]]").unwrap()..].to_owned();
+    assert_eq!(targets(&body_multi), targets(&one));
+    assert!(work.path().join("multi.png").metadata().unwrap().len() > 1000);
+
+    // A launch file runs it as before (agv1 is the default sensor).
+    let launch = root().join("launch/paper-ideal.toml");
+    run_ok_in(
+        work.path(),
+        &[
+            "launch",
+            launch.to_str().unwrap(),
+            "scene:=multi.toml",
+            "frames:=3",
+            "--out",
+            "run",
+        ],
+    );
+    assert_eq!(summary(&work.path().join("run"))["frames"], 3);
+
+    // Out of range: named, one line.
+    for (flag, value) in [("--agvs", "0"), ("--agvs", "17"), ("--stations", "17")] {
+        let output = run(&["scene", "--random", flag, value, "--out", "x.toml"]);
+        assert!(!output.status.success());
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(stderr.contains(flag), "{stderr}");
+        assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    }
+}

@@ -105,6 +105,8 @@ pub(super) const RANGES: &[(&str, &str, Range)] = &[
     ("scene", "--seed", SEED),
     ("scene", "--circle-fraction", real(0.0, 1.0)),
     ("scene", "--target-gap-m", real(0.1, 100.0)),
+    ("scene", "--agvs", whole(1, 16)),
+    ("scene", "--stations", whole(0, 16)),
     ("bag record", "--duration-s", Range::Unchecked),
     ("bag record", "--chunk-size-kib", Range::Unchecked),
     // 0 (one file) or 1024 to 2^50 bytes: a gap this test's ranges cannot say.

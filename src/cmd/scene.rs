@@ -1,6 +1,7 @@
 //! `nrslam scene --random`: writes a random scene file (irregular rectangles and circles inside a
 //! randomised AGV loop) that any launch file runs with `scene:=FILE`, so the back end is tuned
-//! and tested on many scenes rather than on the hall alone.
+//! and tested on many scenes rather than on the hall alone. `--agvs` and `--stations` add AGVs
+//! on the same loop and fixed sensing stations on the walls, for multi-agent fusion.
 //!
 //! Thin: the generator is `nrslam_radar::random_scene`; this parses the flags, writes the file
 //! with a header saying how to regenerate it, optionally draws it, and prints one line.
@@ -12,7 +13,7 @@ use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use plotters::prelude::*;
 
-use crate::flags::{self, Real};
+use crate::flags::{self, Real, Whole};
 use nrslam_radar::random_scene::{self, RandomSceneParams};
 use nrslam_radar::scene::{Scene, SceneSpec, ShapeKind};
 
@@ -54,6 +55,15 @@ pub struct SceneArgs {
     /// ET-GOPSA's cut-off c = 5 m, as in the hall), 0.1 to 100 m.
     #[arg(long, value_name = "M", value_parser = TARGET_GAP_M.parser(), allow_hyphen_values = true)]
     pub target_gap_m: Option<f64>,
+    /// Number of AGVs, 1 to 16 AGVs (default 1): the others drive agv1's loop in the same
+    /// direction, started evenly spaced along it (agv k of N at (k − 1)/N of a lap ahead); the
+    /// scene then lists them as [[agv]] (docs/scene.md).
+    #[arg(long, value_name = "N", value_parser = AGVS.parser::<u32>(), allow_hyphen_values = true)]
+    pub agvs: Option<u32>,
+    /// Number of fixed 5G sensing stations on the walls, 0 to 16 stations (default 0), spread
+    /// around the hall, each aimed at the targets within its 20 m range (±60° field of view).
+    #[arg(long, value_name = "M", value_parser = STATIONS.parser::<u32>(), allow_hyphen_values = true)]
+    pub stations: Option<u32>,
     /// Also draw the hall, the targets (with their ids) and the loop to this PNG file.
     #[arg(long, value_name = "FILE")]
     pub png: Option<PathBuf>,
@@ -63,6 +73,10 @@ pub struct SceneArgs {
 const CIRCLE_FRACTION: Real = Real::closed(0.0, 1.0, "0 to 1");
 /// `--target-gap-m` (the generator's range).
 const TARGET_GAP_M: Real = Real::closed(0.1, 100.0, "0.1 to 100 m");
+/// `--agvs` (the generator's range).
+const AGVS: Whole = Whole::new(1, random_scene::MAX_AGENTS as u64, "1 to 16 AGVs");
+/// `--stations` (the generator's range).
+const STATIONS: Whole = Whole::new(0, random_scene::MAX_AGENTS as u64, "0 to 16 stations");
 
 impl SceneArgs {
     /// Checks every numeric flag as far as it is known without the `--params` file (the
@@ -73,6 +87,12 @@ impl SceneArgs {
         }
         if let Some(value) = self.target_gap_m {
             flags::check("--target-gap-m", TARGET_GAP_M.check(value))?;
+        }
+        if let Some(value) = self.agvs {
+            flags::check("--agvs", AGVS.check(value))?;
+        }
+        if let Some(value) = self.stations {
+            flags::check("--stations", STATIONS.check(value))?;
         }
         for (flag, text) in [("--laps", &self.laps), ("--targets", &self.targets)] {
             if let Some(text) = text {
@@ -139,6 +159,12 @@ fn params_from(args: &SceneArgs) -> Result<RandomSceneParams> {
     if let Some(value) = args.target_gap_m {
         params.target_gap_m = value;
     }
+    if let Some(value) = args.agvs {
+        params.agvs = value;
+    }
+    if let Some(value) = args.stations {
+        params.stations = value;
+    }
     Ok(params)
 }
 
@@ -162,6 +188,8 @@ fn command_line(args: &SceneArgs) -> String {
         ("--hall-width-m", args.hall_width_m.clone()),
         ("--hall-height-m", args.hall_height_m.clone()),
         ("--target-gap-m", args.target_gap_m.map(|v| v.to_string())),
+        ("--agvs", args.agvs.map(|v| v.to_string())),
+        ("--stations", args.stations.map(|v| v.to_string())),
     ];
     for (flag, value) in optional {
         if let Some(value) = value {
@@ -172,14 +200,19 @@ fn command_line(args: &SceneArgs) -> String {
     parts.join(" ")
 }
 
-/// One line on the scene: targets, hall, lap length, laps, frames.
+/// One line on the scene: targets, hall, lap length, laps, frames; then AGVs and stations when
+/// there are more than one AGV or any station.
 fn describe(spec: &SceneSpec, scene: &Scene) -> String {
     let circles = spec
         .targets
         .iter()
         .filter(|t| t.shape == ShapeKind::Circle)
         .count();
-    format!(
+    let laps = scene
+        .trajectory
+        .loop_spec()
+        .map_or(1.0, |loop_spec| loop_spec.laps);
+    let mut line = format!(
         "{} targets ({} rectangles, {circles} circles), hall {} m × {} m, lap {:.2} m × {} = {} \
          frames",
         spec.targets.len(),
@@ -187,13 +220,24 @@ fn describe(spec: &SceneSpec, scene: &Scene) -> String {
         spec.hall.width_m,
         spec.hall.height_m,
         scene.trajectory.lap_length_m(),
-        if spec.trajectory.laps == 1.0 {
+        if laps == 1.0 {
             "1 lap".to_owned()
         } else {
-            format!("{} laps", spec.trajectory.laps)
+            format!("{laps} laps")
         },
         scene.trajectory.frame_count()
-    )
+    );
+    if scene.agvs.len() > 1 || !scene.stations.is_empty() {
+        let plural = |n: usize| if n == 1 { "" } else { "s" };
+        line.push_str(&format!(
+            ", {} AGV{} on the loop, {} station{} on the walls",
+            scene.agvs.len(),
+            plural(scene.agvs.len()),
+            scene.stations.len(),
+            plural(scene.stations.len())
+        ));
+    }
+    line
 }
 
 /// `nrslam scene`.
@@ -245,10 +289,20 @@ fn draw(path: &Path, spec: &SceneSpec, scene: &Scene, seed: u64) -> Result<()> {
     // 18 pixels per metre, plus room for the axes.
     let pixels = |m: f64| (m * 18.0).round() as u32;
     let root = canvas(path, (pixels(width_m) + 90, pixels(height_m) + 90))?;
-    let caption = format!(
-        "Random scene, seed {seed}: {} targets, AGV loop (dashed), start (red)",
-        spec.targets.len()
-    );
+    let caption = if scene.agvs.len() > 1 || !scene.stations.is_empty() {
+        format!(
+            "Random scene, seed {seed}: {} targets, AGV loop (dashed), {} AGV starts (red), {} \
+             stations (purple)",
+            spec.targets.len(),
+            scene.agvs.len(),
+            scene.stations.len()
+        )
+    } else {
+        format!(
+            "Random scene, seed {seed}: {} targets, AGV loop (dashed), start (red)",
+            spec.targets.len()
+        )
+    };
     let mut chart = framed(&root, caption, 20, 10, (35, 45))
         .build_cartesian_2d(-0.5..width_m + 0.5, -0.5..height_m + 0.5)
         .map_err(plot_error)?;
@@ -306,14 +360,42 @@ fn draw(path: &Path, spec: &SceneSpec, scene: &Scene, seed: u64) -> Result<()> {
             green.stroke_width(2),
         ))
         .map_err(plot_error)?;
-    let start = trajectory.pose_at_frame(0);
-    chart
-        .draw_series(std::iter::once(Circle::new(
-            (start.x_m, start.y_m),
-            6,
-            RED.filled(),
-        )))
-        .map_err(plot_error)?;
+    for agv in &scene.agvs {
+        let start = agv.trajectory.pose_at_frame(0);
+        chart
+            .draw_series(std::iter::once(Circle::new(
+                (start.x_m, start.y_m),
+                6,
+                RED.filled(),
+            )))
+            .map_err(plot_error)?;
+    }
+    // Each station: a dot and its field of view's two edges, as far as its range.
+    let purple = RGBColor(148, 103, 189);
+    for station in &scene.stations {
+        let pose = station.pose;
+        let edge = |side: f64| {
+            let angle = pose.yaw_rad + side * station.sensor.half_fov_rad;
+            let reach = station.sensor.max_range_m;
+            (
+                pose.x_m + reach * angle.cos(),
+                pose.y_m + reach * angle.sin(),
+            )
+        };
+        chart
+            .draw_series(std::iter::once(PathElement::new(
+                vec![edge(1.0), (pose.x_m, pose.y_m), edge(-1.0)],
+                purple.stroke_width(1),
+            )))
+            .map_err(plot_error)?;
+        chart
+            .draw_series(std::iter::once(Circle::new(
+                (pose.x_m, pose.y_m),
+                6,
+                purple.filled(),
+            )))
+            .map_err(plot_error)?;
+    }
     root.present().map_err(plot_error)?;
     Ok(())
 }

@@ -137,6 +137,17 @@ impl Pose2 {
     pub fn position(&self) -> Vec2 {
         Vec2::new(self.x_m, self.y_m)
     }
+
+    /// This pose seen from `origin`: `origin⁻¹ ∘ self` (the identity when they are equal).
+    pub fn relative_to(&self, origin: Pose2) -> Pose2 {
+        let d = self.position() - origin.position();
+        let (sin, cos) = origin.yaw_rad.sin_cos();
+        Pose2::new(
+            cos * d.x + sin * d.y,
+            -sin * d.x + cos * d.y,
+            self.yaw_rad - origin.yaw_rad,
+        )
+    }
 }
 
 /// Wraps an angle to (−π, π].

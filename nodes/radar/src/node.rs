@@ -27,7 +27,7 @@ use nrslam_runtime::{Node, NodeContext, NodeError, NodeResult, Outbox, Tick};
 
 use crate::error::RadarError;
 use crate::geometry::Vec2;
-use crate::params::{Fidelity, Params};
+use crate::params::{Fidelity, Params, Role};
 use crate::scene::Scene;
 use crate::sim::{Frame, Simulator};
 use crate::trajectory::T0_S;
@@ -139,6 +139,9 @@ impl Node for RadarNode {
     }
 
     fn outputs(&self) -> Vec<&'static str> {
+        if self.sim.role() == Role::NoSensor {
+            return vec![GROUND_TRUTH_TARGETS, CLOCK];
+        }
         let measurement = match self.sim.fidelity() {
             Fidelity::Ideal => DETECTIONS,
             Fidelity::Spectral => SPECTRUM,
@@ -171,13 +174,24 @@ impl Node for RadarNode {
         let Some(frame) = self.sim.try_next_frame().map_err(NodeError::algorithm)? else {
             return Ok(Tick::Done);
         };
-        let boresight_rad = self.sim.scene().sensor.boresight_rad;
+        let boresight_rad = self.sim.sensor().boresight_rad;
         let stamp = Time::from_seconds(frame.stamp_s);
-        outbox.publish(CLOCK, Clock { clock: stamp });
-        outbox.publish(GROUND_TRUTH_POSE, true_pose(&frame, stamp));
         let index = frame.index;
+        let last = if index + 1 >= self.sim.frame_count() {
+            Tick::Done
+        } else {
+            Tick::More
+        };
+        outbox.publish(CLOCK, Clock { clock: stamp });
+        let odom_frame = match self.sim.role() {
+            Role::Agv(_) => ODOM_FRAME,
+            // A surveyed pose is in the map frame itself.
+            Role::Station(_) => MAP_FRAME,
+            Role::NoSensor => return Ok(last),
+        };
+        outbox.publish(GROUND_TRUTH_POSE, true_pose(&frame, stamp));
         let is = |frames: &[u32]| frames.iter().any(|&f| f as usize == index);
-        let mut odom = odometry(&frame, stamp);
+        let mut odom = odometry(&frame, stamp, odom_frame);
         if is(&self.faults.odometry_spike_frames) {
             let (x, y, yaw) = odom.pose.pose.planar();
             let spike = self.faults.odometry_spike_m;
@@ -186,11 +200,7 @@ impl Node for RadarNode {
         outbox.publish(ODOM, odom);
         let header = Header::new(stamp, RADAR_FRAME);
         if is(&self.faults.drop_frames) {
-            return Ok(if index + 1 >= self.sim.frame_count() {
-                Tick::Done
-            } else {
-                Tick::More
-            });
+            return Ok(last);
         }
         let detections = if is(&self.faults.empty_frames) {
             Vec::new()
@@ -214,11 +224,7 @@ impl Node for RadarNode {
                 },
             ),
         }
-        Ok(if index + 1 >= self.sim.frame_count() {
-            Tick::Done
-        } else {
-            Tick::More
-        })
+        Ok(last)
     }
 }
 
@@ -248,7 +254,7 @@ fn true_pose(frame: &Frame, stamp: Time) -> PoseStamped {
     }
 }
 
-fn odometry(frame: &Frame, stamp: Time) -> Odometry {
+fn odometry(frame: &Frame, stamp: Time, frame_id: &str) -> Odometry {
     let o = &frame.odometry;
     // Row-major 6×6 over (x, y, z, roll, pitch, yaw): diagonal indices 0, 7, 14, 21, 28, 35.
     let mut pose_covariance = [0.0; 36];
@@ -259,7 +265,7 @@ fn odometry(frame: &Frame, stamp: Time) -> Odometry {
     twist_covariance[0] = o.linear_variance;
     twist_covariance[35] = o.angular_variance;
     Odometry {
-        header: Header::new(stamp, ODOM_FRAME),
+        header: Header::new(stamp, frame_id),
         child_frame_id: BASE_FRAME.to_owned(),
         pose: PoseWithCovariance {
             pose: Pose::from_planar(o.pose.x_m, o.pose.y_m, o.pose.yaw_rad),

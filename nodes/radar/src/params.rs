@@ -1,7 +1,8 @@
 //! The radar node's parameters (`[nodes.radar.params]` of a launch file, or code).
 //!
 //! Defaults reproduce the paper's Fig. 3(a) conditions: ΔR = 0 m, Δθ = 1° (Sec. IV-A). The scene
-//! (hall, targets, loop, sensor mounting) lives in its own file, `scene`.
+//! (hall, targets, paths, sensor mountings, stations) lives in its own file, `scene`; `sensor`
+//! picks which of the scene's sensors this node is (docs/scene.md, "Several AGVs and stations").
 
 use std::path::{Path, PathBuf};
 
@@ -25,6 +26,39 @@ pub enum Fidelity {
     Waveform,
 }
 
+/// Which of the scene's sensors a radar node simulates (the `sensor` parameter, parsed).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Role {
+    /// The AGV at this index of the scene's list (0 = agv1; `""` and `"agvN"`).
+    Agv(usize),
+    /// The fixed station at this index (0 = station1; `"stationN"`).
+    Station(usize),
+    /// No sensor (`"none"`): only the run's clock and the ground-truth targets.
+    NoSensor,
+}
+
+impl Role {
+    /// The role as the `sensor` parameter writes it (`agv1` for the default).
+    pub fn name(self) -> String {
+        match self {
+            Role::Agv(index) => format!("agv{}", index + 1),
+            Role::Station(index) => format!("station{}", index + 1),
+            Role::NoSensor => "none".to_owned(),
+        }
+    }
+}
+
+/// What the odometry pose is relative to (`odom_origin`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum OdomOrigin {
+    /// The map frame: the dead-reckoned pose equals the true pose at frame 0.
+    #[default]
+    Map,
+    /// The AGV's own start pose: identity at frame 0 (an AGV whose start is unknown to others).
+    Start,
+}
+
 impl Fidelity {
     /// The name as written in a launch file.
     pub fn name(self) -> &'static str {
@@ -45,6 +79,14 @@ pub struct Params {
     pub fidelity: Fidelity,
     /// Scene file (TOML), relative paths resolved against the launch's base directory.
     pub scene: PathBuf,
+    /// Which of the scene's sensors this node is: `""` (agv1, as before there were several),
+    /// `"agvN"` (the scene's N-th AGV, N ≥ 1), `"stationN"` (its N-th fixed station) or
+    /// `"none"` (only `/clock` and `/ground_truth/targets`, for as many frames as agv1 drives).
+    pub sensor: String,
+    /// Frame of the published odometry pose: `map` (the dead-reckoned pose starts at the true
+    /// pose) or `start` (it starts at the identity: the AGV's start pose is unknown). AGVs only:
+    /// `start` with a station or `none` is refused.
+    pub odom_origin: OdomOrigin,
     /// Standard deviation ΔR of the range error (m).
     pub range_std_m: f64,
     /// Standard deviation Δθ of the angle error (degrees).
@@ -99,6 +141,8 @@ impl Default for Params {
         Self {
             fidelity: Fidelity::Ideal,
             scene: PathBuf::from("config/hall.toml"),
+            sensor: String::new(),
+            odom_origin: OdomOrigin::Map,
             range_std_m: 0.0,
             angle_std_deg: 1.0,
             frames: 0,
@@ -136,6 +180,18 @@ impl Params {
                 "scene",
                 "the path is empty",
                 "a path to a scene TOML file",
+            ));
+        }
+        let role = self.role()?;
+        if self.odom_origin == OdomOrigin::Start && !matches!(role, Role::Agv(_)) {
+            return Err(InvalidParam::new(
+                "odom_origin",
+                format!(
+                    "is \"start\" with sensor = {:?}: only an AGV has odometry from an unknown \
+                     start (a station's pose is surveyed in the map, \"none\" has no pose)",
+                    self.sensor
+                ),
+                "\"map\", or \"start\" with sensor \"\" or \"agvN\"",
             ));
         }
         if self.scatterer_spacing_m != 0.0 {
@@ -183,6 +239,34 @@ impl Params {
             ));
         }
         Ok(())
+    }
+
+    /// The role `sensor` names (`""` is agv1). Whether the scene has that AGV or station is
+    /// checked when the scene is loaded.
+    pub fn role(&self) -> Result<Role, InvalidParam> {
+        const ALLOWED: &str = "\"\" (agv1), \"agvN\" or \"stationN\" with N ≥ 1, or \"none\"";
+        let number = |digits: &str| -> Option<usize> {
+            // Plain decimal digits only: "agv+1" and "agv 1" are typos, not agv1.
+            if digits.is_empty() || !digits.bytes().all(|b| b.is_ascii_digit()) {
+                return None;
+            }
+            digits.parse::<usize>().ok().filter(|&n| n >= 1)
+        };
+        let sensor = self.sensor.as_str();
+        let role = if sensor.is_empty() {
+            Some(Role::Agv(0))
+        } else if sensor == "none" {
+            Some(Role::NoSensor)
+        } else if let Some(digits) = sensor.strip_prefix("agv") {
+            number(digits).map(|n| Role::Agv(n - 1))
+        } else if let Some(digits) = sensor.strip_prefix("station") {
+            number(digits).map(|n| Role::Station(n - 1))
+        } else {
+            None
+        };
+        role.ok_or_else(|| {
+            InvalidParam::new("sensor", format!("{sensor:?} names no sensor"), ALLOWED)
+        })
     }
 
     /// The scatterer spacing overriding the scene's (m), if any.
@@ -258,10 +342,47 @@ mod tests {
                 "odom_rotation_bias_deg_per_m",
             ),
             ("scene = \"\"", "scene"),
+            ("sensor = \"agv0\"", "sensor"),
+            ("sensor = \"agv\"", "sensor"),
+            ("sensor = \"agv+1\"", "sensor"),
+            ("sensor = \"station-1\"", "sensor"),
+            ("sensor = \"radar\"", "sensor"),
+            ("sensor = \"agv99999999999999999999999\"", "sensor"),
+            (
+                "sensor = \"station1\"\nodom_origin = \"start\"",
+                "odom_origin",
+            ),
+            ("sensor = \"none\"\nodom_origin = \"start\"", "odom_origin"),
         ] {
             let p: Params = toml::from_str(text).unwrap();
             assert_eq!(p.validate().unwrap_err().field, field, "{text}");
         }
+    }
+
+    #[test]
+    fn sensor_roles() {
+        for (text, role) in [
+            ("", Role::Agv(0)),
+            ("sensor = \"agv1\"", Role::Agv(0)),
+            ("sensor = \"agv12\"", Role::Agv(11)),
+            ("sensor = \"station3\"", Role::Station(2)),
+            ("sensor = \"none\"", Role::NoSensor),
+        ] {
+            let p: Params = toml::from_str(text).unwrap();
+            p.validate().unwrap();
+            assert_eq!(p.role().unwrap(), role, "{text}");
+        }
+        let start: Params = toml::from_str("sensor = \"agv2\"\nodom_origin = \"start\"").unwrap();
+        start.validate().unwrap();
+        assert_eq!(start.odom_origin, OdomOrigin::Start);
+        assert!(toml::from_str::<Params>("odom_origin = \"odom\"").is_err());
+        let error = Params {
+            sensor: "agv0".into(),
+            ..Params::default()
+        }
+        .validate()
+        .unwrap_err();
+        assert!(error.allowed.contains("agvN"), "{error:?}");
     }
 
     #[test]

@@ -32,6 +32,16 @@
 //!   first lap the radar sees at least [`MIN_SCATTERERS_SEEN`] of its scatterers (range, field of
 //!   view, facing and occlusion, [`crate::visibility`]).
 //!
+//! Several AGVs and fixed stations (`agvs`, `stations`; default one AGV, no station, which
+//! draws and writes exactly what the generator wrote before they existed): the extra AGVs drive
+//! agv1's loop, in the same direction, started evenly spaced along it (agv k of N at k/N of a
+//! lap ahead of agv1), so every path overlaps every other everywhere and the AGVs see the same
+//! targets from different places at the same time. Stations stand on the walls: of the wall
+//! points every metre, each aimed at the centre of the targets within its range, the one whose
+//! view holds the most scatterers is taken first, then the best of those at least a
+//! 1/(2·stations) share of the perimeter (along the walls) from every station taken, and so on.
+//! Neither draws from the random stream: they are a function of the scene.
+//!
 //! When a layout (hall and loop) cannot hold the drawn number of targets within
 //! `placement_attempts` draws per target, a new layout is drawn, at most `layout_attempts`
 //! times; then [`generate`] fails with [`RandomSceneError::Crowded`]. It never returns fewer
@@ -50,8 +60,10 @@ use serde::{Deserialize, Serialize};
 use nrslam_runtime::InvalidParam;
 
 use crate::error::FieldError;
-use crate::geometry::{point_in_convex_polygon, Vec2};
-use crate::scene::{HallSpec, Scene, SceneSpec, SensorSpec, Shape, ShapeKind, TargetSpec};
+use crate::geometry::{point_in_convex_polygon, Pose2, Vec2};
+use crate::scene::{
+    AgvSpec, HallSpec, Scene, SceneSpec, SensorSpec, Shape, ShapeKind, StationSpec, TargetSpec,
+};
 use crate::trajectory::{Trajectory, TrajectorySpec};
 use crate::visibility;
 
@@ -110,7 +122,29 @@ pub struct RandomSceneParams {
     pub placement_attempts: u32,
     /// Layouts (hall and loop) tried before giving up.
     pub layout_attempts: u32,
+    /// Number of AGVs, 1 to 16: the extra ones drive agv1's loop from evenly spaced starts.
+    /// Written to the parameters only when not 1.
+    #[serde(skip_serializing_if = "is_one")]
+    pub agvs: u32,
+    /// Number of fixed sensing stations on the walls, 0 to 16. Written to the parameters only
+    /// when not 0.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub stations: u32,
 }
+
+fn is_one(value: &u32) -> bool {
+    *value == 1
+}
+
+fn is_zero(value: &u32) -> bool {
+    *value == 0
+}
+
+/// Most AGVs and most stations a random scene holds.
+pub const MAX_AGENTS: u32 = 16;
+
+/// Spacing of the wall points tried as station positions (m).
+const STATION_CANDIDATE_STEP_M: f64 = 1.0;
 
 impl Default for RandomSceneParams {
     fn default() -> Self {
@@ -132,6 +166,8 @@ impl Default for RandomSceneParams {
             scatterer_spacing_m: crate::scene::DEFAULT_SCATTERER_SPACING_M,
             placement_attempts: 1000,
             layout_attempts: 300,
+            agvs: 1,
+            stations: 0,
         }
     }
 }
@@ -158,6 +194,17 @@ pub enum RandomSceneError {
         layouts: u32,
         /// Draws per target (`placement_attempts`).
         attempts: u32,
+    },
+    /// Too few wall points see enough of the targets for the stations asked for.
+    #[error(
+        "could place only {placed} of {requested} stations on the walls seeing at least \
+         {MIN_SCATTERERS_SEEN} scatterers each; ask for fewer stations"
+    )]
+    Stations {
+        /// Stations asked for.
+        requested: u32,
+        /// Stations that found a place.
+        placed: u32,
     },
     /// The generated scene failed the scene's own validation: a bug of the generator, reported
     /// rather than written.
@@ -245,6 +292,8 @@ impl RandomSceneParams {
         check_interval("corner_radius_m", self.corner_radius_m, 0.0, 500.0)?;
         check_count_interval("laps", self.laps, 1, 3)?;
         check_count_interval("targets", self.targets, 1, 100)?;
+        InvalidParam::check_count("agvs", self.agvs, 1, MAX_AGENTS)?;
+        InvalidParam::check_count("stations", self.stations, 0, MAX_AGENTS)?;
         InvalidParam::check_range("circle_fraction", self.circle_fraction, 0.0, 1.0)?;
         check_interval("rect_long_side_m", self.rect_long_side_m, 0.1, 100.0)?;
         check_interval("rect_short_side_m", self.rect_short_side_m, 0.1, 100.0)?;
@@ -350,6 +399,7 @@ fn draw_layout(
         frame_period_s: 0.5,
         laps: f64::from(laps),
         agv_radius_m: params.agv_radius_m,
+        clockwise: false,
     };
     let lap_length_m = Trajectory::new(&trajectory)
         .map_err(RandomSceneError::Invalid)?
@@ -491,7 +541,7 @@ fn fits(
 /// there).
 pub fn scatterers_seen(scene: &Scene, enough: usize) -> Vec<usize> {
     let trajectory = &scene.trajectory;
-    let step_m = trajectory.spec().speed_mps * trajectory.spec().frame_period_s;
+    let step_m = trajectory.speed_mps() * trajectory.frame_period_s();
     let frames_per_lap = (trajectory.lap_length_m() / step_m).ceil() as usize;
     let frames = trajectory.frame_count().min(frames_per_lap);
     let mut best = vec![0usize; scene.targets.len()];
@@ -595,7 +645,9 @@ fn generate_counting_layouts(
             scatterer_spacing_m: params.scatterer_spacing_m,
             hall: layout.hall,
             sensor: SensorSpec::default(),
-            trajectory: layout.trajectory,
+            trajectory: Some(layout.trajectory),
+            agv: Vec::new(),
+            station: Vec::new(),
             targets,
         };
         let scene = Scene::from_spec(&spec).map_err(RandomSceneError::Invalid)?;
@@ -605,6 +657,7 @@ fn generate_counting_layouts(
             .iter()
             .all(|&n| n >= MIN_SCATTERERS_SEEN)
         {
+            let spec = add_agents(params, spec, &scene)?;
             return Ok((spec, layout_index + 1));
         }
     }
@@ -614,6 +667,156 @@ fn generate_counting_layouts(
         layouts: params.layout_attempts,
         attempts: params.placement_attempts,
     })
+}
+
+/// The scene with `params.agvs` AGVs and `params.stations` stations (unchanged for one AGV and
+/// no station). `scene` is `spec` built.
+fn add_agents(
+    params: &RandomSceneParams,
+    mut spec: SceneSpec,
+    scene: &Scene,
+) -> Result<SceneSpec, RandomSceneError> {
+    if params.agvs > 1 {
+        if let Some(first) = spec.trajectory.take() {
+            let lap_m = scene.trajectory.lap_length_m();
+            spec.agv = (0..params.agvs)
+                .map(|k| {
+                    let ahead_m = lap_m * f64::from(k) / f64::from(params.agvs);
+                    // Floored to the centimetre and kept below a lap, as agv1's offset is.
+                    let offset_m = ((first.start_offset_m + ahead_m).rem_euclid(lap_m) * 100.0)
+                        .floor()
+                        / 100.0;
+                    AgvSpec {
+                        name: format!("agv{}", k + 1),
+                        trajectory: Some(TrajectorySpec {
+                            start_offset_m: offset_m,
+                            ..first.clone()
+                        }),
+                        ..AgvSpec::default()
+                    }
+                })
+                .collect();
+        }
+    }
+    if params.stations > 0 {
+        spec.station = place_stations(params.stations, &spec, scene)?;
+    }
+    if params.agvs > 1 || params.stations > 0 {
+        Scene::from_spec(&spec).map_err(RandomSceneError::Invalid)?;
+    }
+    Ok(spec)
+}
+
+/// A wall point a station could stand on, aimed at the targets in its range.
+struct StationCandidate {
+    /// Distance along the walls from the origin, counter-clockwise (m).
+    along_m: f64,
+    spec: StationSpec,
+    /// Scatterers it sees.
+    seen: usize,
+}
+
+/// `count` stations on the walls, greedily: the wall point (every metre, corners left out)
+/// seeing the most scatterers first, then the best one at least a 1/(2·count) share of the
+/// perimeter away from every station placed (so they spread around the hall), and so on.
+/// Each aims at the centre of the targets that come within its range, which lie inward.
+fn place_stations(
+    count: u32,
+    spec: &SceneSpec,
+    scene: &Scene,
+) -> Result<Vec<StationSpec>, RandomSceneError> {
+    let (w, h) = (spec.hall.width_m, spec.hall.height_m);
+    let sensor = &spec.sensor;
+    let perimeter_m = 2.0 * (w + h);
+    // (start, direction along the wall, length) of the four walls, counter-clockwise.
+    let walls = [
+        (Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), w),
+        (Vec2::new(w, 0.0), Vec2::new(0.0, 1.0), h),
+        (Vec2::new(w, h), Vec2::new(-1.0, 0.0), w),
+        (Vec2::new(0.0, h), Vec2::new(0.0, -1.0), h),
+    ];
+    let mut candidates = Vec::new();
+    let mut wall_start_m = 0.0;
+    for (start, direction, length_m) in walls {
+        let pieces = (length_m / STATION_CANDIDATE_STEP_M).ceil() as usize;
+        for j in 1..pieces {
+            let along_wall_m = length_m * j as f64 / pieces as f64;
+            let p = start + direction * along_wall_m;
+            let position = Vec2::new(round_to(p.x, 100.0), round_to(p.y, 100.0));
+            let near: Vec<Vec2> = scene
+                .targets
+                .iter()
+                .filter(|t| t.shape.distance_to_segment(position, position) <= sensor.max_range_m)
+                .map(|t| {
+                    let (min, max) = t.shape.bounding_box();
+                    (min + max) / 2.0
+                })
+                .collect();
+            if near.is_empty() {
+                continue;
+            }
+            let aim = near.iter().fold(Vec2::zeros(), |sum, c| sum + *c) / near.len() as f64;
+            let d = aim - position;
+            let boresight_deg = round_to(d.y.atan2(d.x).to_degrees(), 10.0);
+            let station_sensor = crate::visibility::Sensor {
+                boresight_rad: 0.0,
+                max_range_m: sensor.max_range_m,
+                half_fov_rad: sensor.half_fov_deg.to_radians(),
+            };
+            let pose = Pose2::new(position.x, position.y, boresight_deg.to_radians());
+            let seen = visibility::observe(&scene.targets, &station_sensor, pose).len();
+            candidates.push(StationCandidate {
+                along_m: wall_start_m + along_wall_m,
+                spec: StationSpec {
+                    name: String::new(),
+                    position_m: [position.x, position.y],
+                    boresight_deg,
+                    half_fov_deg: Some(sensor.half_fov_deg),
+                    max_range_m: Some(sensor.max_range_m),
+                },
+                seen,
+            });
+        }
+        wall_start_m += length_m;
+    }
+    let separation_m = perimeter_m / (2.0 * f64::from(count));
+    let along_walls = |a: f64, b: f64| {
+        let d = (a - b).rem_euclid(perimeter_m);
+        d.min(perimeter_m - d)
+    };
+    let mut chosen: Vec<&StationCandidate> = Vec::new();
+    while chosen.len() < count as usize {
+        // The first best in wall order on ties: deterministic.
+        let best = candidates
+            .iter()
+            .filter(|c| c.seen >= MIN_SCATTERERS_SEEN)
+            .filter(|c| {
+                chosen
+                    .iter()
+                    .all(|s| along_walls(s.along_m, c.along_m) >= separation_m)
+            })
+            .fold(None::<&StationCandidate>, |best, c| match best {
+                Some(b) if b.seen >= c.seen => Some(b),
+                _ => Some(c),
+            });
+        let Some(best) = best else {
+            return Err(RandomSceneError::Stations {
+                requested: count,
+                placed: chosen.len() as u32,
+            });
+        };
+        chosen.push(best);
+    }
+    // In wall order, so station1 is the first one counter-clockwise from the origin.
+    chosen.sort_by(|a, b| a.along_m.total_cmp(&b.along_m));
+    Ok(chosen
+        .into_iter()
+        .enumerate()
+        .map(|(j, c)| StationSpec {
+            name: format!("station{}", j + 1),
+            ..c.spec.clone()
+        })
+        .collect())
 }
 
 /// The scene as a scene file: `header` as `#` comment lines (say how to regenerate it), a blank
@@ -675,7 +878,7 @@ mod tests {
             (p.targets[0] as usize..=p.targets[1] as usize).contains(&n),
             "seed {seed}: {n} targets"
         );
-        let laps = spec.trajectory.laps;
+        let laps = spec.trajectory.as_ref().unwrap().laps;
         assert!(
             laps.fract() == 0.0 && (1.0..=3.0).contains(&laps),
             "seed {seed}: {laps} laps"
@@ -775,7 +978,7 @@ mod tests {
         for seed in 0..SEEDS {
             let spec = generate(&p, seed).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
             check_rules(&p, seed, &spec);
-            laps_seen[spec.trajectory.laps as usize] += 1;
+            laps_seen[spec.trajectory.as_ref().unwrap().laps as usize] += 1;
             for t in &spec.targets {
                 match t.shape {
                     ShapeKind::Circle => circles += 1,
@@ -837,7 +1040,7 @@ mod tests {
             };
             for seed in 0..5 {
                 let spec = generate(&p, seed).unwrap();
-                assert_eq!(spec.trajectory.laps, f64::from(laps));
+                assert_eq!(spec.trajectory.as_ref().unwrap().laps, f64::from(laps));
                 assert_eq!(spec.targets.len(), 8);
                 let scene = Scene::from_spec(&spec).unwrap();
                 let frames_per_lap = scene.trajectory.lap_length_m() / 0.5;
@@ -946,7 +1149,7 @@ mod tests {
     fn bad_params_are_refused_by_name() {
         // Each case changes the defaults and names the field that must be refused.
         type Change = fn(&mut RandomSceneParams);
-        let cases: [(Change, &str); 16] = [
+        let cases: [(Change, &str); 19] = [
             (|p| p.hall_width_m = [60.0, 40.0], "hall_width_m"),
             (|p| p.hall_height_m = [f64::NAN, 40.0], "hall_height_m[0]"),
             (|p| p.wall_margin_m = [0.2, 5.0], "wall_margin_m[0]"),
@@ -969,6 +1172,9 @@ mod tests {
             (|p| p.max_path_distance_m = 2.0, "max_path_distance_m"),
             (|p| p.placement_attempts = 0, "placement_attempts"),
             (|p| p.layout_attempts = 0, "layout_attempts"),
+            (|p| p.agvs = 0, "agvs"),
+            (|p| p.agvs = 17, "agvs"),
+            (|p| p.stations = 17, "stations"),
         ];
         for (change, field) in cases {
             let mut p = params();
@@ -984,5 +1190,100 @@ mod tests {
         assert!(toml::from_str::<RandomSceneParams>("hall_width = [40.0, 50.0]").is_err());
         let parsed: RandomSceneParams = toml::from_str("laps = [2, 2]").unwrap();
         assert_eq!(parsed.laps, [2, 2]);
+    }
+
+    #[test]
+    fn one_agv_and_no_station_are_written_as_before() {
+        // The defaults add no key to the parameters or the scene.
+        let text = toml::to_string(&params()).unwrap();
+        assert!(
+            !text.contains("agvs") && !text.contains("stations"),
+            "{text}"
+        );
+        let spec = generate(&params(), 3).unwrap();
+        assert!(spec.trajectory.is_some() && spec.agv.is_empty() && spec.station.is_empty());
+        let parsed: RandomSceneParams = toml::from_str("agvs = 2\nstations = 3").unwrap();
+        assert_eq!((parsed.agvs, parsed.stations), (2, 3));
+        assert!(toml::to_string(&parsed).unwrap().contains("agvs = 2"));
+        // Asking for agents changes no draw: the same targets and agv1's loop.
+        let more = generate(
+            &RandomSceneParams {
+                agvs: 3,
+                stations: 2,
+                ..params()
+            },
+            3,
+        )
+        .unwrap();
+        assert_eq!(more.targets, spec.targets);
+        assert_eq!(more.hall, spec.hall);
+        assert_eq!(more.agv[0].trajectory, spec.trajectory);
+    }
+
+    #[test]
+    fn agvs_share_the_loop_and_stations_stand_on_the_walls() {
+        let p = RandomSceneParams {
+            agvs: 3,
+            stations: 4,
+            ..params()
+        };
+        for seed in 0..4 {
+            let spec = generate(&p, seed).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+            let scene = Scene::from_spec(&spec).unwrap();
+            assert!(spec.trajectory.is_none());
+            assert_eq!(scene.agvs.len(), 3);
+            let agv1 = &scene.agvs[0].trajectory;
+            let lap_m = agv1.lap_length_m();
+            for (k, agv) in scene.agvs.iter().enumerate() {
+                assert_eq!(agv.sensor, scene.sensor);
+                assert_eq!(agv.trajectory.frame_count(), agv1.frame_count());
+                assert_eq!(
+                    agv.trajectory.chords(CHORD_STEP_RAD),
+                    agv1.chords(CHORD_STEP_RAD)
+                );
+                // k/3 of a lap ahead of agv1 (to the centimetre).
+                let ahead = agv1.pose_at_distance(lap_m * k as f64 / 3.0);
+                let start = agv.trajectory.pose_at_frame(0);
+                assert!(
+                    (start.position() - ahead.position()).norm() < 0.011,
+                    "seed {seed}, agv{}",
+                    k + 1
+                );
+            }
+            assert_eq!(scene.stations.len(), 4);
+            let (w, h) = (scene.hall_width_m, scene.hall_height_m);
+            let perimeter_m = 2.0 * (w + h);
+            let along = |pose: &crate::geometry::Pose2| {
+                if pose.y_m == 0.0 {
+                    pose.x_m
+                } else if pose.x_m == w {
+                    w + pose.y_m
+                } else if pose.y_m == h {
+                    w + h + (w - pose.x_m)
+                } else {
+                    assert_eq!(pose.x_m, 0.0, "seed {seed}: not on a wall: {pose:?}");
+                    2.0 * w + h + (h - pose.y_m)
+                }
+            };
+            let mut previous: Vec<f64> = Vec::new();
+            for station in &scene.stations {
+                let pose = station.pose;
+                let at = along(&pose);
+                // Facing into the hall, toward the middle.
+                let middle = Vec2::new(w / 2.0, h / 2.0) - pose.position();
+                let facing = Vec2::new(pose.yaw_rad.cos(), pose.yaw_rad.sin());
+                assert!(facing.dot(&middle) > 0.0, "seed {seed}: {pose:?}");
+                let seen = visibility::observe(&scene.targets, &station.sensor, pose).len();
+                assert!(seen >= MIN_SCATTERERS_SEEN, "seed {seed}: {seen}");
+                for other in &previous {
+                    let d = (at - other).rem_euclid(perimeter_m);
+                    assert!(d.min(perimeter_m - d) >= perimeter_m / 8.0 - 1e-9);
+                }
+                previous.push(at);
+            }
+            // Written and read back: the same scene.
+            let text = to_toml(&spec, "agents").unwrap();
+            assert_eq!(toml::from_str::<SceneSpec>(&text).unwrap(), spec);
+        }
     }
 }

@@ -12,8 +12,14 @@
 //! - scatterers along its outline every `scatterer_spacing_m` or closer: the point reflectors the
 //!   radar sees (the `L_p` paths of eq. (2)).
 //!
-//! Validation refuses non-positive sizes, targets outside the hall, targets that overlap or touch
-//! and a trajectory that passes within the AGV radius of a target; every error names its field.
+//! Besides the targets, a scene holds who senses them: one AGV driving `[trajectory]`, or several
+//! AGVs (`[[agv]]`, each a loop or a waypoint path, optionally with its own sensor), and fixed
+//! 5G sensing stations (`[[station]]`) on the walls or pillars (docs/scene.md, "Several AGVs and
+//! stations").
+//!
+//! Validation refuses non-positive sizes, targets outside the hall, targets that overlap or
+//! touch, a path that passes within the AGV radius of a target or leaves the hall, and a station
+//! outside the hall or inside a target; every error names its field.
 
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::path::Path;
@@ -23,9 +29,13 @@ use serde::{Deserialize, Serialize};
 use crate::error::{FieldError, SceneError};
 use crate::geometry::{
     convex_polygons_distance, point_convex_polygon_distance, point_in_convex_polygon,
-    point_segment_distance, segment_convex_polygon_distance, segment_meets_convex_polygon, Vec2,
+    point_segment_distance, segment_convex_polygon_distance, segment_meets_convex_polygon, Pose2,
+    Vec2,
 };
-use crate::trajectory::{Trajectory, TrajectorySpec};
+use crate::trajectory::{
+    default_agv_radius, default_laps, default_period, default_speed, Trajectory, TrajectorySpec,
+    WaypointsSpec,
+};
 use crate::visibility::Sensor;
 
 /// Number of vertices of a circle's outline polygon in the ground-truth message.
@@ -52,11 +62,19 @@ pub struct SceneSpec {
     pub scatterer_spacing_m: f64,
     /// The hall's floor.
     pub hall: HallSpec,
-    /// The radar's mounting and visibility limits.
+    /// The radar's mounting and visibility limits (every AGV's, unless its `[[agv]]` entry
+    /// overrides them).
     #[serde(default)]
     pub sensor: SensorSpec,
-    /// The AGV's loop.
-    pub trajectory: TrajectorySpec,
+    /// The AGV's loop when the scene has one AGV; absent when `[[agv]]` lists the AGVs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trajectory: Option<TrajectorySpec>,
+    /// Every AGV, agv1 first, when there are several (then `[trajectory]` is absent).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub agv: Vec<AgvSpec>,
+    /// Fixed sensing stations.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub station: Vec<StationSpec>,
     /// The extended targets, in id order (id = index).
     #[serde(default)]
     pub targets: Vec<TargetSpec>,
@@ -96,6 +114,83 @@ impl Default for SensorSpec {
             half_fov_deg: 60.0,
         }
     }
+}
+
+/// One AGV of an `[[agv]]` list: either `trajectory` (a rounded-rectangle loop, the fields of
+/// `[trajectory]`) or `waypoints_m` with the optional fields that drive it (`closed`,
+/// `start_offset_m`, `speed_mps`, `frame_period_s`, `laps`, `agv_radius_m`); optionally its own
+/// `sensor` fields.
+#[derive(Debug, Clone, PartialEq, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct AgvSpec {
+    /// Human-readable name (error messages, drawings); default `agvN` for the N-th entry.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub name: String,
+    /// A polyline through these points (m), map frame, driven in this order.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub waypoints_m: Option<Vec<[f64; 2]>>,
+    /// Waypoint paths: whether the last waypoint joins the first (default true).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub closed: Option<bool>,
+    /// Waypoint paths: arc length from the first waypoint to the start point (m, default 0;
+    /// closed paths only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start_offset_m: Option<f64>,
+    /// Waypoint paths: speed (m/s, default 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub speed_mps: Option<f64>,
+    /// Waypoint paths: time between frames (s, default 0.5).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frame_period_s: Option<f64>,
+    /// Waypoint paths: laps driven (default 1; closed paths only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub laps: Option<f64>,
+    /// Waypoint paths: the AGV's footprint radius (m, default 0.5).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub agv_radius_m: Option<f64>,
+    /// A loop, as the `[trajectory]` table.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trajectory: Option<TrajectorySpec>,
+    /// This AGV's sensor; fields left out are the scene's `[sensor]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sensor: Option<SensorOverride>,
+}
+
+/// An `[[agv]]` entry's own sensor: each field left out is the scene's `[sensor]` value.
+#[derive(Debug, Clone, PartialEq, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorOverride {
+    /// Array boresight relative to the AGV heading, degrees counter-clockwise (90 = left).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub boresight_deg: Option<f64>,
+    /// Farthest range at which a scatterer is detected (m).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_range_m: Option<f64>,
+    /// Half field of view about boresight (degrees).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub half_fov_deg: Option<f64>,
+}
+
+/// A fixed monostatic 5G sensing station (`[[station]]`): the AGVs' OFDM front end on a wall or
+/// a pillar, at a surveyed pose.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct StationSpec {
+    /// Human-readable name (error messages, drawings); default `stationN` for the N-th entry.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub name: String,
+    /// Position of the array (m), map frame: inside the hall or on a wall, clear of targets.
+    pub position_m: [f64; 2],
+    /// Direction of boresight in the map frame, degrees counter-clockwise from +x.
+    pub boresight_deg: f64,
+    /// Half field of view about boresight (degrees, in (0, 90)); default the scene's
+    /// `[sensor]` value.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub half_fov_deg: Option<f64>,
+    /// Farthest range at which a scatterer is detected (m); default the scene's `[sensor]`
+    /// value.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_range_m: Option<f64>,
 }
 
 /// Kind of an extended target.
@@ -383,7 +478,30 @@ pub struct Target {
     pub scatterers: Vec<Scatterer>,
 }
 
-/// A validated scene: hall, sensor, trajectory and targets.
+/// One AGV of a validated scene.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Agv {
+    /// Its name (`agvN` unless the file names it).
+    pub name: String,
+    /// Its path.
+    pub trajectory: Trajectory,
+    /// Its radar, mounted relative to its heading.
+    pub sensor: Sensor,
+}
+
+/// A fixed sensing station of a validated scene.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Station {
+    /// Its name (`stationN` unless the file names it).
+    pub name: String,
+    /// Its surveyed pose: the array's position, heading = boresight in the map frame.
+    pub pose: Pose2,
+    /// Its radar: boresight 0 relative to the pose (the pose's heading is the boresight), the
+    /// station's range and field of view.
+    pub sensor: Sensor,
+}
+
+/// A validated scene: hall, sensors, paths and targets.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scene {
     /// Hall extent along x (m).
@@ -392,10 +510,14 @@ pub struct Scene {
     pub hall_height_m: f64,
     /// Scatterer spacing used to build the targets (m).
     pub scatterer_spacing_m: f64,
-    /// The radar.
+    /// agv1's radar (the same as `agvs[0].sensor`).
     pub sensor: Sensor,
-    /// The AGV's loop (validated).
+    /// agv1's path (the same as `agvs[0].trajectory`): the run's clock for stations.
     pub trajectory: Trajectory,
+    /// Every AGV, agv1 first; at least one.
+    pub agvs: Vec<Agv>,
+    /// The fixed sensing stations, station1 first.
+    pub stations: Vec<Station>,
     /// The targets, id = index.
     pub targets: Vec<Target>,
 }
@@ -442,13 +564,13 @@ impl Scene {
         })
     }
 
-    /// Validates a parsed scene and builds its targets and trajectory.
+    /// Validates a parsed scene and builds its targets, AGVs and stations.
     pub fn from_spec(spec: &SceneSpec) -> Result<Self, FieldError> {
         let hall = &spec.hall;
         positive("hall.width_m", hall.width_m)?;
         positive("hall.height_m", hall.height_m)?;
         positive("scatterer_spacing_m", spec.scatterer_spacing_m)?;
-        let sensor = sensor_from_spec(&spec.sensor)?;
+        let sensor = sensor_from_spec(&spec.sensor, "sensor")?;
 
         let mut targets = Vec::with_capacity(spec.targets.len());
         for (index, t) in spec.targets.iter().enumerate() {
@@ -500,15 +622,53 @@ impl Scene {
             }
         }
 
-        let trajectory = Trajectory::new(&spec.trajectory)?;
-        check_trajectory_clearance(&trajectory, &targets, &spec.targets, hall)?;
+        let agvs = match (&spec.trajectory, spec.agv.is_empty()) {
+            (Some(loop_spec), true) => {
+                let trajectory = Trajectory::new(loop_spec)?;
+                check_path_clearance(&trajectory, &targets, &spec.targets, hall, "trajectory")?;
+                vec![Agv {
+                    name: default_name("agv", 0),
+                    trajectory,
+                    sensor,
+                }]
+            }
+            (None, false) => spec
+                .agv
+                .iter()
+                .enumerate()
+                .map(|(index, agv)| agv_from_spec(index, agv, spec, &targets))
+                .collect::<Result<Vec<_>, _>>()?,
+            (Some(_), false) => {
+                return Err(FieldError::new(
+                    "trajectory",
+                    "is given together with [[agv]]: with [[agv]], every AGV is listed there \
+                     (agv1 first) and [trajectory] must go",
+                ))
+            }
+            (None, true) => {
+                return Err(FieldError::new(
+                    "trajectory",
+                    "is missing: a scene has [trajectory] (one AGV) or [[agv]] entries",
+                ))
+            }
+        };
+        check_unique_names("agv", agvs.iter().map(|a| a.name.as_str()))?;
+        let stations = spec
+            .station
+            .iter()
+            .enumerate()
+            .map(|(index, station)| station_from_spec(index, station, spec, &targets))
+            .collect::<Result<Vec<_>, _>>()?;
+        check_unique_names("station", stations.iter().map(|s| s.name.as_str()))?;
 
         Ok(Self {
             hall_width_m: hall.width_m,
             hall_height_m: hall.height_m,
             scatterer_spacing_m: spec.scatterer_spacing_m,
-            sensor,
-            trajectory,
+            sensor: agvs[0].sensor,
+            trajectory: agvs[0].trajectory.clone(),
+            agvs,
+            stations,
             targets,
         })
     }
@@ -519,17 +679,188 @@ impl Scene {
     }
 }
 
-fn sensor_from_spec(spec: &SensorSpec) -> Result<Sensor, FieldError> {
+/// `agv1`, `station2`, ...: the name an entry has when the file gives none (1-based, as the
+/// radar's `sensor` parameter counts).
+fn default_name(kind: &str, index: usize) -> String {
+    format!("{kind}{}", index + 1)
+}
+
+fn effective_name(kind: &str, index: usize, name: &str) -> String {
+    if name.is_empty() {
+        default_name(kind, index)
+    } else {
+        name.to_owned()
+    }
+}
+
+/// `agv[1] (agv2)`: the entry's place in the file and the name it goes by.
+fn entry_prefix(kind: &str, index: usize, name: &str) -> String {
+    format!("{kind}[{index}] ({})", effective_name(kind, index, name))
+}
+
+fn check_unique_names<'a>(
+    kind: &str,
+    names: impl Iterator<Item = &'a str>,
+) -> Result<(), FieldError> {
+    let names: Vec<&str> = names.collect();
+    for (i, name) in names.iter().enumerate() {
+        if let Some(j) = names[..i].iter().position(|other| other == name) {
+            return Err(FieldError::new(
+                format!("{kind}[{i}].name"),
+                format!("\"{name}\" is also {kind}[{j}]'s name; names must differ"),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// One `[[agv]]` entry: its path (a loop or waypoints, exactly one), the path's clearance, and
+/// its sensor (the scene's `[sensor]` with the entry's fields replacing it).
+fn agv_from_spec(
+    index: usize,
+    agv: &AgvSpec,
+    spec: &SceneSpec,
+    targets: &[Target],
+) -> Result<Agv, FieldError> {
+    let prefix = entry_prefix("agv", index, &agv.name);
+    let within = |e: FieldError| FieldError::new(format!("{prefix}.{}", e.field), e.problem);
+    let waypoint_fields = [
+        ("closed", agv.closed.is_some()),
+        ("start_offset_m", agv.start_offset_m.is_some()),
+        ("speed_mps", agv.speed_mps.is_some()),
+        ("frame_period_s", agv.frame_period_s.is_some()),
+        ("laps", agv.laps.is_some()),
+        ("agv_radius_m", agv.agv_radius_m.is_some()),
+    ];
+    let (trajectory, path_field) =
+        match (&agv.trajectory, &agv.waypoints_m) {
+            (Some(loop_spec), None) => {
+                if let Some((name, _)) = waypoint_fields.iter().find(|(_, given)| *given) {
+                    return Err(FieldError::new(
+                        format!("{prefix}.{name}"),
+                        "is for waypoints_m paths; a loop takes it inside trajectory = { ... }",
+                    ));
+                }
+                (Trajectory::new(loop_spec).map_err(within)?, "trajectory")
+            }
+            (None, Some(points)) => {
+                let waypoints = WaypointsSpec {
+                    waypoints_m: points.clone(),
+                    closed: agv.closed.unwrap_or(true),
+                    start_offset_m: agv.start_offset_m.unwrap_or(0.0),
+                    speed_mps: agv.speed_mps.unwrap_or_else(default_speed),
+                    frame_period_s: agv.frame_period_s.unwrap_or_else(default_period),
+                    laps: agv.laps.unwrap_or_else(default_laps),
+                    agv_radius_m: agv.agv_radius_m.unwrap_or_else(default_agv_radius),
+                };
+                (
+                    Trajectory::from_waypoints(&waypoints).map_err(within)?,
+                    "waypoints_m",
+                )
+            }
+            (Some(_), Some(_)) => {
+                return Err(FieldError::new(
+                    format!("{prefix}.waypoints_m"),
+                    "is given together with trajectory; an AGV drives one path",
+                ))
+            }
+            (None, None) => return Err(FieldError::new(
+                prefix,
+                "has no path: give trajectory = { ... } (a loop, the fields of [trajectory]) or \
+                 waypoints_m = [[x, y], ...]",
+            )),
+        };
+    check_path_clearance(
+        &trajectory,
+        targets,
+        &spec.targets,
+        &spec.hall,
+        &format!("{prefix}.{path_field}"),
+    )?;
+    let own = agv.sensor.clone().unwrap_or_default();
+    let merged = SensorSpec {
+        boresight_deg: own.boresight_deg.unwrap_or(spec.sensor.boresight_deg),
+        max_range_m: own.max_range_m.unwrap_or(spec.sensor.max_range_m),
+        half_fov_deg: own.half_fov_deg.unwrap_or(spec.sensor.half_fov_deg),
+    };
+    Ok(Agv {
+        name: effective_name("agv", index, &agv.name),
+        trajectory,
+        sensor: sensor_from_spec(&merged, &format!("{prefix}.sensor"))?,
+    })
+}
+
+/// One `[[station]]` entry: inside the hall (a wall counts), clear of every target, a sensor
+/// that validates like `[sensor]`.
+fn station_from_spec(
+    index: usize,
+    station: &StationSpec,
+    spec: &SceneSpec,
+    targets: &[Target],
+) -> Result<Station, FieldError> {
+    let prefix = entry_prefix("station", index, &station.name);
+    let [x, y] = station.position_m;
+    if !(x.is_finite() && y.is_finite()) {
+        return Err(FieldError::new(
+            format!("{prefix}.position_m"),
+            format!("must be finite, got [{x}, {y}]"),
+        ));
+    }
+    let hall = &spec.hall;
+    if !((0.0..=hall.width_m).contains(&x) && (0.0..=hall.height_m).contains(&y)) {
+        return Err(FieldError::new(
+            format!("{prefix}.position_m"),
+            format!(
+                "[{x}, {y}] is outside the hall [0, {}] × [0, {}] m; a station stands inside \
+                 it or on a wall",
+                hall.width_m, hall.height_m
+            ),
+        ));
+    }
+    let position = Vec2::new(x, y);
+    for (k, target) in targets.iter().enumerate() {
+        // On the outline counts as inside: every line of sight would graze the target.
+        if target.shape.distance_to_segment(position, position) <= 0.0 {
+            return Err(FieldError::new(
+                format!("{prefix}.position_m"),
+                format!(
+                    "[{x}, {y}] is inside or on targets[{k}]{}; a station stands clear of \
+                     every target (in front of a pillar, not in it)",
+                    name_suffix(&spec.targets[k].name)
+                ),
+            ));
+        }
+    }
+    let sensor = sensor_from_spec(
+        &SensorSpec {
+            boresight_deg: station.boresight_deg,
+            max_range_m: station.max_range_m.unwrap_or(spec.sensor.max_range_m),
+            half_fov_deg: station.half_fov_deg.unwrap_or(spec.sensor.half_fov_deg),
+        },
+        &prefix,
+    )?;
+    Ok(Station {
+        name: effective_name("station", index, &station.name),
+        pose: Pose2::new(x, y, sensor.boresight_rad),
+        sensor: Sensor {
+            boresight_rad: 0.0,
+            ..sensor
+        },
+    })
+}
+
+/// The sensor table at `prefix` (`sensor`, `agv[1] (agv2).sensor`, `station[0] (station1)`).
+fn sensor_from_spec(spec: &SensorSpec, prefix: &str) -> Result<Sensor, FieldError> {
     if !(spec.boresight_deg.is_finite() && spec.boresight_deg.abs() <= 180.0) {
         return Err(FieldError::new(
-            "sensor.boresight_deg",
+            format!("{prefix}.boresight_deg"),
             format!("must lie in [−180, 180], got {}", spec.boresight_deg),
         ));
     }
-    positive("sensor.max_range_m", spec.max_range_m)?;
+    positive(&format!("{prefix}.max_range_m"), spec.max_range_m)?;
     if !(spec.half_fov_deg > 0.0 && spec.half_fov_deg < 90.0) {
         return Err(FieldError::new(
-            "sensor.half_fov_deg",
+            format!("{prefix}.half_fov_deg"),
             format!(
                 "must lie in (0, 90) (a linear array resolves angles within ±90°), got {}",
                 spec.half_fov_deg
@@ -596,30 +927,54 @@ fn shape_from_spec(index: usize, t: &TargetSpec) -> Result<Shape, FieldError> {
 }
 
 /// The AGV body (a disc of `agv_radius_m` about the path) must stay clear of every target and
-/// inside the hall.
-fn check_trajectory_clearance(
+/// inside the hall; `field` names the path in errors (`trajectory`, `agv[1] (agv2).waypoints_m`).
+fn check_path_clearance(
     trajectory: &Trajectory,
     targets: &[Target],
     specs: &[TargetSpec],
     hall: &HallSpec,
+    field: &str,
 ) -> Result<(), FieldError> {
-    let spec = trajectory.spec();
-    let radius_m = spec.agv_radius_m;
-    if spec.x_min_m - radius_m < 0.0
-        || spec.y_min_m - radius_m < 0.0
-        || spec.x_max_m + radius_m > hall.width_m
-        || spec.y_max_m + radius_m > hall.height_m
-    {
-        return Err(FieldError::new(
-            "trajectory",
-            format!(
-                "the loop (with agv_radius_m = {radius_m}) leaves the hall [0, {}] × [0, {}] m",
-                hall.width_m, hall.height_m
-            ),
-        ));
+    let radius_m = trajectory.agv_radius_m();
+    let leaves = |x_min: f64, y_min: f64, x_max: f64, y_max: f64| {
+        x_min - radius_m < 0.0
+            || y_min - radius_m < 0.0
+            || x_max + radius_m > hall.width_m
+            || y_max + radius_m > hall.height_m
+    };
+    if let Some(spec) = trajectory.loop_spec() {
+        if leaves(spec.x_min_m, spec.y_min_m, spec.x_max_m, spec.y_max_m) {
+            return Err(FieldError::new(
+                field,
+                format!(
+                    "the loop (with agv_radius_m = {radius_m}) leaves the hall [0, {}] × [0, {}] m",
+                    hall.width_m, hall.height_m
+                ),
+            ));
+        }
+    }
+    if let Some(spec) = trajectory.waypoints_spec() {
+        // The hall is convex: a path whose waypoints keep the clearance keeps it throughout.
+        for (i, p) in spec.waypoints_m.iter().enumerate() {
+            if leaves(p[0], p[1], p[0], p[1]) {
+                return Err(FieldError::new(
+                    format!("{field}[{i}]"),
+                    format!(
+                        "[{}, {}] (with agv_radius_m = {radius_m}) leaves the hall [0, {}] × \
+                         [0, {}] m",
+                        p[0], p[1], hall.width_m, hall.height_m
+                    ),
+                ));
+            }
+        }
     }
     // Chords at most 1° of arc: the sagitta is below 4e-5 of the corner radius.
     let chords = trajectory.chords(PI / 180.0);
+    let what = if trajectory.loop_spec().is_some() {
+        "loop"
+    } else {
+        "path"
+    };
     for (index, target) in targets.iter().enumerate() {
         let closest_m = chords
             .iter()
@@ -627,9 +982,9 @@ fn check_trajectory_clearance(
             .fold(f64::INFINITY, f64::min);
         if closest_m <= 0.0 || closest_m < radius_m {
             return Err(FieldError::new(
-                "trajectory",
+                field,
                 format!(
-                    "the loop passes {closest_m:.3} m from targets[{index}]{}, closer than \
+                    "the {what} passes {closest_m:.3} m from targets[{index}]{}, closer than \
                      agv_radius_m = {radius_m} m (it must not cross a target)",
                     name_suffix(&specs[index].name)
                 ),
@@ -666,6 +1021,7 @@ pub(crate) fn positive(field: &str, value: f64) -> Result<(), FieldError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::Pose2;
 
     pub(crate) const MINIMAL: &str = r#"
         [hall]
@@ -841,5 +1197,234 @@ mod tests {
         assert!(corner.faces(Vec2::new(-5.0, 0.0)));
         assert!(corner.faces(Vec2::new(0.0, -5.0)));
         assert!(!corner.faces(Vec2::new(5.0, 5.0)));
+    }
+
+    /// MINIMAL's hall and targets with `agents` instead of its `[trajectory]`.
+    fn with_agents(agents: &str) -> String {
+        let start = MINIMAL.find("[trajectory]").unwrap();
+        let end = MINIMAL.find("[[targets]]").unwrap();
+        format!("{}{agents}\n{}", &MINIMAL[..start], &MINIMAL[end..])
+    }
+
+    /// Two AGVs (a clockwise loop looking right, a waypoint path) and two stations.
+    const AGENTS: &str = r#"
+        [[agv]]
+        trajectory = { x_min_m = 2.0, y_min_m = 2.0, x_max_m = 18.0, y_max_m = 18.0, corner_radius_m = 2.0, clockwise = true }
+        sensor = { boresight_deg = -90.0 }
+        [[agv]]
+        name = "shuttle"
+        waypoints_m = [[3.0, 10.0], [3.0, 3.0], [16.0, 3.0], [16.0, 16.0]]
+        closed = false
+        speed_mps = 0.5
+        sensor = { max_range_m = 12.0 }
+        [[station]]
+        position_m = [0.0, 10.0]
+        boresight_deg = 0.0
+        [[station]]
+        name = "north"
+        position_m = [10.0, 20.0]
+        boresight_deg = -90.0
+        half_fov_deg = 45.0
+        max_range_m = 15.0
+    "#;
+
+    #[test]
+    fn agvs_and_stations_build() {
+        let scene = Scene::from_toml_str(&with_agents(AGENTS), "test").unwrap();
+        assert_eq!(scene.agvs.len(), 2);
+        assert_eq!(scene.agvs[0].name, "agv1");
+        assert_eq!(scene.agvs[1].name, "shuttle");
+        // agv1 is the scene's trajectory and sensor; its sensor overrides only the boresight.
+        assert_eq!(scene.trajectory, scene.agvs[0].trajectory);
+        assert_eq!(scene.sensor, scene.agvs[0].sensor);
+        assert!(scene.trajectory.loop_spec().unwrap().clockwise);
+        assert_eq!(
+            scene.sensor,
+            Sensor {
+                boresight_rad: -FRAC_PI_2,
+                ..Sensor::default()
+            }
+        );
+        let shuttle = &scene.agvs[1];
+        assert!(!shuttle.trajectory.is_closed());
+        assert_eq!(shuttle.trajectory.speed_mps(), 0.5);
+        assert_eq!(shuttle.sensor.max_range_m, 12.0);
+        assert_eq!(shuttle.sensor.boresight_rad, FRAC_PI_2);
+        // Stations: pose heading = boresight, sensor boresight 0, defaults from [sensor].
+        assert_eq!(scene.stations.len(), 2);
+        let west = &scene.stations[0];
+        assert_eq!(west.name, "station1");
+        assert_eq!(west.pose, Pose2::new(0.0, 10.0, 0.0));
+        assert_eq!(
+            west.sensor,
+            Sensor {
+                boresight_rad: 0.0,
+                ..Sensor::default()
+            }
+        );
+        let north = &scene.stations[1];
+        assert_eq!(north.name, "north");
+        assert_eq!(north.pose, Pose2::new(10.0, 20.0, -FRAC_PI_2));
+        assert_eq!(north.sensor.max_range_m, 15.0);
+        assert!((north.sensor.half_fov_rad - 45f64.to_radians()).abs() < 1e-15);
+        // Written and read back, the spec is the same.
+        let spec: SceneSpec = toml::from_str(&with_agents(AGENTS)).unwrap();
+        let text = toml::to_string(&spec).unwrap();
+        assert_eq!(toml::from_str::<SceneSpec>(&text).unwrap(), spec, "{text}");
+    }
+
+    #[test]
+    fn single_agv_scene_has_agv1_and_no_station() {
+        let scene = Scene::from_toml_str(MINIMAL, "test").unwrap();
+        assert_eq!(scene.agvs.len(), 1);
+        assert_eq!(scene.agvs[0].name, "agv1");
+        assert_eq!(scene.agvs[0].trajectory, scene.trajectory);
+        assert_eq!(scene.agvs[0].sensor, scene.sensor);
+        assert!(scene.stations.is_empty());
+        // A [trajectory] scene is written as before: no agv or station keys appear.
+        let spec: SceneSpec = toml::from_str(MINIMAL).unwrap();
+        let text = toml::to_string(&spec).unwrap();
+        assert!(
+            !text.contains("agv]") && !text.contains("station") && !text.contains("clockwise"),
+            "{text}"
+        );
+    }
+
+    #[test]
+    fn agent_errors_name_the_field() {
+        let agv1 = "[[agv]]\ntrajectory = { x_min_m = 2.0, y_min_m = 2.0, x_max_m = 18.0, y_max_m = 18.0, corner_radius_m = 2.0 }\n";
+        let station = |body: &str| format!("{agv1}[[station]]\n{body}");
+        for (agents, field) in [
+            // [trajectory] and [[agv]] together.
+            (
+                format!("[trajectory]\nx_min_m = 2.0\ny_min_m = 2.0\nx_max_m = 18.0\ny_max_m = 18.0\ncorner_radius_m = 2.0\n{agv1}"),
+                "trajectory",
+            ),
+            // Neither.
+            (String::new(), "trajectory"),
+            ("[[agv]]\nname = \"lost\"\n".to_owned(), "agv[0] (lost)"),
+            (
+                format!("{agv1}[[agv]]\nwaypoints_m = [[3.0, 3.0], [17.0, 3.0]]\ntrajectory = {{ x_min_m = 2.0, y_min_m = 2.0, x_max_m = 18.0, y_max_m = 18.0, corner_radius_m = 2.0 }}\n"),
+                "agv[1] (agv2).waypoints_m",
+            ),
+            (
+                format!("{agv1}[[agv]]\nspeed_mps = 2.0\ntrajectory = {{ x_min_m = 2.0, y_min_m = 2.0, x_max_m = 18.0, y_max_m = 18.0, corner_radius_m = 2.0 }}\n"),
+                "agv[1] (agv2).speed_mps",
+            ),
+            (
+                format!("{agv1}[[agv]]\ntrajectory = {{ x_min_m = 2.0, y_min_m = 2.0, x_max_m = 18.0, y_max_m = 18.0, corner_radius_m = 2.0, speed_mps = 0.0 }}\n"),
+                "agv[1] (agv2).trajectory.speed_mps",
+            ),
+            // A loop through the box at (10, 10).
+            (
+                format!("{agv1}[[agv]]\ntrajectory = {{ x_min_m = 9.0, y_min_m = 2.0, x_max_m = 18.0, y_max_m = 18.0, corner_radius_m = 2.0 }}\n"),
+                "agv[1] (agv2).trajectory",
+            ),
+            // A waypoint path through the box, and one leaving the hall.
+            (
+                format!("{agv1}[[agv]]\nwaypoints_m = [[3.0, 10.0], [17.0, 10.0]]\n"),
+                "agv[1] (agv2).waypoints_m",
+            ),
+            (
+                format!("{agv1}[[agv]]\nwaypoints_m = [[3.0, 3.0], [17.0, 3.0], [19.8, 17.0]]\n"),
+                "agv[1] (agv2).waypoints_m[2]",
+            ),
+            (
+                format!("{agv1}[[agv]]\nwaypoints_m = [[3.0, 3.0], [nan, 3.0]]\n"),
+                "agv[1] (agv2).waypoints_m[1]",
+            ),
+            (
+                format!("{agv1}[[agv]]\nwaypoints_m = [[3.0, 3.0], [17.0, 3.0]]\nclosed = false\nlaps = 2.0\n"),
+                "agv[1] (agv2).laps",
+            ),
+            (
+                format!("{agv1}[[agv]]\nname = \"b\"\nwaypoints_m = [[3.0, 3.0], [17.0, 3.0]]\nsensor = {{ half_fov_deg = 95.0 }}\n"),
+                "agv[1] (b).sensor.half_fov_deg",
+            ),
+            (
+                format!("{agv1}[[agv]]\nname = \"agv1\"\nwaypoints_m = [[3.0, 3.0], [17.0, 3.0]]\n"),
+                "agv[1].name",
+            ),
+            (
+                station("position_m = [nan, 3.0]\nboresight_deg = 0.0"),
+                "station[0] (station1).position_m",
+            ),
+            // Outside the hall, just beyond a wall.
+            (
+                station("name = \"out\"\nposition_m = [20.01, 3.0]\nboresight_deg = 180.0"),
+                "station[0] (out).position_m",
+            ),
+            // Inside the tank at (6, 6), and on its outline.
+            (
+                station("position_m = [6.0, 6.5]\nboresight_deg = 0.0"),
+                "station[0] (station1).position_m",
+            ),
+            (
+                station("position_m = [7.0, 6.0]\nboresight_deg = 0.0"),
+                "station[0] (station1).position_m",
+            ),
+            (
+                station("position_m = [0.0, 3.0]\nboresight_deg = 0.0\nhalf_fov_deg = 90.0"),
+                "station[0] (station1).half_fov_deg",
+            ),
+            (
+                station("position_m = [0.0, 3.0]\nboresight_deg = 0.0\nhalf_fov_deg = nan"),
+                "station[0] (station1).half_fov_deg",
+            ),
+            (
+                station("position_m = [0.0, 3.0]\nboresight_deg = 200.0"),
+                "station[0] (station1).boresight_deg",
+            ),
+            (
+                station("position_m = [0.0, 3.0]\nboresight_deg = 0.0\nmax_range_m = 0.0"),
+                "station[0] (station1).max_range_m",
+            ),
+            (
+                format!("{}\n[[station]]\nposition_m = [20.0, 20.0]\nboresight_deg = -135.0\nname = \"station1\"", station("position_m = [0.0, 3.0]\nboresight_deg = 0.0")),
+                "station[1].name",
+            ),
+        ] {
+            let text = with_agents(&agents);
+            let error = match Scene::from_toml_str(&text, "test") {
+                Err(SceneError::Invalid { error, .. }) => error,
+                other => panic!("{agents}: expected a validation error, got {other:?}"),
+            };
+            assert_eq!(error.field, field, "{agents}: {error}");
+        }
+        // The allowed range is in the message.
+        let text = with_agents(&station(
+            "position_m = [0.0, 3.0]\nboresight_deg = 0.0\nhalf_fov_deg = 90.0",
+        ));
+        let message = Scene::from_toml_str(&text, "test").unwrap_err().to_string();
+        assert!(message.contains("(0, 90)"), "{message}");
+        // A station on a wall or a corner is inside the hall.
+        let corner = with_agents(&station("position_m = [20.0, 0.0]\nboresight_deg = 135.0"));
+        assert_eq!(
+            Scene::from_toml_str(&corner, "test")
+                .unwrap()
+                .stations
+                .len(),
+            1
+        );
+    }
+
+    #[test]
+    fn unknown_agent_fields_are_refused() {
+        let agv1 = "[[agv]]\ntrajectory = { x_min_m = 2.0, y_min_m = 2.0, x_max_m = 18.0, y_max_m = 18.0, corner_radius_m = 2.0 }\n";
+        for bad in [
+            format!("{agv1}colour = 3\n"),
+            format!("{agv1}sensor = {{ fov_deg = 3.0 }}\n"),
+            "[[agv]]\ntrajectory = { x_min_m = 2.0, y_min_m = 2.0, x_max_m = 18.0, y_max_m = 18.0, corner_radius_m = 2.0, direction = \"cw\" }\n".to_owned(),
+            format!("{agv1}[[station]]\nposition_m = [0.0, 3.0]\nboresight_deg = 0.0\nyaw_deg = 3.0\n"),
+            format!("{agv1}[[station]]\nposition_m = [0.0, 3.0]\n"),
+        ] {
+            assert!(
+                matches!(
+                    Scene::from_toml_str(&with_agents(&bad), "test"),
+                    Err(SceneError::Parse { .. })
+                ),
+                "{bad}"
+            );
+        }
     }
 }

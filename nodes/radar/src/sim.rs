@@ -1,6 +1,11 @@
 //! The front end as a frame generator: trajectory → true pose → visibility → measurement model,
 //! plus wheel odometry. Pure: no transport, no wall time; a function of (scene, params, seed).
 //!
+//! The sensor simulated is the one the `sensor` parameter names ([`Role`]): an AGV of the scene
+//! (its path, its sensor, wheel odometry), a fixed station (its surveyed pose every frame, no
+//! odometry noise, no motion), or none (frames carry only the stamp). A station's and none's
+//! frames follow agv1's clock: as many frames, the same stamps.
+//!
 //! Geometry ([`crate::visibility::observe`]) is kept apart from the measurement model so that the
 //! later `spectral` and `waveform` fidelity levels reuse it: they will take the same sightings and
 //! produce spectra or echoes instead of detections.
@@ -15,10 +20,12 @@ use crate::error::RadarError;
 use crate::geometry::Pose2;
 use crate::ideal::IdealModel;
 use crate::odometry::{OdometryReading, WheelOdometry};
-use crate::params::{Fidelity, Params};
+use crate::params::{Fidelity, OdomOrigin, Params, Role};
 use crate::scene::Scene;
-use crate::visibility::{observe, Sighting};
+use crate::trajectory::Trajectory;
+use crate::visibility::{observe, Sensor, Sighting};
 use nrslam_ofdm::{OfdmParams, RangeAngleSpectrum, ResourceGrid, Scatterer};
+use nrslam_runtime::InvalidParam;
 use num_complex::Complex64;
 use rand::Rng;
 
@@ -35,9 +42,12 @@ pub struct Frame {
     pub index: usize,
     /// Simulated time (s): `T0_S + index · frame_period_s`.
     pub stamp_s: f64,
-    /// True AGV pose (map frame).
+    /// True pose of the sensor's platform (map frame): the AGV's; a station's surveyed pose
+    /// (heading = boresight); for `none`, agv1's (not published).
     pub true_pose: Pose2,
-    /// Wheel odometry (frame "odom", equal to "map" at t0).
+    /// Wheel odometry (frame "odom": equal to "map" at t0 with `odom_origin = "map"`, the AGV's
+    /// start pose with `"start"`); a station's (and none's) exact `true_pose`, zero variance and
+    /// velocity.
     pub odometry: OdometryReading,
     /// Number of scatterers seen (before measurement drops).
     pub seen_scatterers: usize,
@@ -92,13 +102,102 @@ fn measurement_rng(seed: u64) -> ChaCha8Rng {
     rng
 }
 
+/// Where the simulated sensor is and how its pose is reported.
+#[derive(Debug, Clone)]
+enum Platform {
+    /// An AGV driving the simulator's trajectory, with wheel odometry; `origin` is its start
+    /// pose when the odometry is reported relative to it.
+    Agv {
+        // Boxed: the odometry's random stream makes it far larger than the other variants.
+        odometry: Box<WheelOdometry>,
+        origin: Option<Pose2>,
+    },
+    /// A fixed station at its surveyed pose.
+    Station { pose: Pose2 },
+    /// No sensor: frames carry the clock only.
+    NoSensor,
+}
+
+/// An exact, motionless odometry reading at `pose`.
+fn surveyed(pose: Pose2) -> OdometryReading {
+    OdometryReading {
+        pose,
+        pose_variance: [0.0; 3],
+        linear_mps: 0.0,
+        angular_rps: 0.0,
+        linear_variance: 0.0,
+        angular_variance: 0.0,
+    }
+}
+
+/// Checks that `scene` (read from the file `origin`, named in the error when given) has the
+/// sensor `params.sensor` names.
+pub fn resolve_role(
+    scene: &Scene,
+    params: &Params,
+    origin: Option<&str>,
+) -> Result<Role, RadarError> {
+    let role = params.role()?;
+    let (asked, count, kind) = match role {
+        Role::Agv(index) => (index, scene.agvs.len(), "agv"),
+        Role::Station(index) => (index, scene.stations.len(), "station"),
+        Role::NoSensor => return Ok(role),
+    };
+    if asked < count {
+        return Ok(role);
+    }
+    let plural = |n: usize, what: &str| format!("{n} {what}{}", if n == 1 { "" } else { "s" });
+    let names = |names: Vec<&str>| {
+        if names.is_empty() {
+            String::new()
+        } else {
+            format!(" ({})", names.join(", "))
+        }
+    };
+    Err(InvalidParam::new(
+        "sensor",
+        format!(
+            "{:?} is not in {}, which has {}{} and {}{}",
+            params.sensor,
+            origin.map_or("the scene".to_owned(), |path| format!("scene {path}")),
+            plural(scene.agvs.len(), "AGV"),
+            names(scene.agvs.iter().map(|a| a.name.as_str()).collect()),
+            plural(scene.stations.len(), "station"),
+            names(scene.stations.iter().map(|s| s.name.as_str()).collect()),
+        ),
+        match count {
+            0 => format!("no {kind}N in this scene"),
+            1 => format!("{kind}1"),
+            n => format!("{kind}1 to {kind}{n}"),
+        },
+    )
+    .into())
+}
+
+/// Frames a run of `params` on `scene` produces: the AGV's path's, or agv1's for a station and
+/// none, capped by `frames`.
+pub fn frame_count(scene: &Scene, params: &Params) -> Result<usize, RadarError> {
+    let whole = match resolve_role(scene, params, None)? {
+        Role::Agv(index) => scene.agvs[index].trajectory.frame_count(),
+        Role::Station(_) | Role::NoSensor => scene.trajectory.frame_count(),
+    };
+    Ok(match params.frames {
+        0 => whole,
+        cap => whole.min(cap as usize),
+    })
+}
+
 /// Generates the frames of one run.
 #[derive(Debug, Clone)]
 pub struct Simulator {
     fidelity: Fidelity,
     scene: Scene,
+    role: Role,
+    /// The AGV's path; for a station or none, agv1's (the run's clock).
+    trajectory: Trajectory,
+    sensor: Sensor,
+    platform: Platform,
     model: Model,
-    odometry: WheelOdometry,
     frame_count: usize,
     next_frame: usize,
 }
@@ -108,14 +207,16 @@ impl Simulator {
     /// `seed` (the node's seed, e.g. `ctx.seed_for("radar")`).
     pub fn from_params(params: &Params, base_dir: &Path, seed: u64) -> Result<Self, RadarError> {
         params.validate()?;
-        let scene =
-            Scene::load_with_spacing(&params.scene_path(base_dir), params.scatterer_spacing())?;
+        let path = params.scene_path(base_dir);
+        let scene = Scene::load_with_spacing(&path, params.scatterer_spacing())?;
+        resolve_role(&scene, params, Some(&path.display().to_string()))?;
         Self::new(scene, params, seed)
     }
 
     /// Sets up a run on an already loaded scene.
     pub fn new(scene: Scene, params: &Params, seed: u64) -> Result<Self, RadarError> {
         params.validate()?;
+        let role = resolve_role(&scene, params, None)?;
         let model = match params.fidelity {
             Fidelity::Ideal => {
                 let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -137,20 +238,42 @@ impl Simulator {
                 rng: measurement_rng(seed),
             },
         };
-        let mut odometry_rng = ChaCha8Rng::seed_from_u64(seed);
-        odometry_rng.set_stream(ODOMETRY_STREAM);
-        let start = scene.trajectory.pose_at_frame(0);
-        let odometry = WheelOdometry::new(start, params.odometry_noise(), odometry_rng);
-        let whole = scene.trajectory.frame_count();
-        let frame_count = match params.frames {
-            0 => whole,
-            cap => whole.min(cap as usize),
+        let (trajectory, sensor, platform) = match role {
+            Role::Agv(index) => {
+                let agv = &scene.agvs[index];
+                let mut odometry_rng = ChaCha8Rng::seed_from_u64(seed);
+                odometry_rng.set_stream(ODOMETRY_STREAM);
+                let start = agv.trajectory.pose_at_frame(0);
+                let odometry = WheelOdometry::new(start, params.odometry_noise(), odometry_rng);
+                let origin = (params.odom_origin == OdomOrigin::Start).then_some(start);
+                (
+                    agv.trajectory.clone(),
+                    agv.sensor,
+                    Platform::Agv {
+                        odometry: Box::new(odometry),
+                        origin,
+                    },
+                )
+            }
+            Role::Station(index) => {
+                let station = &scene.stations[index];
+                (
+                    scene.trajectory.clone(),
+                    station.sensor,
+                    Platform::Station { pose: station.pose },
+                )
+            }
+            Role::NoSensor => (scene.trajectory.clone(), scene.sensor, Platform::NoSensor),
         };
+        let frame_count = frame_count(&scene, params)?;
         Ok(Self {
             fidelity: params.fidelity,
             scene,
+            role,
+            trajectory,
+            sensor,
+            platform,
             model,
-            odometry,
             frame_count,
             next_frame: 0,
         })
@@ -166,6 +289,21 @@ impl Simulator {
         &self.scene
     }
 
+    /// Which sensor of the scene this run simulates.
+    pub fn role(&self) -> Role {
+        self.role
+    }
+
+    /// The simulated radar (for a station, boresight 0: its pose's heading is the boresight).
+    pub fn sensor(&self) -> &Sensor {
+        &self.sensor
+    }
+
+    /// The AGV's path, or agv1's for a station and none (their clock).
+    pub fn trajectory(&self) -> &Trajectory {
+        &self.trajectory
+    }
+
     /// Number of frames this run produces.
     pub fn frame_count(&self) -> usize {
         self.frame_count
@@ -179,21 +317,44 @@ impl Simulator {
             return Ok(None);
         }
         self.next_frame += 1;
-        let trajectory = &self.scene.trajectory;
-        let true_pose = trajectory.pose_at_frame(k);
-        let odometry = if k == 0 {
-            // Frame 0 has no increment: report the truth and the true velocities.
-            let s = trajectory.distance_at_frame_m(0);
-            self.odometry.initial_reading(
-                trajectory.spec().speed_mps,
-                trajectory.yaw_rate_at_distance(s),
-            )
-        } else {
-            self.odometry.step(true_pose, trajectory.frame_period_s())
+        let trajectory = &self.trajectory;
+        let (true_pose, odometry, speed_mps) = match &mut self.platform {
+            Platform::Agv { odometry, origin } => {
+                let true_pose = trajectory.pose_at_frame(k);
+                let mut reading = if k == 0 {
+                    // Frame 0 has no increment: report the truth and the true velocities.
+                    let s = trajectory.distance_at_frame_m(0);
+                    odometry
+                        .initial_reading(trajectory.speed_mps(), trajectory.yaw_rate_at_distance(s))
+                } else {
+                    odometry.step(true_pose, trajectory.frame_period_s())
+                };
+                if let Some(origin) = origin {
+                    reading.pose = reading.pose.relative_to(*origin);
+                }
+                (true_pose, reading, trajectory.speed_mps())
+            }
+            Platform::Station { pose } => (*pose, surveyed(*pose), 0.0),
+            Platform::NoSensor => {
+                let pose = trajectory.pose_at_frame(k);
+                (pose, surveyed(pose), 0.0)
+            }
         };
-        let sightings = observe(&self.scene.targets, &self.scene.sensor, true_pose);
-        let speed_mps = trajectory.spec().speed_mps;
-        let boresight_rad = self.scene.sensor.boresight_rad;
+        let stamp_s = trajectory.stamp_s(k);
+        if matches!(self.platform, Platform::NoSensor) {
+            return Ok(Some(Frame {
+                index: k,
+                stamp_s,
+                true_pose,
+                odometry,
+                seen_scatterers: 0,
+                detections: Vec::new(),
+                spectrum: None,
+                echo: None,
+            }));
+        }
+        let sightings = observe(&self.scene.targets, &self.sensor, true_pose);
+        let boresight_rad = self.sensor.boresight_rad;
         let (mut detections, mut spectrum, mut echo) = (Vec::new(), None, None);
         match &mut self.model {
             Model::Ideal(model) => detections = model.measure(&sightings),
@@ -218,7 +379,7 @@ impl Simulator {
         }
         Ok(Some(Frame {
             index: k,
-            stamp_s: trajectory.stamp_s(k),
+            stamp_s,
             true_pose,
             odometry,
             seen_scatterers: sightings.len(),

@@ -54,7 +54,7 @@ fn distance_to_outlines(scene: &Scene, p: nrslam_radar::Vec2) -> f64 {
 /// a rounded rectangle of 4 straights and 4 quarter circles, one frame every
 /// `speed · period` metres, strictly before the end of the last lap (no pose repeated).
 fn expected_frame_count(scene: &Scene) -> usize {
-    let t = scene.trajectory.spec();
+    let t = scene.trajectory.loop_spec().unwrap();
     let r = t.corner_radius_m;
     let lap_m = 2.0 * ((t.x_max_m - t.x_min_m - 2.0 * r) + (t.y_max_m - t.y_min_m - 2.0 * r))
         + std::f64::consts::TAU * r;
@@ -92,7 +92,7 @@ fn hall_layout_matches_the_paper() {
     // One lap, one frame every 0.5 m; the last frame falls short of the start.
     let frames = scene.trajectory.frame_count();
     assert_eq!(frames, expected_frame_count(&scene));
-    let lap_m = scene.trajectory.lap_length_m() * scene.trajectory.spec().laps;
+    let lap_m = scene.trajectory.lap_length_m() * scene.trajectory.loop_spec().unwrap().laps;
     assert!(scene.trajectory.distance_at_frame_m(frames - 1) < lap_m);
     assert!(scene.trajectory.distance_at_frame_m(frames) >= lap_m);
 }
@@ -312,7 +312,7 @@ fn frame_cap_and_stamps() {
 #[test]
 fn zero_length_trajectory_is_refused() {
     // Collapse the loop onto its bottom-left corner: x_max = x_min, y_max = y_min, no rounding.
-    let t = hall().trajectory.spec().clone();
+    let t = hall().trajectory.loop_spec().unwrap().clone();
     let text = replace_once(
         &hall_text(),
         &format!("x_max_m = {:?}", t.x_max_m),
@@ -349,7 +349,7 @@ fn trajectory_crossing_a_target_is_refused() {
     let Shape::Circle { center, .. } = pillar.shape else {
         panic!("the pillar is a {}", pillar.shape.kind_name());
     };
-    let x_max = scene.trajectory.spec().x_max_m;
+    let x_max = scene.trajectory.loop_spec().unwrap().x_max_m;
     let text = replace_once(
         &hall_text(),
         &format!("center_m = [{:?}, {:?}]", center.x, center.y),
@@ -368,11 +368,10 @@ fn trajectory_crossing_a_target_is_refused() {
 // ---------------------------------------------------------------------------------------------
 
 fn context(seed: u64) -> NodeContext {
-    NodeContext {
-        name: "radar".into(),
-        seed,
-        base_dir: workspace(),
-    }
+    let mut ctx = NodeContext::for_tests(seed);
+    ctx.name = "radar".into();
+    ctx.base_dir = workspace();
+    ctx
 }
 
 fn run_node(params: Params, seed: u64) -> Vec<(&'static str, Message)> {
@@ -393,7 +392,7 @@ fn run_node(params: Params, seed: u64) -> Vec<(&'static str, Message)> {
 #[test]
 fn node_publishes_each_frame_in_order() {
     let scene = hall();
-    let spec = scene.trajectory.spec();
+    let spec = scene.trajectory.loop_spec().unwrap();
     // Frame 0 is the middle of the bottom straight, heading +x.
     assert_eq!(spec.start_offset_m, 0.0);
     let start = ((spec.x_min_m + spec.x_max_m) / 2.0, spec.y_min_m, 0.0);

@@ -8,11 +8,10 @@ use nrslam_runtime::{NodeContext, Outbox, Tick};
 use std::path::PathBuf;
 
 fn context() -> NodeContext {
-    NodeContext {
-        name: "radar".into(),
-        seed: 3,
-        base_dir: PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../.."),
-    }
+    let mut ctx = NodeContext::for_tests(3);
+    ctx.name = "radar".into();
+    ctx.base_dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
+    ctx
 }
 
 fn first_frame(params: Params) -> Vec<(&'static str, Message)> {

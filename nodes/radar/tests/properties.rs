@@ -85,6 +85,41 @@ proptest! {
         }
     }
 
+    /// A station (pose heading = boresight, sensor boresight 0) sees exactly the scatterers a
+    /// direct map-frame computation says it should: within its range, within its half field of
+    /// view of its absolute boresight, facing it, with a clear line of sight; none twice.
+    #[test]
+    fn station_sightings_match_a_map_frame_check(
+        shapes in prop::collection::vec(prop_oneof![rectangle(), circle()], 1..4),
+        x in -12.0..12.0f64, y in -12.0..12.0f64, boresight in -3.2..3.2f64,
+        half_fov in 0.05..1.55f64, max_range in 0.5..30.0f64,
+    ) {
+        let targets: Vec<Target> = shapes.into_iter().map(target).collect();
+        let station = Pose2::new(x, y, boresight);
+        prop_assume!(targets.iter().all(|t| t.shape.distance_to_segment(station.position(), station.position()) > 0.0));
+        let sensor = Sensor { boresight_rad: 0.0, max_range_m: max_range, half_fov_rad: half_fov };
+        let seen = observe(&targets, &sensor, station);
+        let mut expected = Vec::new();
+        for (ti, t) in targets.iter().enumerate() {
+            for (si, s) in t.scatterers.iter().enumerate() {
+                let d = s.position - station.position();
+                let range = d.norm();
+                let off_boresight = wrap_angle(d.y.atan2(d.x) - station.yaw_rad);
+                if range > 0.0 && range <= max_range && off_boresight.abs() <= half_fov
+                    && s.faces(station.position())
+                    && line_of_sight_clear(&targets, station.position(), s.position, Some(ti))
+                {
+                    expected.push((ti, si));
+                }
+            }
+        }
+        let got: Vec<(usize, usize)> = seen.iter().map(|s| (s.target_index, s.scatterer_index)).collect();
+        prop_assert_eq!(got, expected);
+        for s in &seen {
+            prop_assert!(s.range_m <= max_range && s.angle_rad.abs() <= half_fov);
+        }
+    }
+
     /// rotate–translate–rotate reproduces any relative pose.
     #[test]
     fn increments_round_trip(
@@ -96,5 +131,21 @@ proptest! {
         let back = MotionIncrement::between(from, to).apply(from);
         prop_assert!((back.position() - to.position()).norm() < 1e-9);
         prop_assert!(wrap_angle(back.yaw_rad - to.yaw_rad).abs() < 1e-12);
+    }
+
+    /// A pose seen from itself is the identity, and seen from any origin it composes back.
+    #[test]
+    fn relative_poses_compose_back(
+        x0 in -50.0..50.0f64, y0 in -50.0..50.0f64, a0 in -3.2..3.2f64,
+        x1 in -50.0..50.0f64, y1 in -50.0..50.0f64, a1 in -3.2..3.2f64,
+    ) {
+        let origin = Pose2::new(x0, y0, a0);
+        let pose = Pose2::new(x1, y1, a1);
+        prop_assert_eq!(origin.relative_to(origin), Pose2::new(0.0, 0.0, 0.0));
+        let r = pose.relative_to(origin);
+        let (sin, cos) = origin.yaw_rad.sin_cos();
+        let back = Vec2::new(x0 + cos * r.x_m - sin * r.y_m, y0 + sin * r.x_m + cos * r.y_m);
+        prop_assert!((back - pose.position()).norm() < 1e-9);
+        prop_assert!(wrap_angle(origin.yaw_rad + r.yaw_rad - pose.yaw_rad).abs() < 1e-12);
     }
 }
