@@ -11,13 +11,13 @@
 //!
 //! | module | what |
 //! |---|---|
-//! | [`scene`] | targets (exact shape, outline, ET-GOPSA samples, scatterers) from a TOML file |
+//! | [`scene`] | targets (exact shape, outline, ET-GOPSA samples, scatterers), AGVs and fixed stations from a TOML file |
 //! | [`random_scene`] | random scenes (irregular rectangles and circles, randomised loop) from a seed |
-//! | [`trajectory`] | the AGV's counter-clockwise loop, true pose per frame |
+//! | [`trajectory`] | an AGV's path (a loop either way round, or waypoints), true pose per frame |
 //! | [`visibility`] | range, field of view, facing and occlusion: which scatterers are seen |
 //! | [`ideal`] | the `ideal` measurement model: true range/angle + N(0, ΔR²), N(0, Δθ²) |
 //! | [`odometry`] | noisy wheel odometry, dead-reckoned |
-//! | [`sim`] | all of the above per frame, reproducible from a seed |
+//! | [`sim`] | all of the above per frame for the sensor `sensor` names (an AGV, a station, none), reproducible from a seed |
 //! | [`node`] | the source node publishing `/clock`, `/ground_truth/*`, `/odom`, `/radar/detections` |
 //!
 //! Geometry never depends on the measurement model, so the later `spectral` and `waveform`
@@ -53,8 +53,8 @@ pub mod visibility;
 pub use error::{FieldError, RadarError, SceneError};
 pub use geometry::{Pose2, Vec2};
 pub use node::{build, RadarNode};
-pub use params::{Faults, Fidelity, Params};
-pub use scene::{Scene, Shape, Target};
+pub use params::{Faults, Fidelity, OdomOrigin, Params, Role};
+pub use scene::{Agv, Scene, Shape, Station, Target};
 pub use sim::{Frame, Simulator};
 pub use trajectory::Trajectory;
 pub use visibility::{Sensor, Sighting};

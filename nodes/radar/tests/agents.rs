@@ -573,3 +573,51 @@ fn the_repeated_structure_repeats_but_its_surroundings_differ() {
     };
     assert!(on_both(28.0, 3.0) && on_both(28.0, 33.0));
 }
+
+#[test]
+fn the_documented_example_is_a_valid_scene() {
+    // docs/scene.md's example, with the hall's targets where it elides them.
+    let doc = std::fs::read_to_string(workspace().join("docs/scene.md")).unwrap();
+    let section = &doc[doc.find("### Example").unwrap()..];
+    let start = section.find("```toml\n").unwrap() + "```toml\n".len();
+    let example = &section[start..start + section[start..].find("```").unwrap()];
+    let hall = std::fs::read_to_string(workspace().join("config/hall.toml")).unwrap();
+    let targets = &hall[hall.find("[[targets]]").unwrap()..];
+    let text = example.replace("[[targets]]\n# ... as in config/hall.toml\n", targets);
+    let scene = Scene::from_toml_str(&text, "docs/scene.md").unwrap();
+    assert_eq!(scene.agvs.len(), 3);
+    assert_eq!(scene.agvs[1].name, "cw");
+    assert!(!scene.agvs[2].trajectory.is_closed());
+    assert_eq!(scene.stations[0].name, "south");
+    assert_eq!(scene.targets.len(), 10);
+    // The errors the page quotes.
+    for (from, to, message) in [
+        (
+            "clockwise = true,",
+            "clockwise = true, speed_mps = 0.0,",
+            "agv[1] (cw).trajectory.speed_mps: must be finite and > 0, got 0",
+        ),
+        (
+            "position_m = [27.0, 0.0]",
+            "position_m = [54.5, 3.0]",
+            "station[0] (south).position_m: [54.5, 3] is outside the hall [0, 54] × [0, 44] m; \
+             a station stands inside it or on a wall",
+        ),
+        (
+            "half_fov_deg = 60.0\nmax_range_m = 20.0",
+            "half_fov_deg = 90.0\nmax_range_m = 20.0",
+            "station[0] (south).half_fov_deg: must lie in (0, 90)",
+        ),
+        (
+            "[46.0, 17.5], [46.0, 27.5]",
+            "[nan, 17.5], [46.0, 27.5]",
+            "agv[2] (agv3).waypoints_m[1]: must be finite, got [NaN, 17.5]",
+        ),
+    ] {
+        assert_eq!(text.matches(from).count(), 1, "{from}");
+        let error = Scene::from_toml_str(&text.replace(from, to), "docs")
+            .unwrap_err()
+            .to_string();
+        assert!(error.contains(message), "{error}");
+    }
+}
