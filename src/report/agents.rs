@@ -147,12 +147,20 @@ mod tests {
         // Truth starts at (10, 5) heading +y; the AGV's own frame starts at the origin.
         for k in 0..4 {
             let t = f64::from(k);
-            take(&mut agents, "/agv2/ground_truth/pose", &pose(t, 10.0, 5.0 + t, 1.5707963267948966));
+            take(
+                &mut agents,
+                "/agv2/ground_truth/pose",
+                &pose(t, 10.0, 5.0 + t, 1.5707963267948966),
+            );
             // Its own estimate: exact for 3 frames, then 1 m off sideways.
             let off = if k == 3 { 1.0 } else { 0.0 };
             take(&mut agents, "/agv2/slam/pose", &pose(t, t, off, 0.0));
             if k >= 2 {
-                take(&mut agents, "/agv2/fusion/pose", &pose(t, 10.0, 5.0 + t, 0.0));
+                take(
+                    &mut agents,
+                    "/agv2/fusion/pose",
+                    &pose(t, 10.0, 5.0 + t, 0.0),
+                );
             }
         }
         // Not agents' topics: ignored.
