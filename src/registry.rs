@@ -1,12 +1,13 @@
 //! Node kinds the CLI can build, by the name a launch file gives them.
 
 use nrslam_runtime::{parse_params, Node, NodeContext, NodeError, ParamsError};
+use std::collections::BTreeMap;
 
 /// Why a node could not be built.
 #[derive(Debug, thiserror::Error)]
 pub enum BuildError {
     /// No such kind.
-    #[error("unknown node kind {0:?} (known: radar, estimator, association, mapper, segmenter, shapes, evaluator, sensor_adapter, viz, bag)")]
+    #[error("unknown node kind {0:?} (known: radar, estimator, association, mapper, segmenter, shapes, evaluator, fusion, sensor_adapter, viz, bag)")]
     UnknownKind(String),
     /// Bad parameters.
     #[error(transparent)]
@@ -17,6 +18,9 @@ pub enum BuildError {
     /// A `bag` node's bag could not be read.
     #[error(transparent)]
     Bag(#[from] nrslam_runtime::bag::BagError),
+    /// The node's namespace or remap does not fit it.
+    #[error(transparent)]
+    Remap(#[from] nrslam_runtime::remap::RemapError),
 }
 
 macro_rules! build_kind {
@@ -27,12 +31,22 @@ macro_rules! build_kind {
     }};
 }
 
-/// Builds a node of `kind` from its parameter table.
-pub fn build(
+/// Builds a node of `kind` from its parameter table, under `ctx.namespace` and with `remap`
+/// (its own topic names → absolute ones): the one place a node of a launch (in-process, a node
+/// process, a replay's rebuilt back end) is built, so each applies namespaces alike. Without a
+/// namespace or remap the node is the kind's own, unwrapped.
+pub fn build_node(
     kind: &str,
     table: toml::Table,
     ctx: &NodeContext,
+    remap: &BTreeMap<String, String>,
 ) -> Result<Box<dyn Node>, BuildError> {
+    let node = build(kind, table, ctx)?;
+    Ok(nrslam_runtime::remap::wrap(node, &ctx.namespace, remap)?)
+}
+
+/// Builds a node of `kind` from its parameter table, with the catalogue's topic names.
+fn build(kind: &str, table: toml::Table, ctx: &NodeContext) -> Result<Box<dyn Node>, BuildError> {
     Ok(match kind {
         "radar" => build_kind!(nrslam_radar, table, ctx),
         "association" => build_kind!(nrslam_association, table, ctx),
@@ -40,6 +54,7 @@ pub fn build(
         "segmenter" => build_kind!(nrslam_segmenter, table, ctx),
         "shapes" => build_kind!(nrslam_shapes, table, ctx),
         "evaluator" => build_kind!(nrslam_evaluator, table, ctx),
+        "fusion" => build_kind!(nrslam_fusion, table, ctx),
         "estimator" => build_kind!(nrslam_estimator, table, ctx),
         "sensor_adapter" => build_kind!(nrslam_sensor_adapter, table, ctx),
         "viz" => build_kind!(nrslam_viz, table, ctx),

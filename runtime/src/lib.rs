@@ -15,6 +15,7 @@
 //!   from zenoh into an in-process graph.
 //! - `supervisor`: node processes watched and respawned as ROS 2 launch does; `supervised`
 //!   (feature `zenoh`): the launcher's receive loop over them, restarting the ones that die.
+//! - [`remap`]: a node under a namespace or with remapped topics ([`remap::Remapped`]).
 //! - [`wiring`]: the checks that a graph's nodes fit together before it runs.
 #![warn(missing_docs)]
 
@@ -32,6 +33,7 @@ pub mod config;
 pub mod launch;
 pub mod merge;
 pub mod node;
+pub mod remap;
 pub mod rmw_zenoh;
 pub mod seed;
 pub mod supervisor;

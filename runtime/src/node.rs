@@ -132,6 +132,10 @@ pub struct NodeContext {
     pub seed: u64,
     /// Directory against which relative paths in the node's parameters are resolved.
     pub base_dir: PathBuf,
+    /// The namespace the node runs in (`agv1`, `site/agv1`; empty: none). Its topics are
+    /// renamed outside it ([`crate::remap::Remapped`]); the node itself sees catalogue names and
+    /// uses the namespace only for its random streams ([`NodeContext::seed_for`]).
+    pub namespace: String,
 }
 
 impl NodeContext {
@@ -141,13 +145,21 @@ impl NodeContext {
             name: "node".into(),
             seed,
             base_dir: PathBuf::from("."),
+            namespace: String::new(),
         }
     }
 
     /// A seed for the random stream called `stream`, derived from the run seed so that each
-    /// stream is independent of the others and of how nodes are spread over processes.
+    /// stream is independent of the others and of how nodes are spread over processes. Under a
+    /// namespace the stream is `<namespace>/<stream>`, so two agents running the same node kind
+    /// draw independent noise; without one it is `stream` alone, so that runs without namespaces
+    /// keep their bytes.
     pub fn seed_for(&self, stream: &str) -> u64 {
-        crate::seed::derive(self.seed, stream)
+        if self.namespace.is_empty() {
+            crate::seed::derive(self.seed, stream)
+        } else {
+            crate::seed::derive(self.seed, &format!("{}/{stream}", self.namespace))
+        }
     }
 
     /// `path` resolved against [`Self::base_dir`] when relative.
@@ -171,6 +183,23 @@ impl Outbox {
 mod tests {
     use super::*;
     use nrslam_msgs::{topics, Message, Odometry};
+
+    #[test]
+    fn a_namespace_gives_its_own_seed_streams_and_none_keeps_the_old_ones() {
+        let plain = NodeContext::for_tests(7);
+        // Without a namespace: exactly the stream's seed of every run so far.
+        assert_eq!(plain.seed_for("radar"), crate::seed::derive(7, "radar"));
+        let agv = |namespace: &str| NodeContext {
+            namespace: namespace.into(),
+            ..NodeContext::for_tests(7)
+        };
+        assert_eq!(
+            agv("agv1").seed_for("radar"),
+            crate::seed::derive(7, "agv1/radar")
+        );
+        assert_ne!(agv("agv1").seed_for("radar"), agv("agv2").seed_for("radar"));
+        assert_ne!(agv("agv1").seed_for("radar"), plain.seed_for("radar"));
+    }
 
     #[test]
     fn an_unexpected_message_names_what_it_is_and_what_the_topic_carries() {

@@ -253,7 +253,8 @@ pub fn start_key(namespace: &str) -> String {
     topics::key_expr(namespace, "/nrslam/start")
 }
 
-/// Liveliness key of node `name`'s readiness.
+/// Liveliness key of node `name`'s readiness (`nrslam/ready/agv1/radar` for a node under a
+/// namespace).
 pub fn ready_key(namespace: &str, name: &str) -> String {
     topics::key_expr(namespace, &format!("/nrslam/ready/{name}"))
 }
@@ -700,23 +701,19 @@ pub fn start_barrier(
         .ok_or_else(|| TransportError::Barrier(format!("a timeout of {timeout:?} is too long")))?;
     loop {
         alive().map_err(TransportError::Barrier)?;
+        // `**`, not `*`: a node under a namespace is named `agv1/radar`, two key chunks.
         let replies = session
             .liveliness()
-            .get(topics::key_expr(namespace, "/nrslam/ready/*"))
+            .get(topics::key_expr(namespace, "/nrslam/ready/**"))
             .wait()
             .map_err(zerr)?;
+        let prefix = ready_key(namespace, "");
         let mut ready = Vec::new();
         while let Ok(reply) = replies.recv() {
             if let Ok(sample) = reply.result() {
-                ready.push(
-                    sample
-                        .key_expr()
-                        .as_str()
-                        .rsplit('/')
-                        .next()
-                        .unwrap_or_default()
-                        .to_owned(),
-                );
+                if let Some(name) = sample.key_expr().as_str().strip_prefix(&prefix) {
+                    ready.push(name.to_owned());
+                }
             }
         }
         let missing: Vec<&String> = names.iter().filter(|n| !ready.contains(n)).collect();

@@ -9,7 +9,8 @@ use nrslam_msgs::topics;
 /// A graph that cannot run as declared, naming the node and the topic.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum WiringError {
-    /// A node subscribes or publishes a topic the catalogue does not have.
+    /// A node subscribes or publishes a topic the catalogue does not have (under a namespace or
+    /// not).
     #[error("node {node}: topic {topic} is not in the catalogue")]
     UnknownTopic {
         /// Node instance name.
@@ -65,21 +66,23 @@ pub enum WiringError {
     },
 }
 
-/// The catalogue names of `[[external]]` topics, refused if one is not in the catalogue.
+/// The names of `[[external]]` topics, as `&'static str` (interned), refused if one is neither
+/// a catalogue topic nor one under a namespace (`/agv1/odom`). The names are kept as given: a
+/// namespaced external is a topic of its own.
 pub fn external_topics(externals: &[String]) -> Result<Vec<&'static str>, WiringError> {
     externals
         .iter()
-        .map(|topic| {
-            topics::spec(topic)
-                .map(|spec| spec.name)
-                .ok_or_else(|| WiringError::UnknownExternal {
-                    topic: topic.clone(),
-                })
+        .map(|topic| match topics::spec(topic) {
+            Some(_) => Ok(topics::intern(topic)),
+            None => Err(WiringError::UnknownExternal {
+                topic: topic.clone(),
+            }),
         })
         .collect()
 }
 
-/// Checks every node's topics against the catalogue, that no node publishes an `externals`
+/// Checks every node's topics against the catalogue (a topic under a namespace, `/agv1/odom`, is
+/// checked as the catalogue topic below it, [`topics::spec`]), that no node publishes an `externals`
 /// topic, then every input against the outputs of the graph's nodes and `externals`; the first
 /// problem in node order is the error.
 pub fn check_wiring(
@@ -186,9 +189,54 @@ mod tests {
         );
         assert_eq!(external_topics(&["/odom".into()]), Ok(vec![topics::ODOM]));
         assert_eq!(
+            external_topics(&["/agv1/odom".into()]),
+            Ok(vec!["/agv1/odom"])
+        );
+        assert_eq!(
             external_topics(&["/nowhere".into()]),
             Err(WiringError::UnknownExternal {
                 topic: "/nowhere".into()
+            })
+        );
+    }
+
+    #[test]
+    fn namespaced_topics_are_checked_by_their_catalogue_topic_and_named_in_full() {
+        let agv = |ns: &str, topic: &str| nrslam_msgs::topics::intern(&format!("/{ns}{topic}"));
+        let nodes: Vec<(String, Box<dyn Node>)> = vec![
+            (
+                "agv1/radar".to_owned(),
+                Box::new(Stub(vec![], vec![agv("agv1", topics::ODOM)])),
+            ),
+            (
+                "agv1/association".to_owned(),
+                Box::new(Stub(
+                    vec![agv("agv1", topics::ODOM)],
+                    vec![agv("agv1", topics::SLAM_POSE)],
+                )),
+            ),
+            (
+                "agv2/association".to_owned(),
+                Box::new(Stub(vec![agv("agv2", topics::ODOM)], vec![])),
+            ),
+        ];
+        assert_eq!(
+            check_wiring(&nodes, &[]),
+            Err(WiringError::NoPublisher {
+                node: "agv2/association".into(),
+                topic: "/agv2/odom".into()
+            })
+        );
+        assert_eq!(check_wiring(&nodes[..2], &[]), Ok(()));
+        let unknown: Vec<(String, Box<dyn Node>)> = vec![(
+            "agv1/x".to_owned(),
+            Box::new(Stub(vec![], vec![agv("agv1", "/nothing")])),
+        )];
+        assert_eq!(
+            check_wiring(&unknown, &[]),
+            Err(WiringError::UnknownTopic {
+                node: "agv1/x".into(),
+                topic: "/agv1/nothing".into()
             })
         );
     }

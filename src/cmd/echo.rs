@@ -39,9 +39,9 @@ impl EchoArgs {
 /// `nrslam echo`.
 pub fn echo(args: EchoArgs) -> Result<()> {
     args.validate()?;
-    let spec = topics::spec(&args.topic).ok_or_else(|| {
+    topics::spec(&args.topic).ok_or_else(|| {
         anyhow!(
-            "unknown topic {:?} (known: {})",
+            "unknown topic {:?} (known, also under a namespace as /agv1/odom: {})",
             args.topic,
             topics::CATALOGUE
                 .iter()
@@ -54,7 +54,8 @@ pub fn echo(args: EchoArgs) -> Result<()> {
     let mut inbox = Inbox::subscribe_styled(
         &session,
         &args.transport.namespace,
-        &[spec.name],
+        // As named: /agv1/odom is not /odom.
+        &[topics::intern(&args.topic)],
         observer_options(&args.transport)?,
         args.ros.key_style(),
     )?;

@@ -8,6 +8,7 @@ use clap::Args;
 use nrslam_msgs::topics;
 use nrslam_runtime::transport::{self, SessionMode};
 use nrslam_runtime::NodeContext;
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
@@ -21,9 +22,19 @@ pub struct RunArgs {
     /// paper's defaults.
     #[arg(long, value_name = "FILE")]
     pub params: Option<PathBuf>,
-    /// Instance name (readiness key nrslam/ready/<name>). Default: the kind.
+    /// Instance name (readiness key nrslam/ready/<name>). Default: the kind, under
+    /// --node-namespace if given (agv1/radar).
     #[arg(long)]
     pub name: Option<String>,
+    /// Namespace the node runs in, e.g. agv1 or site/agv1: each of its topics not remapped
+    /// becomes /<namespace><topic> (/agv1/odom) and its random streams are its own
+    /// (docs/launch.md, "Namespaces and remapping"). Not the zenoh key prefix (--namespace).
+    #[arg(long, value_name = "NAMESPACE", default_value = "")]
+    pub node_namespace: String,
+    /// Gives one of the node's topics an absolute name instead: FROM:=TO, FROM its own topic
+    /// (/ground_truth/targets), TO a catalogue topic under a namespace or not (repeatable).
+    #[arg(long, value_name = "FROM:=TO")]
+    pub remap: Vec<String>,
     /// Run seed (must match the other nodes' for reproducible runs; 0 to 2^64 − 1).
     #[arg(long, default_value_t = 1, value_parser = flags::SEED.parser::<u64>(), allow_hyphen_values = true)]
     pub seed: u64,
@@ -92,17 +103,28 @@ pub fn run(args: RunArgs) -> Result<()> {
         })
         .filter(|p| !p.as_os_str().is_empty())
         .unwrap_or_else(|| PathBuf::from("."));
-    let name = args.name.clone().unwrap_or_else(|| args.kind.clone());
+    if let Some(problem) = topics::namespace_problem(&args.node_namespace) {
+        bail!("--node-namespace: namespace {problem}");
+    }
+    let remap = remap_pairs(&args.remap)?;
+    let name = args.name.clone().unwrap_or_else(|| {
+        if args.node_namespace.is_empty() {
+            args.kind.clone()
+        } else {
+            format!("{}/{}", args.node_namespace, args.kind)
+        }
+    });
     let ctx = NodeContext {
         name: name.clone(),
         seed: args.seed,
         base_dir,
+        namespace: args.node_namespace.clone(),
     };
     let source = args
         .params
         .as_ref()
         .map_or_else(|| "defaults".to_owned(), |p| p.display().to_string());
-    let node = registry::build(&args.kind, table, &ctx)
+    let node = registry::build_node(&args.kind, table, &ctx, &remap)
         .map_err(|e| anyhow!("{source}: node {name}: {e}"))?;
     let mode = match args.zenoh_mode.as_str() {
         "peer" => SessionMode::Peer,
@@ -117,13 +139,13 @@ pub fn run(args: RunArgs) -> Result<()> {
     // run_node adds the timeout to the clock: check here that it can.
     let start_timeout = Duration::from_secs(args.start_timeout_s);
     flags::deadline("--start-timeout-s", start_timeout)?;
+    // Named as the node's inputs are: under its namespace (/agv1/odom) when it has one.
     let ended = args
         .ended
         .iter()
-        .map(|t| {
-            topics::spec(t)
-                .map(|s| s.name)
-                .ok_or_else(|| anyhow!("--ended: {t} is not in the topic catalogue"))
+        .map(|t| match topics::spec(t) {
+            Some(_) => Ok(topics::intern(t)),
+            None => Err(anyhow!("--ended: {t} is not in the topic catalogue")),
         })
         .collect::<Result<Vec<_>>>()?;
     let run = transport::NodeRun {
@@ -147,4 +169,18 @@ pub fn run(args: RunArgs) -> Result<()> {
     std::thread::sleep(Duration::from_millis(200));
     let _ = zenoh::Wait::wait(session.close());
     Ok(())
+}
+
+/// `--remap FROM:=TO` pairs, each FROM once.
+fn remap_pairs(pairs: &[String]) -> Result<BTreeMap<String, String>> {
+    let mut out = BTreeMap::new();
+    for pair in pairs {
+        let (from, to) = pair
+            .split_once(":=")
+            .ok_or_else(|| anyhow!("--remap: {pair:?} is not FROM:=TO"))?;
+        if out.insert(from.to_owned(), to.to_owned()).is_some() {
+            bail!("--remap: {from} is remapped twice");
+        }
+    }
+    Ok(out)
 }

@@ -72,8 +72,11 @@ impl BagSource {
                     ),
                 });
             }
-            if !outputs.contains(&spec.name) {
-                outputs.push(spec.name);
+            // The recorded name, under its namespace if any (/agv1/odom): the spec only
+            // vouches for its type.
+            let name = topics::intern(&topic.name);
+            if !outputs.contains(&name) {
+                outputs.push(name);
             }
         }
         let messages = bag.messages_on(&params.topics)?;

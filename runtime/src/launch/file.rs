@@ -150,39 +150,44 @@ pub(super) fn expand_file(
         chain: &chain,
     };
     for decl in &raw.include {
-        let Some(included) = include::expand(ctx, &includer, decl)? else {
-            continue;
-        };
-        consumed.extend(included.consumed);
-        externals.extend(included.externals);
-        for (name, argument) in included.exported {
-            include::merge_exported(path, &decl.file, &mut exported, name, argument)?;
-        }
-        for node in &included.nodes {
-            let clash = |n: &NodeDecl| n.name == node.name;
-            if own.nodes.iter().any(clash) || nodes.iter().any(clash) {
-                let here = if own.nodes.iter().any(clash) {
-                    "in this file"
-                } else {
-                    "by another include"
-                };
-                return Err(LaunchError::Include {
-                    path: path.to_owned(),
-                    file: decl.file.clone(),
-                    problem: format!(
-                        "node {} is declared {here} as well (node names are unique in a \
-                         launch); to replace the included one, list it in this include's `drop`",
-                        node.name
-                    ),
-                });
+        // Nodes of earlier copies of this include (`repeat`), to say why a name clashes.
+        let mut this_include: Vec<String> = Vec::new();
+        for included in include::expand(ctx, &includer, decl)? {
+            consumed.extend(included.consumed);
+            externals.extend(included.externals);
+            for (name, argument) in included.exported {
+                include::merge_exported(path, &decl.file, &mut exported, name, argument)?;
             }
-        }
-        for name in included.declared_nodes {
-            if !declared_nodes.contains(&name) {
-                declared_nodes.push(name);
+            for node in &included.nodes {
+                let clash = |n: &NodeDecl| n.name == node.name;
+                if own.nodes.iter().any(clash) || nodes.iter().any(clash) {
+                    let here = if own.nodes.iter().any(clash) {
+                        "in this file as well"
+                    } else if this_include.contains(&node.name) {
+                        "by another copy of this include (with `repeat`, put `$(index)` in \
+                         its `namespace`, e.g. namespace = \"agv$(index)\")"
+                    } else {
+                        "by another include as well"
+                    };
+                    return Err(LaunchError::Include {
+                        path: path.to_owned(),
+                        file: decl.file.clone(),
+                        problem: format!(
+                            "node {} is declared {here} (node names are unique in a launch); to \
+                             replace the included one, list it in this include's `drop`",
+                            node.name
+                        ),
+                    });
+                }
             }
+            for name in included.declared_nodes {
+                if !declared_nodes.contains(&name) {
+                    declared_nodes.push(name);
+                }
+            }
+            this_include.extend(included.nodes.iter().map(|n| n.name.clone()));
+            nodes.extend(included.nodes);
         }
-        nodes.extend(included.nodes);
     }
     nodes.extend(own.nodes);
     externals.extend(own_externals);
@@ -379,7 +384,17 @@ fn own_nodes(
         problem,
     };
     for (index, node) in nodes.iter().enumerate() {
-        if nodes[..index].iter().any(|other| other.name == node.name) {
+        if node.name.contains('/') {
+            return Err(error(
+                node,
+                "a node name has no '/': to run it under a namespace, set `namespace`".into(),
+            ));
+        }
+        // As written: two nodes of one name are told apart only by their namespaces.
+        if nodes[..index]
+            .iter()
+            .any(|other| other.name == node.name && other.namespace == node.namespace)
+        {
             return Err(error(node, "name used twice".into()));
         }
         if !(node.respawn_delay_s.is_finite() && (0.0..=3600.0).contains(&node.respawn_delay_s))
@@ -395,6 +410,21 @@ fn own_nodes(
         }
         check_when(&node.when, arguments).map_err(|problem| error(node, problem))?;
     }
+    // Every declared node's full name (what an includer may name), so namespaces are
+    // substituted whether the node runs or not.
+    for node in &mut nodes {
+        namespace_node(node, resolved).map_err(|problem| error(node, problem))?;
+    }
+    let twice = nodes
+        .iter()
+        .enumerate()
+        .find(|(index, node)| nodes[..*index].iter().any(|other| other.name == node.name));
+    if let Some((_, node)) = twice {
+        return Err(error(
+            node,
+            "name used twice (after substituting the namespaces)".into(),
+        ));
+    }
     let declared = nodes.iter().map(|n| n.name.clone()).collect();
     nodes.retain(|node| when_holds(&node.when, arguments));
     for node in &mut nodes {
@@ -405,10 +435,73 @@ fn own_nodes(
                 problem: e.to_string(),
             })?;
         }
+        for (from, to) in node.remap.iter_mut() {
+            let mut value = toml::Value::String(std::mem::take(to));
+            substitute(&mut value, resolved).map_err(|e| LaunchError::Node {
+                path: path.to_owned(),
+                node: node.name.clone(),
+                problem: format!("remap.{from:?}: {e}"),
+            })?;
+            *to = match value {
+                toml::Value::String(text) => text,
+                other => other.to_string(),
+            };
+        }
+        check_remap(node).map_err(|problem| error(node, problem))?;
         node.file = path.to_owned();
         node.base_dir = dir.to_owned();
     }
     Ok(OwnNodes { nodes, declared })
+}
+
+/// Substitutes `$(var ...)` in the node's `namespace`, checks it, and names the node
+/// `<namespace>/<name>` when it has one.
+fn namespace_node(
+    node: &mut NodeDecl,
+    resolved: &BTreeMap<String, toml::Value>,
+) -> Result<(), String> {
+    if node.namespace.is_empty() {
+        return Ok(());
+    }
+    let mut value = toml::Value::String(std::mem::take(&mut node.namespace));
+    substitute(&mut value, resolved).map_err(|e| format!("namespace: {e}"))?;
+    let namespace = match value {
+        toml::Value::String(text) => text,
+        other => other.to_string(),
+    };
+    if let Some(problem) = nrslam_msgs::topics::namespace_problem(&namespace) {
+        return Err(format!("namespace {problem}"));
+    }
+    node.name = join_namespace(&namespace, &node.name);
+    node.namespace = namespace;
+    Ok(())
+}
+
+/// `name` under `namespace` (`agv1`, `radar` → `agv1/radar`; a namespace `site` in front of
+/// `agv1` → `site/agv1`); `name` itself when the namespace is empty.
+pub(super) fn join_namespace(namespace: &str, name: &str) -> String {
+    match (namespace.is_empty(), name.is_empty()) {
+        (true, _) => name.to_owned(),
+        (false, true) => namespace.to_owned(),
+        (false, false) => format!("{namespace}/{name}"),
+    }
+}
+
+/// Checks what can be checked of a node's `remap` before it is built: keys are topic names,
+/// values absolute names of catalogue topics (under a namespace or not). Whether each key is one
+/// of the node's topics is known once it is built ([`crate::remap::Remapped`]).
+fn check_remap(node: &NodeDecl) -> Result<(), String> {
+    for (from, to) in &node.remap {
+        if !from.starts_with('/') {
+            return Err(format!(
+                "remap.{from:?}: a key is one of the node's own topics, e.g. \"/odom\""
+            ));
+        }
+        if let Some(problem) = crate::remap::target_problem(to) {
+            return Err(format!("remap.{from:?} = {to:?}: {problem}"));
+        }
+    }
+    Ok(())
 }
 
 /// Checks that a `when` condition names declared arguments and lists values.

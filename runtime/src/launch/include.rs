@@ -11,7 +11,7 @@
 //! passed into it from a file in another folder is made absolute first.
 
 use super::file::{
-    check_when, expand_file, when_holds, Ctx, Expanded, Exported, Given, GivenValue,
+    check_when, expand_file, join_namespace, when_holds, Ctx, Expanded, Exported, Given, GivenValue,
 };
 use super::substitute::{substitute, whole_reference};
 use super::{Argument, LaunchError};
@@ -23,12 +23,33 @@ use std::path::{Path, PathBuf};
 /// (depth 2), and so on up to this.
 pub const MAX_INCLUDE_DEPTH: usize = 8;
 
+/// Most copies one `[[include]]` may make with `repeat`: enough for a fleet of agents, few enough
+/// that a typo cannot build a graph of thousands of nodes.
+pub const MAX_INCLUDE_REPEAT: i64 = 64;
+
+/// What `$(index)` stands for in a copy made by `repeat`.
+const INDEX: &str = "$(index)";
+
 /// One `[[include]]`.
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct IncludeDecl {
     /// The launch file, relative to the including file's folder.
     pub file: String,
+    /// Namespace prefixed to every included node's (nested includes compose, outer first).
+    #[serde(default)]
+    namespace: String,
+    /// Include the file this many times (0 to [`MAX_INCLUDE_REPEAT`]; an integer or a
+    /// `"$(var NAME)"`); in copy i (from 1), `$(index)` is i in `namespace`, `arguments` and
+    /// `params`.
+    #[serde(default)]
+    pub repeat: Option<toml::Value>,
+    /// With `repeat`: leave out the first this many copies (0 to [`MAX_INCLUDE_REPEAT`]; an
+    /// integer or a `"$(var NAME)"`), the others keeping their index (`repeat = 3`, `skip_first =
+    /// 1`: copies 2 and 3), so that two includes can split one numbering (agv1 with one set of
+    /// parameters, agv2 ... agvN with another).
+    #[serde(default)]
+    skip_first: Option<toml::Value>,
     /// Include only when each named argument (of the includer) has one of the listed values.
     #[serde(default)]
     when: BTreeMap<String, Vec<String>>,
@@ -58,12 +79,13 @@ pub(super) struct Includer<'a> {
     pub chain: &'a [PathBuf],
 }
 
-/// Expands `decl` of `includer`: `None` when its `when` does not hold.
+/// Expands `decl` of `includer`: one expansion per copy (one without `repeat`), none when its
+/// `when` does not hold.
 pub(super) fn expand(
     ctx: &Ctx,
     includer: &Includer,
     decl: &IncludeDecl,
-) -> Result<Option<Expanded>, LaunchError> {
+) -> Result<Vec<Expanded>, LaunchError> {
     let error = |problem: String| LaunchError::Include {
         path: includer.path.to_owned(),
         file: decl.file.clone(),
@@ -77,22 +99,210 @@ pub(super) fn expand(
     if !when_holds(&decl.when, includer.arguments) {
         // Not included with these arguments; a missing file is still reported now.
         return match path.is_file() {
-            true => Ok(None),
+            true => Ok(Vec::new()),
             false => Err(error(format!("no such file {}", path.display()))),
         };
     }
     check_chain(includer.chain, &path).map_err(error)?;
     let text = std::fs::read_to_string(&path)
         .map_err(|e| error(format!("cannot read {}: {e}", path.display())))?;
-    let given = given_to(includer, decl).map_err(error)?;
-    let mut expanded =
-        expand_file(ctx, &path, &text, &given, includer.chain).map_err(|source| {
-            LaunchError::Included {
-                path: includer.path.to_owned(),
-                file: decl.file.clone(),
-                source: Box::new(source),
+    let copies: Vec<Option<i64>> = match &decl.repeat {
+        None => {
+            if decl.skip_first.is_some() {
+                return Err(error(
+                    "skip_first: leaves out copies of an include with `repeat`, and this one \
+                     has none"
+                        .into(),
+                ));
             }
-        })?;
+            check_no_index(decl).map_err(error)?;
+            vec![None]
+        }
+        Some(repeat) => {
+            let count = repeat_count("repeat", repeat, includer.resolved).map_err(error)?;
+            let skipped = match &decl.skip_first {
+                Some(skip) => repeat_count("skip_first", skip, includer.resolved).map_err(error)?,
+                None => 0,
+            };
+            // Skipping as many copies as there are, or more, leaves none.
+            (skipped + 1..=count).map(Some).collect()
+        }
+    };
+    copies
+        .into_iter()
+        .map(|index| match index {
+            None => expand_copy(ctx, includer, decl, &path, &text, decl.file.clone()),
+            Some(index) => expand_copy(
+                ctx,
+                includer,
+                &decl.with_index(index),
+                &path,
+                &text,
+                format!("{} (copy {index})", decl.file),
+            ),
+        })
+        .collect()
+}
+
+/// The number of copies `repeat` (or `skip_first`, the `field`) asks for: an integer, or a string
+/// (`"$(var NAME)"`) that substitutes to one, from 0 to [`MAX_INCLUDE_REPEAT`].
+fn repeat_count(
+    field: &str,
+    repeat: &toml::Value,
+    resolved: &BTreeMap<String, toml::Value>,
+) -> Result<i64, String> {
+    let allowed =
+        format!("allowed: an integer from 0 to {MAX_INCLUDE_REPEAT}, or \"$(var NAME)\" of one");
+    let mut value = repeat.clone();
+    substitute(&mut value, resolved).map_err(|e| format!("{field}: {e}"))?;
+    // What the user wrote, and what it became when that was a `$(var ...)`.
+    let shown = if value == *repeat {
+        value.to_string()
+    } else {
+        format!("{repeat} (= {value})")
+    };
+    let count = match &value {
+        toml::Value::Integer(count) => *count,
+        toml::Value::String(text) => text
+            .trim()
+            .parse::<i64>()
+            .map_err(|_| format!("{field}: {shown} is not an integer ({allowed})"))?,
+        _ => return Err(format!("{field}: {shown} is not an integer ({allowed})")),
+    };
+    if !(0..=MAX_INCLUDE_REPEAT).contains(&count) {
+        return Err(format!("{field}: {shown} is out of range ({allowed})"));
+    }
+    Ok(count)
+}
+
+/// Refuses `$(index)` in an include without `repeat`: it stands for nothing there.
+fn check_no_index(decl: &IncludeDecl) -> Result<(), String> {
+    let problem = |field: String| {
+        Err(format!(
+            "{field}: {INDEX} is the copy number of an include with `repeat`, and this one has none"
+        ))
+    };
+    if decl.namespace.contains(INDEX) {
+        return problem("namespace".into());
+    }
+    if let Some(name) = decl
+        .arguments
+        .iter()
+        .find(|(_, v)| mentions_index(v))
+        .map(|(n, _)| n)
+    {
+        return problem(format!("arguments.{name}"));
+    }
+    if let Some(node) = decl
+        .params
+        .iter()
+        .find(|(_, t)| t.values().any(mentions_index))
+        .map(|(n, _)| n)
+    {
+        return problem(format!("params.{node}"));
+    }
+    Ok(())
+}
+
+fn mentions_index(value: &toml::Value) -> bool {
+    match value {
+        toml::Value::String(text) => text.contains(INDEX),
+        toml::Value::Array(items) => items.iter().any(mentions_index),
+        toml::Value::Table(table) => table.values().any(mentions_index),
+        _ => false,
+    }
+}
+
+/// `value` with `$(index)` replaced by `index`: a string that is exactly `$(index)` becomes the
+/// integer, as a whole `$(var ...)` takes its argument's type.
+fn replace_index(value: &mut toml::Value, index: i64) {
+    match value {
+        toml::Value::String(text) if text == INDEX => *value = toml::Value::Integer(index),
+        toml::Value::String(text) => *text = text.replace(INDEX, &index.to_string()),
+        toml::Value::Array(items) => items.iter_mut().for_each(|v| replace_index(v, index)),
+        toml::Value::Table(table) => table.iter_mut().for_each(|(_, v)| replace_index(v, index)),
+        _ => {}
+    }
+}
+
+impl IncludeDecl {
+    /// Copy `index` of a repeated include: `$(index)` replaced in its namespace, arguments and
+    /// parameters.
+    fn with_index(&self, index: i64) -> IncludeDecl {
+        let mut copy = self.clone();
+        copy.namespace = copy.namespace.replace(INDEX, &index.to_string());
+        copy.arguments
+            .iter_mut()
+            .for_each(|(_, v)| replace_index(v, index));
+        for table in copy.params.values_mut() {
+            table.iter_mut().for_each(|(_, v)| replace_index(v, index));
+        }
+        copy
+    }
+}
+
+/// The include's `namespace`, `$(var ...)` substituted and checked.
+fn include_namespace(
+    decl: &IncludeDecl,
+    resolved: &BTreeMap<String, toml::Value>,
+) -> Result<String, String> {
+    if decl.namespace.is_empty() {
+        return Ok(String::new());
+    }
+    let mut value = toml::Value::String(decl.namespace.clone());
+    substitute(&mut value, resolved).map_err(|e| format!("namespace: {e}"))?;
+    let namespace = match value {
+        toml::Value::String(text) => text,
+        other => other.to_string(),
+    };
+    match nrslam_msgs::topics::namespace_problem(&namespace) {
+        Some(problem) => Err(format!("namespace {problem}")),
+        None => Ok(namespace),
+    }
+}
+
+/// Puts everything the included file declared under `namespace`: its nodes (their namespaces
+/// and names, e.g. `radar` → `agv1/radar`) and its `[[external]]` topics (`/odom` →
+/// `/agv1/odom`, the topic its namespaced nodes subscribe to).
+fn put_under(expanded: &mut Expanded, namespace: &str) {
+    if namespace.is_empty() {
+        return;
+    }
+    for node in &mut expanded.nodes {
+        node.namespace = join_namespace(namespace, &node.namespace);
+        node.name = join_namespace(namespace, &node.name);
+    }
+    for name in &mut expanded.declared_nodes {
+        *name = join_namespace(namespace, name);
+    }
+    for topic in &mut expanded.externals {
+        *topic = nrslam_msgs::topics::namespaced(namespace, topic);
+    }
+}
+
+/// Expands one copy of an include (`label`: its `file`, with the copy number for a repeat).
+fn expand_copy(
+    ctx: &Ctx,
+    includer: &Includer,
+    decl: &IncludeDecl,
+    path: &Path,
+    text: &str,
+    label: String,
+) -> Result<Expanded, LaunchError> {
+    let error = |problem: String| LaunchError::Include {
+        path: includer.path.to_owned(),
+        file: label.clone(),
+        problem,
+    };
+    let namespace = include_namespace(decl, includer.resolved).map_err(error)?;
+    let given = given_to(includer, decl).map_err(error)?;
+    let mut expanded = expand_file(ctx, path, text, &given, includer.chain).map_err(|source| {
+        LaunchError::Included {
+            path: includer.path.to_owned(),
+            file: label.clone(),
+            source: Box::new(source),
+        }
+    })?;
     if let Some(name) = decl
         .arguments
         .keys()
@@ -156,7 +366,9 @@ pub(super) fn expand(
             ));
         }
     }
-    Ok(Some(expanded))
+    // `drop` and `params` name the nodes as the included file knows them; then the namespace.
+    put_under(&mut expanded, &namespace);
+    Ok(expanded)
 }
 
 /// Refuses `path` when it is already in `chain` (a cycle) or `chain` is already

@@ -45,6 +45,14 @@
 //! set become the includer's), with `[include.params.NODE]` changing its nodes' parameters and
 //! `drop` removing nodes; `node.param:=value` on the command line sets one node parameter.
 //!
+//! Namespaces (several agents running the same nodes): `[[node]] namespace = "agv1"` puts every
+//! topic of the node under `/agv1` and names it `agv1/NAME`; `remap = { "/from" = "/to" }` gives
+//! one of its topics an absolute name instead ([`crate::remap::Remapped`] applies both when the
+//! node is built). `[[include]] namespace = "..."` puts an included file's nodes (and its
+//! `[[external]]` topics) under a namespace, nested includes composing outer first, and `repeat
+//! = N` (0 to [`MAX_INCLUDE_REPEAT`]) includes it N times, `$(index)` in the include's
+//! `namespace`, `arguments` and `params` being the copy's number from 1.
+//!
 //! `[[external]] topic = "/odom"` (with an optional `when`, as a node's) declares a topic fed
 //! from outside the launch: it counts as published when the wiring is checked
 //! ([`crate::wiring::check_wiring`]).
@@ -58,9 +66,11 @@ mod tests;
 #[cfg(test)]
 mod tests_include;
 #[cfg(test)]
+mod tests_namespace;
+#[cfg(test)]
 mod tests_support;
 
-pub use include::MAX_INCLUDE_DEPTH;
+pub use include::{MAX_INCLUDE_DEPTH, MAX_INCLUDE_REPEAT};
 pub use overrides::{parse_param_assignment, ParamAssignment};
 pub use substitute::{MAX_SUBSTITUTED_BYTES, MAX_SUBSTITUTION_DEPTH};
 
@@ -135,8 +145,21 @@ pub struct ExternalDecl {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct NodeDecl {
-    /// Instance name, unique in the launch.
+    /// Instance name, unique in the launch. As written in a file, a plain name (`radar`); once
+    /// the launch is expanded, a node under a namespace is named `<namespace>/<name>`
+    /// (`agv1/radar`): the name logs, errors, `NAME.param:=value` and `[include.params.NAME]` use.
     pub name: String,
+    /// The namespace the node runs in (`agv1`; empty: none): each of its topics that is not
+    /// remapped becomes `/<namespace><topic>` (`/agv1/odom`), and its random streams are its own
+    /// (`NodeContext::seed_for`). Once the launch is expanded, the full namespace: the including
+    /// files' namespaces first (`site/agv1`).
+    #[serde(default)]
+    pub namespace: String,
+    /// Topics renamed: the node's own topic name (`/ground_truth/targets`) → the absolute name it
+    /// takes instead of its namespaced one, as ROS 2's `--remap from:=to`. Checked against the
+    /// node's topics when it is built ([`crate::remap::Remapped`]).
+    #[serde(default)]
+    pub remap: BTreeMap<String, String>,
     /// Which node: `radar`, `association`, `mapper`, `segmenter`, `evaluator`.
     pub kind: String,
     /// Parameters of the node kind (its `Params` fields).
@@ -169,6 +192,15 @@ pub struct NodeDecl {
 }
 
 impl NodeDecl {
+    /// The name as its file wrote it: [`NodeDecl::name`] without the namespace in front.
+    pub fn local_name(&self) -> &str {
+        self.name
+            .strip_prefix(&self.namespace)
+            .and_then(|rest| rest.strip_prefix('/'))
+            .filter(|_| !self.namespace.is_empty())
+            .unwrap_or(&self.name)
+    }
+
     /// `node NAME`, with where it was declared when that is not `top` (the launch file run) and
     /// what changed its parameters: for errors about its parameters.
     pub fn describe(&self, top: &Path) -> String {

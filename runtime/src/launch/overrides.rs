@@ -35,13 +35,14 @@ fn is_name(text: &str) -> bool {
 }
 
 /// Parses `node.param:=value` (`None` when `text` is not of that form: no `:=`, no `.` before
-/// it, or a part that is not letters, digits, `_` and `-`).
+/// it, or a part that is not letters, digits, `_` and `-`). A node under a namespace is named
+/// with it, `agv2/radar.snr_db:=3`: its name's parts are separated by `/`.
 pub fn parse_param_assignment(text: &str) -> Option<ParamAssignment> {
     let (name, value) = text.split_once(":=")?;
     let mut parts = name.trim().split('.');
     let node = parts.next()?.to_owned();
     let keys: Vec<String> = parts.map(str::to_owned).collect();
-    if keys.is_empty() || !is_name(&node) || !keys.iter().all(|k| is_name(k)) {
+    if keys.is_empty() || !node.split('/').all(is_name) || !keys.iter().all(|k| is_name(k)) {
         return None;
     }
     Some(ParamAssignment {
@@ -157,7 +158,29 @@ mod tests {
             parse_param_assignment("r.f:=1\nother = 2").unwrap().value,
             toml::Value::String("1\nother = 2".into())
         );
-        for bad in ["plain:=1", "a.:=1", ".b:=1", "a..b:=1", "a.b c:=1", "a.b=1"] {
+        let a = parse_param_assignment("agv2/radar.snr_db:=3").unwrap();
+        assert_eq!(
+            (a.node.as_str(), a.key()),
+            ("agv2/radar", "agv2/radar.snr_db".into())
+        );
+        assert_eq!(
+            parse_param_assignment("site/agv2/radar.faults.drop_frames:=[1]")
+                .unwrap()
+                .node,
+            "site/agv2/radar"
+        );
+        for bad in [
+            "plain:=1",
+            "a.:=1",
+            ".b:=1",
+            "a..b:=1",
+            "a.b c:=1",
+            "a.b=1",
+            "/radar.x:=1",
+            "agv2/.x:=1",
+            "agv2//radar.x:=1",
+            "a.b/c:=1",
+        ] {
             assert_eq!(parse_param_assignment(bad), None, "{bad}");
         }
     }

@@ -33,14 +33,15 @@ pub struct RosEndpoint {
 }
 
 impl RosEndpoint {
-    /// The endpoint of catalogue topic `topic`, with its type and QoS.
+    /// The endpoint of catalogue topic `topic` (or one under a namespace, `/agv1/odom`, which
+    /// keeps its name), with its type and QoS.
     pub fn catalogue(topic: &str) -> Result<Self, TransportError> {
         let spec = topics::spec(topic).ok_or_else(|| TransportError::Decode {
             topic: topic.into(),
             reason: "not in the topic catalogue (give its type and hash)".into(),
         })?;
         Ok(Self {
-            topic: spec.name.to_owned(),
+            topic: topic.to_owned(),
             type_name: spec.type_name.to_owned(),
             type_hash: None,
             qos: spec.qos,

@@ -75,7 +75,8 @@ pub fn bag(args: BagArgs) -> Result<()> {
     }
 }
 
-/// Catalogue topics named on the command line (default: the whole catalogue).
+/// Catalogue topics named on the command line (default: the whole catalogue), each as named: a
+/// topic under a namespace (`/agv1/odom`) keeps its namespace.
 pub fn catalogue_topics(names: &[String]) -> Result<Vec<&'static str>> {
     if names.is_empty() {
         return Ok(topics::CATALOGUE.iter().map(|t| t.name).collect());
@@ -83,16 +84,15 @@ pub fn catalogue_topics(names: &[String]) -> Result<Vec<&'static str>> {
     names
         .iter()
         .map(|name| {
-            topics::spec(name).map(|s| s.name).ok_or_else(|| {
-                anyhow!(
-                    "--topics: unknown topic {name:?} (known: {})",
-                    topics::CATALOGUE
-                        .iter()
-                        .map(|t| t.name)
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                )
-            })
+            if topics::spec(name).is_some() {
+                return Ok(topics::intern(name));
+            }
+            let known: Vec<&str> = topics::CATALOGUE.iter().map(|t| t.name).collect();
+            Err(anyhow!(
+                "--topics: unknown topic {name:?} (known, also under a namespace as /agv1/odom: \
+                 {})",
+                known.join(", ")
+            ))
         })
         .collect()
 }

@@ -26,14 +26,16 @@ pub(crate) fn build_all(launch: &Launch, seed: u64) -> Result<Built> {
             name: decl.name.clone(),
             seed,
             base_dir: decl.base_dir.clone(),
+            namespace: decl.namespace.clone(),
         };
-        let node = registry::build(&decl.kind, decl.params.clone(), &ctx).map_err(|e| {
-            anyhow!(
-                "{}: {}: {e}",
-                launch.path.display(),
-                decl.describe(&launch.path)
-            )
-        })?;
+        let node = registry::build_node(&decl.kind, decl.params.clone(), &ctx, &decl.remap)
+            .map_err(|e| {
+                anyhow!(
+                    "{}: {}: {e}",
+                    launch.path.display(),
+                    decl.describe(&launch.path)
+                )
+            })?;
         expected_frames =
             expected_frames.or_else(|| registry::expected_frames(&decl.kind, &decl.params, &ctx));
         nodes.push((decl.name.clone(), node));

@@ -110,7 +110,15 @@ pub(super) fn run_in_process(
     };
     let mirror = match &session {
         Some(session) => {
-            let all: Vec<&'static str> = topics::CATALOGUE.iter().map(|t| t.name).collect();
+            // The catalogue, and what the graph publishes under namespaces (/agv1/odom).
+            let mut all: Vec<&'static str> = topics::CATALOGUE.iter().map(|t| t.name).collect();
+            for (_, node) in &built.nodes {
+                for topic in node.outputs() {
+                    if !all.contains(&topic) {
+                        all.push(topic);
+                    }
+                }
+            }
             let namespace = &args.transport.namespace;
             let publisher = match args.ros_domain_id {
                 // Every node of the graph is a ROS 2 node on rmw_zenoh (tokens, GIDs).

@@ -68,6 +68,13 @@ fn node_args(
     ] {
         out.extend([flag.into(), value.into()]);
     }
+    // The node process builds the node as the launcher did: under its namespace, remapped.
+    if !decl.namespace.is_empty() {
+        out.extend(["--node-namespace".into(), decl.namespace.clone().into()]);
+    }
+    for (from, to) in &decl.remap {
+        out.extend(["--remap".into(), format!("{from}:={to}").into()]);
+    }
     if let Some(domain_id) = args.ros_domain_id {
         // Each node process is then a ROS 2 node on rmw_zenoh, and so are its topics' keys.
         out.extend(["--ros-domain-id".into(), domain_id.to_string().into()]);
@@ -190,15 +197,20 @@ fn listened_topics(
         }
         policies.push(policy);
     }
+    // A reported topic that no node publishes and nobody feeds from outside would never end: a
+    // launch without an evaluator (or whose nodes run under namespaces, /agv1/metrics) waited
+    // for /metrics forever.
     listened.retain(|t| {
-        built.nodes.iter().any(|(_, n)| n.outputs().contains(t)) || REPORTED.contains(t)
+        built.nodes.iter().any(|(_, n)| n.outputs().contains(t))
+            || (REPORTED.contains(t) && built.externals.contains(t))
     });
     listened.sort_unstable();
     listened.dedup();
     Ok((listened, policies))
 }
 
-/// One process per node of the launch, its parameters written to `out/params/<name>.toml`.
+/// One process per node of the launch, its parameters written to `out/params/<name>.toml`, its
+/// namespace and remaps passed as `--node-namespace` and `--remap`.
 fn process_specs(
     args: &LaunchArgs,
     launch: &Launch,
@@ -212,7 +224,12 @@ fn process_specs(
     let exe = std::env::current_exe().context("locating the nrslam executable")?;
     let mut specs = Vec::new();
     for (decl, restart) in launch.nodes.iter().zip(policies) {
+        // A node under a namespace (agv1/radar) gets params/agv1/radar.toml.
         let file = params_dir.join(format!("{}.toml", decl.name));
+        if let Some(folder) = file.parent() {
+            std::fs::create_dir_all(folder)
+                .with_context(|| format!("cannot create {}", folder.display()))?;
+        }
         std::fs::write(&file, toml::to_string(&decl.params)?)
             .with_context(|| format!("cannot write {}", file.display()))?;
         // An included node's relative paths resolve against its own file's folder.

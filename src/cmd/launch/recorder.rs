@@ -44,11 +44,7 @@ pub(super) fn recorder(
     built: &Built,
     dir: &Path,
 ) -> Result<Recorder> {
-    let published: Vec<&'static str> = topics::CATALOGUE
-        .iter()
-        .map(|t| t.name)
-        .filter(|t| built.nodes.iter().any(|(_, n)| n.outputs().contains(t)))
-        .collect();
+    let published = published_topics(built);
     let topics = if args.record_topics.is_empty() {
         published
     } else {
@@ -64,4 +60,27 @@ pub(super) fn recorder(
     )
     .context("--record")?;
     Ok(Recorder { writer, topics })
+}
+
+/// Every topic the launch's nodes publish, in catalogue order (a topic under a namespace,
+/// `/agv1/odom`, beside its catalogue topic, namespaces in name order): for a launch without
+/// namespaces, exactly the catalogue topics it publishes, in the order they were always recorded.
+pub(super) fn published_topics(built: &Built) -> Vec<&'static str> {
+    let mut published: Vec<&'static str> = Vec::new();
+    for (_, node) in &built.nodes {
+        for topic in node.outputs() {
+            if !published.contains(&topic) {
+                published.push(topic);
+            }
+        }
+    }
+    let rank = |topic: &str| {
+        let base = topics::base_name(topic).unwrap_or(topic);
+        topics::CATALOGUE
+            .iter()
+            .position(|t| t.name == base)
+            .unwrap_or(usize::MAX)
+    };
+    published.sort_by(|a, b| rank(a).cmp(&rank(b)).then_with(|| a.cmp(b)));
+    published
 }

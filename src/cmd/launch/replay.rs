@@ -33,14 +33,48 @@ const SOURCE_KINDS: [&str; 2] = ["radar", "bag"];
 /// replay of a bag with a launch record takes.
 const BAG_ARGUMENTS: [&str; 2] = ["bag", "recover"];
 
-/// One node of a recorded run, as `nrslam.nodes` stores it.
+/// One node of a recorded run, as `nrslam.nodes` stores it. `name` is the full name
+/// (`agv1/radar` under namespace `agv1`); `namespace` and `remap` are written only when set, so
+/// that the record of a run without namespaces is what it always was.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RecordedNode {
     name: String,
     kind: String,
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    namespace: String,
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    remap: BTreeMap<String, String>,
     #[serde(default)]
     params: toml::Table,
+}
+
+impl RecordedNode {
+    /// The record of `decl`, as it ran.
+    fn of(decl: &NodeDecl) -> Self {
+        Self {
+            name: decl.name.clone(),
+            kind: decl.kind.clone(),
+            namespace: decl.namespace.clone(),
+            remap: decl.remap.clone(),
+            params: decl.params.clone(),
+        }
+    }
+
+    /// The node as a launch file's `[[node]]` declares it: its name without the namespace
+    /// (the launch puts it back in front).
+    fn as_declared(&self) -> Self {
+        let local = self
+            .name
+            .strip_prefix(&self.namespace)
+            .and_then(|rest| rest.strip_prefix('/'))
+            .filter(|_| !self.namespace.is_empty())
+            .unwrap_or(&self.name);
+        Self {
+            name: local.to_owned(),
+            ..self.clone()
+        }
+    }
 }
 
 /// The TOML document of `nrslam.nodes`.
@@ -88,15 +122,7 @@ pub(super) fn run_identity(launch: &Launch, seed: u64) -> Result<BTreeMap<String
     let summary =
         Reporter::default().summary(&launch.arguments, seed, &launch.path.display().to_string());
     let nodes = RecordedNodes {
-        node: launch
-            .nodes
-            .iter()
-            .map(|decl| RecordedNode {
-                name: decl.name.clone(),
-                kind: decl.kind.clone(),
-                params: decl.params.clone(),
-            })
-            .collect(),
+        node: launch.nodes.iter().map(RecordedNode::of).collect(),
     };
     Ok(BTreeMap::from([
         (bag::RUN_LAUNCH_KEY.to_owned(), summary.launch),
@@ -239,15 +265,7 @@ pub(super) fn prepare(launch: Launch, args: &LaunchArgs) -> Result<(Launch, Opti
                 .collect()
         })
         .unwrap_or_default();
-    let played: Vec<String> = if listed.is_empty() {
-        in_bag
-    } else {
-        listed
-            .iter()
-            .filter(|t| in_bag.contains(t))
-            .cloned()
-            .collect()
-    };
+    let played = played_topics(&listed, &in_bag);
     let back_end = recorded_back_end(&launch, &listed, &played, &recorded, seed)?;
     let text = replay_launch_text(&launch, bag_node, &played, &back_end)?;
     let params: Vec<String> = args
@@ -285,6 +303,37 @@ pub(super) fn prepare(launch: Launch, args: &LaunchArgs) -> Result<(Launch, Opti
     Ok((rebuilt, Some(replay)))
 }
 
+/// What the bag node plays: every topic of the bag when none are `listed`, else each listed
+/// topic the bag holds followed by its copies under namespaces in the bag (`/odom`, then
+/// `/agv1/odom`, `/agv2/odom`): a recording of several agents replays their streams as the
+/// single-agent list names them.
+fn played_topics(listed: &[String], in_bag: &[String]) -> Vec<String> {
+    if listed.is_empty() {
+        return in_bag.to_vec();
+    }
+    let mut played = Vec::new();
+    for topic in listed {
+        if in_bag.contains(topic) {
+            played.push(topic.clone());
+        }
+        let mut namespaced: Vec<&String> = in_bag
+            .iter()
+            .filter(|t| {
+                nrslam_msgs::topics::split_namespace(t).is_some_and(|(_, s)| s.name == topic)
+            })
+            .collect();
+        namespaced.sort();
+        played.extend(namespaced.into_iter().cloned());
+    }
+    played
+}
+
+/// Whether `topic` (perhaps under a namespace) is one of the `listed` topics of the bag node.
+fn is_listed(listed: &[String], topic: &str) -> bool {
+    let base = nrslam_msgs::topics::base_name(topic).unwrap_or(topic);
+    listed.iter().any(|l| l == base)
+}
+
 /// The topics a bag holds.
 fn bag_topics(dir: &std::path::Path, recover: bool) -> Result<Vec<String>> {
     let topics = crate::cmd::bag::open_bag(dir, recover)?.known_topics()?;
@@ -310,14 +359,16 @@ fn recorded_back_end(
             name: node.name.clone(),
             seed,
             base_dir: launch.base_dir.clone(),
+            namespace: node.namespace.clone(),
         };
-        let built = registry::build(&node.kind, node.params.clone(), &ctx).map_err(|e| {
-            anyhow!(
-                "recorded node {} ({}) cannot be rebuilt by this nrslam: {e}",
-                node.name,
-                node.kind
-            )
-        })?;
+        let built = registry::build_node(&node.kind, node.params.clone(), &ctx, &node.remap)
+            .map_err(|e| {
+                anyhow!(
+                    "recorded node {} ({}) cannot be rebuilt by this nrslam: {e}",
+                    node.name,
+                    node.kind
+                )
+            })?;
         if built
             .outputs()
             .iter()
@@ -328,7 +379,7 @@ fn recorded_back_end(
         let missing = built
             .inputs()
             .into_iter()
-            .find(|t| listed.iter().any(|l| l == t) && !played.iter().any(|p| p == t));
+            .find(|t| is_listed(listed, t) && !played.iter().any(|p| p == t));
         if let Some(topic) = missing {
             bail!(
                 "the bag holds no {topic}, which the recorded node {} ({}) needs: record it too \
@@ -362,11 +413,11 @@ fn replay_launch_text(
         toml::Value::Array(played.iter().cloned().map(toml::Value::String).collect()),
     );
     let mut nodes = vec![RecordedNode {
-        name: bag_node.name.clone(),
-        kind: bag_node.kind.clone(),
         params: bag_params,
-    }];
-    nodes.extend(back_end.iter().cloned());
+        ..RecordedNode::of(bag_node)
+    }
+    .as_declared()];
+    nodes.extend(back_end.iter().map(RecordedNode::as_declared));
     let mut text = format!(
         "[launch]\ndescription = {}\nmode = \"in-process\"\n\n",
         toml::Value::String(format!(
@@ -443,6 +494,54 @@ mod tests {
     }
 
     #[test]
+    fn a_listed_topic_plays_with_its_copies_under_namespaces() {
+        let names = |list: &[&str]| list.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        let in_bag = names(&["/a2/odom", "/clock", "/a1/odom", "/a1/clock", "/metrics"]);
+        assert_eq!(
+            played_topics(&names(&["/odom", "/clock"]), &in_bag),
+            names(&["/a1/odom", "/a2/odom", "/clock", "/a1/clock"])
+        );
+        assert_eq!(played_topics(&[], &in_bag), in_bag);
+        assert!(is_listed(&names(&["/odom"]), "/a3/odom"));
+        assert!(!is_listed(&names(&["/odom"]), "/a3/clock"));
+    }
+
+    #[test]
+    fn a_namespaced_node_is_recorded_in_full_and_declared_by_its_own_name() {
+        let node = RecordedNode {
+            name: "site/agv1/radar".into(),
+            kind: "radar".into(),
+            namespace: "site/agv1".into(),
+            remap: BTreeMap::from([(
+                "/ground_truth/targets".to_owned(),
+                "/ground_truth/targets".to_owned(),
+            )]),
+            params: toml::Table::new(),
+        };
+        let text = toml::to_string(&RecordedNodes {
+            node: vec![node.clone()],
+        })
+        .unwrap();
+        let back: RecordedNodes = toml::from_str(&text).unwrap();
+        assert_eq!(back.node[0], node);
+        let declared = node.as_declared();
+        assert_eq!(declared.name, "radar");
+        assert_eq!(declared.namespace, "site/agv1");
+        // Re-read as a launch file, it is the recorded node again.
+        let launch = Launch::parse(
+            std::path::Path::new("replay.toml"),
+            &toml::to_string(&RecordedNodes {
+                node: vec![declared],
+            })
+            .unwrap(),
+            &[],
+        )
+        .unwrap();
+        let decl = &launch.nodes[0];
+        assert_eq!(RecordedNode::of(decl), node);
+    }
+
+    #[test]
     fn the_node_record_round_trips_every_value_type() {
         let params: toml::Table = toml::from_str(
             "a = 1\nb = 1.0\nc = -0.0\nd = 1e-300\ne = inf\nf = \"x\"\ng = [1, 2]\n[h]\ni = true\n",
@@ -452,10 +551,17 @@ mod tests {
             node: vec![RecordedNode {
                 name: "n".into(),
                 kind: "k".into(),
+                namespace: String::new(),
+                remap: BTreeMap::new(),
                 params: params.clone(),
             }],
         };
         let text = toml::to_string(&nodes).unwrap();
+        // Without namespace or remap the record is what it was before they existed.
+        assert!(
+            text.starts_with("[[node]]\nname = \"n\"\nkind = \"k\"\n\n[node.params]\n"),
+            "{text}"
+        );
         let back: RecordedNodes = toml::from_str(&text).unwrap();
         assert_eq!(back.node[0].params, params);
         assert!(back.node[0].params["c"]
