@@ -90,6 +90,11 @@ fn two_agents_run_side_by_side_under_their_namespaces() {
         &["tests/launch/two-agents.toml", "--mode", "processes"],
     );
     assert_eq!(processes, two);
+    // The launcher hears each agent's poses too (summary.json's `agents`).
+    assert_eq!(
+        read(&dir.path().join("processes/summary.json")),
+        read(&dir.path().join("two/summary.json"))
+    );
     assert!(dir.path().join("processes/params/a2/radar.toml").is_file());
 
     // The same chain from a repeated include, copy i in namespace a<i>: the same streams (a1's

@@ -169,6 +169,13 @@ pub(super) fn run_processes(
     Ok(reporter)
 }
 
+/// The catalogue topics whose namespaced copies (`/agv1/slam/pose`) the report takes per agent.
+const AGENT_POSES: [&str; 3] = [
+    topics::GROUND_TRUTH_POSE,
+    topics::SLAM_POSE,
+    topics::FUSION_POSE,
+];
+
 /// The topics the launcher listens to, sorted (without /diagnostics), and each node's restart
 /// policy in launch order.
 fn listened_topics(
@@ -182,6 +189,13 @@ fn listened_topics(
     let mut listened: Vec<&'static str> = REPORTED.to_vec();
     if let Some(recorder) = recorder {
         listened.extend(recorder.topics.iter().copied());
+    }
+    // Each agent's poses under its namespace, which the report's agent tracks take
+    // (src/report/agents.rs), as the in-process observer sees them.
+    for (_, node) in &built.nodes {
+        listened.extend(node.outputs().into_iter().filter(|t| {
+            topics::split_namespace(t).is_some_and(|(_, spec)| AGENT_POSES.contains(&spec.name))
+        }));
     }
     let mut policies = Vec::new();
     for decl in &launch.nodes {
