@@ -18,6 +18,8 @@ pub struct AgentTrack {
     pub own: BTreeMap<StampKey, Planar>,
     /// `/<ns>/fusion/pose`: corrected into the map frame by the fusion node.
     pub fused: BTreeMap<StampKey, Planar>,
+    /// `/<ns>/slam/keyframe`: each keyframe's stamp by the agent's own id.
+    pub keyframes: BTreeMap<u32, StampKey>,
 }
 
 /// One agent's line in `summary.json`.
@@ -48,6 +50,7 @@ fn classify(topic: &str) -> Option<(&str, &'static str)> {
         topics::GROUND_TRUTH_POSE,
         topics::SLAM_POSE,
         topics::FUSION_POSE,
+        topics::KEYFRAME,
     ];
     if !tracked.contains(&base) {
         return None;
@@ -58,7 +61,16 @@ fn classify(topic: &str) -> Option<(&str, &'static str)> {
 
 /// Takes `message` on `topic` into `agents` if it is an agent's pose.
 pub fn take(agents: &mut BTreeMap<String, AgentTrack>, topic: &str, message: &Message) {
-    let (Some((namespace, base)), Message::PoseStamped(p)) = (classify(topic), message) else {
+    let Some((namespace, base)) = classify(topic) else {
+        return;
+    };
+    if let Message::Keyframe(k) = message {
+        let track = agents.entry(namespace.to_owned()).or_default();
+        let stamp = (k.header.stamp.sec, k.header.stamp.nanosec);
+        track.keyframes.insert(k.id, stamp);
+        return;
+    }
+    let Message::PoseStamped(p) = message else {
         return;
     };
     let track = agents.entry(namespace.to_owned()).or_default();
@@ -129,6 +141,88 @@ impl AgentTrack {
     }
 }
 
+/// An inter-agent edge is wrong beyond this position error (m) …
+pub const INTER_EDGE_WRONG_M: f64 = 0.5;
+/// … or this heading error (degrees).
+pub const INTER_EDGE_WRONG_DEG: f64 = 2.0;
+
+/// The fusion node's inter-agent edges (`/fusion/edges`) against the truth.
+#[derive(Debug, Serialize, PartialEq, Default)]
+pub struct InterAgentEdges {
+    /// Edges in the final fused graph.
+    pub accepted: u64,
+    /// Of those, edges whose two keyframes have a true pose (both ends' agents reported).
+    pub scored: u64,
+    /// Scored edges off by more than [`INTER_EDGE_WRONG_M`] or [`INTER_EDGE_WRONG_DEG`].
+    pub wrong: u64,
+    /// Largest position error of a scored edge (m).
+    pub max_error_m: Option<f64>,
+    /// Largest heading error of a scored edge (degrees).
+    pub max_error_deg: Option<f64>,
+}
+
+/// (from namespace, from id, to namespace, to id, measured relative pose) of an edge marker's
+/// text, `agv1/12 agv2/40 x_m=… y_m=… yaw_rad=…` (nodes/fusion/src/node.rs).
+fn parse_edge(text: &str) -> Option<(&str, u32, &str, u32, Planar)> {
+    let mut words = text.split_whitespace();
+    fn end(word: &str) -> Option<(&str, u32)> {
+        let (ns, id) = word.rsplit_once('/')?;
+        Some((ns, id.parse().ok()?))
+    }
+    let (from_ns, from_id) = end(words.next()?)?;
+    let (to_ns, to_id) = end(words.next()?)?;
+    let mut value = |key: &str| -> Option<f64> { words.next()?.strip_prefix(key)?.parse().ok() };
+    let relative = (value("x_m=")?, value("y_m=")?, value("yaw_rad=")?);
+    Some((from_ns, from_id, to_ns, to_id, relative))
+}
+
+/// The true pose of keyframe `id` of `agent`: an AGV's at the keyframe's stamp; a station's is
+/// its one surveyed pose.
+fn true_keyframe_pose(
+    agents: &BTreeMap<String, AgentTrack>,
+    agent: &str,
+    id: u32,
+) -> Option<Planar> {
+    let track = agents.get(agent)?;
+    match track.keyframes.get(&id) {
+        Some(stamp) => track.truth.get(stamp).copied(),
+        None if agent.starts_with("station") => track.truth.values().next().copied(),
+        None => None,
+    }
+}
+
+/// Scores the edges of the latest `/fusion/edges`.
+pub fn score_edges(
+    agents: &BTreeMap<String, AgentTrack>,
+    markers: &nrslam_msgs::MarkerArray,
+) -> InterAgentEdges {
+    let mut scored = InterAgentEdges::default();
+    for marker in markers.markers.iter().filter(|m| m.ns == "inter_agent") {
+        scored.accepted += 1;
+        let Some((from_ns, from_id, to_ns, to_id, measured)) = parse_edge(&marker.text) else {
+            continue;
+        };
+        let (Some(from), Some(to)) = (
+            true_keyframe_pose(agents, from_ns, from_id),
+            true_keyframe_pose(agents, to_ns, to_id),
+        ) else {
+            continue;
+        };
+        let truth = compose(inverse(from), to);
+        let error_m = (measured.0 - truth.0).hypot(measured.1 - truth.1);
+        let error_deg = nrslam_association::wrap_angle_rad(measured.2 - truth.2)
+            .abs()
+            .to_degrees();
+        scored.scored += 1;
+        if error_m > INTER_EDGE_WRONG_M || error_deg > INTER_EDGE_WRONG_DEG {
+            scored.wrong += 1;
+        }
+        scored.max_error_m = Some(scored.max_error_m.map_or(error_m, |m| m.max(error_m)));
+        scored.max_error_deg = Some(scored.max_error_deg.map_or(error_deg, |m| m.max(error_deg)));
+    }
+    scored
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -173,5 +267,56 @@ mod tests {
         assert!((s.own_pose_rmse_m.unwrap() - 0.5).abs() < 1e-9, "{s:?}");
         assert!((s.own_pose_rmse_fused_frames_m.unwrap() - 0.5f64.sqrt()).abs() < 1e-9);
         assert!(s.fused_pose_rmse_m.unwrap() < 1e-9);
+    }
+
+    #[test]
+    fn inter_agent_edges_are_scored_against_the_true_keyframe_poses() {
+        let mut agents = BTreeMap::new();
+        let keyframe = |stamp_s: f64, id: u32| {
+            Message::Keyframe(nrslam_msgs::Keyframe {
+                header: Header::new(Time::from_seconds(stamp_s), "map"),
+                id,
+                ..Default::default()
+            })
+        };
+        take(
+            &mut agents,
+            "/agv1/ground_truth/pose",
+            &pose(1.0, 0.0, 0.0, 0.0),
+        );
+        take(&mut agents, "/agv1/slam/keyframe", &keyframe(1.0, 3));
+        take(
+            &mut agents,
+            "/agv2/ground_truth/pose",
+            &pose(2.0, 2.0, 1.0, 0.1),
+        );
+        take(&mut agents, "/agv2/slam/keyframe", &keyframe(2.0, 7));
+        take(
+            &mut agents,
+            "/station1/ground_truth/pose",
+            &pose(0.0, 10.0, 0.0, 0.0),
+        );
+        let edge = |text: &str| nrslam_msgs::Marker {
+            ns: "inter_agent".into(),
+            text: text.into(),
+            ..Default::default()
+        };
+        let markers = nrslam_msgs::MarkerArray {
+            markers: vec![
+                // Right: agv2's keyframe 7 is at (2, 1, 0.1) in agv1's keyframe 3's frame.
+                edge("agv1/3 agv2/7 x_m=2.1 y_m=1.0 yaw_rad=0.1"),
+                // Wrong by 3 m.
+                edge("agv1/3 agv2/7 x_m=5.0 y_m=1.0 yaw_rad=0.1"),
+                // The station's keyframe 0 at (10, 0): agv1 at (-10, 0) in its frame.
+                edge("station1/0 agv1/3 x_m=-10.0 y_m=0.0 yaw_rad=0.0"),
+                // No truth for agv2's keyframe 9: accepted, not scored.
+                edge("agv1/3 agv2/9 x_m=0 y_m=0 yaw_rad=0"),
+                // Unreadable: accepted, not scored.
+                edge("garbage"),
+            ],
+        };
+        let s = score_edges(&agents, &markers);
+        assert_eq!((s.accepted, s.scored, s.wrong), (5, 3, 1), "{s:?}");
+        assert!((s.max_error_m.unwrap() - 3.0).abs() < 1e-9);
     }
 }

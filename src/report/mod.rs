@@ -17,7 +17,7 @@ mod summary;
 #[cfg(test)]
 mod tests;
 
-pub use agents::{AgentSummary, AgentTrack};
+pub use agents::{AgentSummary, AgentTrack, InterAgentEdges};
 pub use loops::{LOOP_EDGE_CHI2_99, LOOP_EDGE_WRONG_M};
 // Kept at its old path, `crate::report::ScoredLoopEdge`, though nothing outside this module
 // names it yet.

@@ -53,6 +53,8 @@ pub struct Reporter {
     pub evaluator: nrslam_evaluator::Params,
     /// Poses of each agent of a cooperative run, by namespace (`agv1`, `station2`, ...).
     pub agents: BTreeMap<String, super::AgentTrack>,
+    /// Latest `/fusion/edges`: the fusion node's inter-agent edges.
+    pub fusion_edges: Option<nrslam_msgs::MarkerArray>,
 }
 
 impl Reporter {
@@ -111,6 +113,7 @@ impl Reporter {
             (topics::SLAM_POSE, Message::PoseStamped(p)) => {
                 self.slam_path.push((p.pose.position.x, p.pose.position.y))
             }
+            (topics::FUSION_EDGES, Message::MarkerArray(m)) => self.fusion_edges = Some(m.clone()),
             _ => super::agents::take(&mut self.agents, topic, message),
         }
     }

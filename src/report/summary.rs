@@ -73,6 +73,10 @@ impl Reporter {
                 .iter()
                 .map(|(name, track)| (name.clone(), track.summary()))
                 .collect(),
+            inter_agent_edges: self
+                .fusion_edges
+                .as_ref()
+                .map(|m| super::agents::score_edges(&self.agents, m)),
         }
     }
 }
@@ -151,6 +155,9 @@ pub struct Summary {
     /// `fusion/pose`): its pose error on its own and fused (absent for a single-AGV run).
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub agents: BTreeMap<String, super::AgentSummary>,
+    /// The fusion node's inter-agent edges against the truth (absent without a fusion node).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub inter_agent_edges: Option<super::InterAgentEdges>,
 }
 
 fn toml_to_json(value: &toml::Value) -> serde_json::Value {

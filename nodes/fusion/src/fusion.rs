@@ -250,6 +250,11 @@ impl Fusion {
             .collect()
     }
 
+    /// The agent's own id of its keyframe `index`.
+    pub fn local_id(&self, agent: usize, index: usize) -> Option<u32> {
+        Some(self.agents.get(agent)?.keyframes.get(index)?.local_id)
+    }
+
     /// `local_pose` of `agent` (in its own frame, e.g. its latest SLAM pose) in the map frame:
     /// carried by the correction of its newest keyframe. `None` until the agent is aligned.
     pub fn corrected_pose(&self, agent: usize, local_pose: Pose2) -> Option<Pose2> {

@@ -7,7 +7,11 @@
 //! Outputs: `/slam/keyframe` and `/slam/keyframe_poses` over all agents (global keyframe ids in
 //! the order keyframes entered the map frame; inter-agent edges as the pose graph's loop edges),
 //! which the mapper, segmenter, shapes and evaluator use unchanged; `/agvN/fusion/pose` (each
-//! AGV's pose corrected into the map frame, once it is merged) and `/stationM/fusion/pose`.
+//! AGV's pose corrected into the map frame, once it is merged) and `/stationM/fusion/pose`; and
+//! `/fusion/edges`, one line marker per inter-agent edge between its two keyframes' fused
+//! positions, whose `text` names the edge and its measurement for programs that score it:
+//! `agv1/12 agv2/40 x_m=1.250000 y_m=-0.500000 yaw_rad=0.010000` (the pose of `agv2`'s keyframe
+//! 40 in the frame of `agv1`'s keyframe 12, each keyframe by its agent's own id).
 //!
 //! Bad input is normal: a message with a NaN pose, a keyframe id not after the agent's last, or
 //! a frame that is not the agent's own is dropped, counted and logged once per kind, never
@@ -17,10 +21,11 @@ use std::collections::BTreeMap;
 
 use nrslam_association::{detection_to_agv_m, Pose2};
 use nrslam_msgs::topics::{
-    intern, DETECTIONS, FUSION_POSE, KEYFRAME, KEYFRAME_POSES, ODOM, SLAM_POSE,
+    intern, DETECTIONS, FUSION_EDGES, FUSION_POSE, KEYFRAME, KEYFRAME_POSES, ODOM, SLAM_POSE,
 };
 use nrslam_msgs::{
-    Detections, Header, Keyframe, KeyframePoses, Message, Odometry, Pose, PoseStamped, Time,
+    ColorRGBA, Detections, Header, Keyframe, KeyframePoses, Marker, MarkerArray, Message, Odometry,
+    Point, Pose, PoseStamped, Time, Vector3,
 };
 use nrslam_runtime::{Node, NodeContext, NodeError, NodeResult, Outbox};
 
@@ -49,6 +54,8 @@ pub struct FusionNode {
     input_order: Vec<&'static str>,
     /// Per agent: its `fusion/pose` topic.
     pose_topics: Vec<&'static str>,
+    /// Per agent: its namespace (`agv1`, `station2`).
+    namespaces: Vec<String>,
     /// Per agent: the keyframe messages received, parallel to the algorithm's keyframes (their
     /// detections are republished with the fused pose).
     keyframes: Vec<Vec<Keyframe>>,
@@ -78,6 +85,7 @@ impl FusionNode {
         let mut inputs = BTreeMap::new();
         let mut input_order = Vec::new();
         let mut pose_topics = Vec::new();
+        let mut namespaces = Vec::new();
         let mut add = |topic: &'static str, agent: usize, input: Input| {
             inputs.insert(topic, (agent, input));
             input_order.push(topic);
@@ -90,6 +98,7 @@ impl FusionNode {
             add(namespaced(&ns, KEYFRAME_POSES), agent, Input::KeyframePoses);
             add(namespaced(&ns, SLAM_POSE), agent, Input::AgvPose);
             pose_topics.push(namespaced(&ns, FUSION_POSE));
+            namespaces.push(ns);
         }
         for m in 0..params.stations {
             let ns = format!("station{}", m + 1);
@@ -98,6 +107,7 @@ impl FusionNode {
             add(namespaced(&ns, ODOM), agent, Input::StationOdom);
             add(namespaced(&ns, DETECTIONS), agent, Input::StationDetections);
             pose_topics.push(namespaced(&ns, FUSION_POSE));
+            namespaces.push(ns);
         }
         let agents = fusion.agent_count();
         Ok(FusionNode {
@@ -105,6 +115,7 @@ impl FusionNode {
             inputs,
             input_order,
             pose_topics,
+            namespaces,
             keyframes: vec![Vec::new(); agents],
             station_pose: vec![None; agents],
             dropped: BTreeMap::new(),
@@ -152,7 +163,59 @@ impl FusionNode {
         }
         if !update.published.is_empty() || update.corrected {
             outbox.publish(KEYFRAME_POSES, self.keyframe_poses(stamp));
+            // With the poses, so that a subscriber's input merge never waits on a silent stream
+            // and the latest array always holds every edge (none is a statement too).
+            outbox.publish(FUSION_EDGES, self.edge_markers(stamp));
         }
+    }
+
+    /// One line marker per inter-agent edge (see the module doc for its `text`).
+    fn edge_markers(&self, stamp: Time) -> MarkerArray {
+        let f = &self.fusion;
+        let markers = f
+            .inter_edges()
+            .iter()
+            .enumerate()
+            .filter_map(|(i, e)| {
+                let (_, from) = f.fused_keyframe(e.from.0, e.from.1)?;
+                let (_, to) = f.fused_keyframe(e.to.0, e.to.1)?;
+                let text = format!(
+                    "{}/{} {}/{} x_m={:.6} y_m={:.6} yaw_rad={:.6}",
+                    self.namespaces[e.from.0],
+                    f.local_id(e.from.0, e.from.1)?,
+                    self.namespaces[e.to.0],
+                    f.local_id(e.to.0, e.to.1)?,
+                    e.relative.x_m,
+                    e.relative.y_m,
+                    e.relative.yaw_rad
+                );
+                Some(Marker {
+                    header: Header::new(stamp, MAP_FRAME),
+                    ns: "inter_agent".into(),
+                    id: i32::try_from(i).ok()?,
+                    marker_type: Marker::LINE_LIST,
+                    action: Marker::ADD,
+                    pose: Pose::from_planar(0.0, 0.0, 0.0),
+                    scale: Vector3 {
+                        x: 0.1,
+                        ..Vector3::default()
+                    },
+                    color: ColorRGBA {
+                        r: 1.0,
+                        g: 0.5,
+                        b: 0.0,
+                        a: 1.0,
+                    },
+                    points: vec![
+                        Point::planar(from.x_m, from.y_m),
+                        Point::planar(to.x_m, to.y_m),
+                    ],
+                    text,
+                    ..Marker::default()
+                })
+            })
+            .collect();
+        MarkerArray { markers }
     }
 
     fn keyframe_poses(&self, stamp: Time) -> KeyframePoses {
@@ -309,7 +372,7 @@ impl Node for FusionNode {
     }
 
     fn outputs(&self) -> Vec<&'static str> {
-        let mut out = vec![KEYFRAME, KEYFRAME_POSES];
+        let mut out = vec![KEYFRAME, KEYFRAME_POSES, FUSION_EDGES];
         out.extend(&self.pose_topics);
         out
     }
