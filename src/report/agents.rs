@@ -159,6 +159,17 @@ pub struct InterAgentEdges {
     pub max_error_m: Option<f64>,
     /// Largest heading error of a scored edge (degrees).
     pub max_error_deg: Option<f64>,
+    /// Scored and wrong edges by pair of agents, `agv1-agv2` (the matched map's agent first).
+    pub by_pair: BTreeMap<String, PairEdges>,
+}
+
+/// Scored and wrong inter-agent edges between two agents.
+#[derive(Debug, Serialize, PartialEq, Default)]
+pub struct PairEdges {
+    /// Edges scored.
+    pub scored: u64,
+    /// Of those, wrong.
+    pub wrong: u64,
 }
 
 /// (from namespace, from id, to namespace, to id, measured relative pose) of an edge marker's
@@ -214,8 +225,14 @@ pub fn score_edges(
             .abs()
             .to_degrees();
         scored.scored += 1;
+        let pair = scored
+            .by_pair
+            .entry(format!("{from_ns}-{to_ns}"))
+            .or_default();
+        pair.scored += 1;
         if error_m > INTER_EDGE_WRONG_M || error_deg > INTER_EDGE_WRONG_DEG {
             scored.wrong += 1;
+            pair.wrong += 1;
         }
         scored.max_error_m = Some(scored.max_error_m.map_or(error_m, |m| m.max(error_m)));
         scored.max_error_deg = Some(scored.max_error_deg.map_or(error_deg, |m| m.max(error_deg)));
@@ -244,7 +261,7 @@ mod tests {
             take(
                 &mut agents,
                 "/agv2/ground_truth/pose",
-                &pose(t, 10.0, 5.0 + t, 1.5707963267948966),
+                &pose(t, 10.0, 5.0 + t, std::f64::consts::FRAC_PI_2),
             );
             // Its own estimate: exact for 3 frames, then 1 m off sideways.
             let off = if k == 3 { 1.0 } else { 0.0 };

@@ -218,9 +218,12 @@ pub fn match_loop(
     // truncated slope, not a verified maximum.
     let edge_m = (radius_m - step_m).max(0.0);
     let edge_rad = steps_r as f64 * step_rad - 0.5 * step_rad;
+    // A search over every heading (±180°, as fusion's search for an agent whose start is
+    // unknown) has no rotation edge: its outermost rotations are neighbours of each other.
+    let full_circle = loop_params.max_search_rotation_deg >= 180.0;
     let outside = |motion: &Pose2| {
         motion.distance_m(&predicted) > edge_m + 1e-9
-            || motion.rotation_to_rad(&predicted) > edge_rad.max(0.0)
+            || (!full_circle && motion.rotation_to_rad(&predicted) > edge_rad.max(0.0))
     };
     if steps_t > 0 && steps_r > 0 && outside(&best.pose) {
         return Err(LoopRejection::AtSearchEdge);

@@ -50,6 +50,8 @@ struct AgentKeyframe {
     local_pose: Pose2,
     /// Detections in the sensor body frame (m).
     points_body_m: Vec<[f64; 2]>,
+    /// Distance the agent had travelled at this keyframe, by its own estimate (m).
+    travelled_m: f64,
     /// Its pose in the map frame once the agent is aligned.
     fused: Option<Pose2>,
     /// Its id in the fused graph once published.
@@ -82,6 +84,9 @@ struct Agent {
     /// Map-from-agent transform; `None` until aligned.
     frame: Option<Pose2>,
     candidates: Vec<Candidate>,
+    /// An aligned agent's latest inter-agent match that disagreed with the graph, waiting for
+    /// the next to confirm it: (correction in its query keyframe's frame, the edge).
+    pending_local: Option<(Pose2, InterEdge)>,
     /// The agent's own loop edges: (older local id, newer local id, relative pose).
     loops: Vec<(u32, u32, Pose2)>,
     /// Keyframes added since the last query.
@@ -169,6 +174,7 @@ impl Fusion {
                     _ => Some(Pose2::new(0.0, 0.0, 0.0)),
                 },
                 candidates: Vec::new(),
+                pending_local: None,
                 loops: Vec::new(),
                 since_query: 0,
                 station_frames: 0,
@@ -387,10 +393,14 @@ impl Fusion {
         points_body_m: Vec<[f64; 2]>,
     ) -> usize {
         let a = &mut self.agents[agent];
+        let travelled_m = a.keyframes.last().map_or(0.0, |k| {
+            k.travelled_m + k.local_pose.distance_m(&local_pose)
+        });
         a.keyframes.push(AgentKeyframe {
             local_id,
             local_pose,
             points_body_m,
+            travelled_m,
             fused: None,
             global_id: None,
         });
@@ -489,9 +499,52 @@ impl Fusion {
         }
     }
 
+    /// The occupied cells of an occupancy grid of every aligned keyframe, map frame, each with
+    /// the keyframe nearest to it (what an edge from a match there hangs on).
+    fn aligned_occupied(&self) -> (Vec<[f64; 2]>, Vec<(usize, usize)>) {
+        let Ok(mut map) = nrslam_mapper::OccupancyMap::new(&self.params.map) else {
+            return (Vec::new(), Vec::new());
+        };
+        let mut placed = Vec::new();
+        for (i, a) in self.agents.iter().enumerate() {
+            for (j, k) in a.keyframes.iter().enumerate() {
+                let Some(fused) = k.fused else { continue };
+                let points: Vec<[f64; 2]> = k
+                    .points_body_m
+                    .iter()
+                    .map(|p| fused.transform_point(*p))
+                    .collect();
+                // Inputs were checked finite; a point that overflows is left out of the map.
+                let _ = map.integrate_points([fused.x_m, fused.y_m], &points);
+                placed.push((fused, (i, j)));
+            }
+        }
+        let threshold = i8::try_from(self.params.occupied_percent).unwrap_or(i8::MAX);
+        let data = map.occupancy_data();
+        let mut points = Vec::new();
+        let mut owners = Vec::new();
+        for row in 0..map.height_cells() {
+            for column in 0..map.width_cells() {
+                if data[row * map.width_cells() + column] < threshold {
+                    continue;
+                }
+                let centre = map.cell_centre(column, row);
+                let probe = Pose2::new(centre[0], centre[1], 0.0);
+                let nearest = placed
+                    .iter()
+                    .min_by(|a, b| a.0.distance_m(&probe).total_cmp(&b.0.distance_m(&probe)));
+                if let Some((_, owner)) = nearest {
+                    points.push(centre);
+                    owners.push(*owner);
+                }
+            }
+        }
+        (points, owners)
+    }
+
     /// An unaligned agent searches the whole aligned map for its newest place.
     fn match_unaligned(&mut self, agent: usize, update: &mut Update) {
-        let (points, owners) = self.aligned_points(agent, None);
+        let (points, owners) = self.aligned_occupied();
         if points.is_empty() {
             return;
         }
@@ -543,12 +596,16 @@ impl Fusion {
         self.stats.candidates += 1;
         tracing::debug!(agent, anchor, ?frame, ?found, "frame candidate");
         let (agree_m, agree_rad) = (self.params.agree_m, self.params.agree_deg.to_radians());
+        let separation_m = self.params.confirm_separation_m;
         let a = &mut self.agents[agent];
+        let travelled = |index: usize| a.keyframes[index].travelled_m;
+        // Only matches of other places confirm: two queries that share keyframes, or see one
+        // corner of the hall, fail together where the hall repeats itself.
         let agreeing: Vec<Candidate> = a
             .candidates
             .iter()
             .filter(|c| {
-                c.edge.to.1 != anchor
+                (travelled(anchor) - travelled(c.edge.to.1)).abs() >= separation_m
                     && c.frame.distance_m(&frame) <= agree_m
                     && c.frame.rotation_to_rad(&frame) <= agree_rad
             })
@@ -607,12 +664,39 @@ impl Fusion {
         let owner_fused = self.agents[owner.0].keyframes[owner.1]
             .fused
             .expect("owners are fused");
-        self.edges.push(InterEdge {
+        let edge = InterEdge {
             from: owner,
             to: (agent, anchor),
             relative: owner_fused.between(&found.relative),
-        });
-        self.stats.inter_edges += 1;
+        };
+        // A match that moves the query by more than the agreement tolerance from where the graph
+        // holds it is kept pending until the next match asks for the same correction: one
+        // verified match can still be a neighbouring place that looks alike.
+        let correction = predicted.between(&found.relative);
+        let agrees = |c: &Pose2| {
+            c.x_m.hypot(c.y_m) <= self.params.agree_m
+                && c.yaw_rad.abs() <= self.params.agree_deg.to_radians()
+        };
+        let mut accepted = Vec::new();
+        if agrees(&correction) {
+            accepted.push(edge);
+        } else {
+            let a = &mut self.agents[agent];
+            match a.pending_local.take() {
+                Some((previous, pending)) if agrees(&previous.between(&correction)) => {
+                    accepted.extend([pending, edge]);
+                }
+                _ => {
+                    tracing::debug!(agent, anchor, ?correction, "inter-agent match pending");
+                    a.pending_local = Some((correction, edge));
+                }
+            }
+        }
+        if accepted.is_empty() {
+            return;
+        }
+        self.stats.inter_edges += accepted.len() as u64;
+        self.edges.extend(accepted);
         self.optimise();
         update.corrected = true;
     }

@@ -44,6 +44,9 @@ pub struct Params {
     /// Matches of an unaligned AGV that must agree on its frame before it is merged (1–10):
     /// one verified match can still be wrong where the hall repeats itself.
     pub confirmations: u32,
+    /// Matches confirm each other only when their query keyframes are at least this far apart
+    /// along the agent's path (m, 0–1000): matches of one place fail together.
+    pub confirm_separation_m: f64,
     /// Two alignments agree when their frames differ by at most this (m, > 0) …
     pub agree_m: f64,
     /// … and this (degrees, > 0).
@@ -61,6 +64,13 @@ pub struct Params {
     pub chain_std_deg_per_m: f64,
     /// Floor of that heading std (degrees, > 0).
     pub chain_min_std_deg: f64,
+    /// The occupancy grid an unaligned agent's whole-map search runs against: its occupied cells
+    /// (≥ `occupied_percent`), where free space seen by other keyframes has carved away the
+    /// angle blur that a 5G array leaves in raw detections (against the raw points of every
+    /// aligned keyframe every placement scores about the same). The mapper's parameters.
+    pub map: nrslam_mapper::Params,
+    /// A cell of that grid is occupied at this probability and above (percent, 1–100).
+    pub occupied_percent: u8,
     /// The matcher and its verification (the single-AGV loop closure's; `enabled`, the search
     /// radii and candidate selection are not used here: fusion chooses its own windows).
     pub matcher: LoopClosureParams,
@@ -89,6 +99,7 @@ impl Default for Params {
             local_radius_m: 2.0,
             submap_range_m: 25.0,
             confirmations: 2,
+            confirm_separation_m: 10.0,
             agree_m: 0.5,
             agree_deg: 2.0,
             inter_std_m: 0.15,
@@ -97,6 +108,8 @@ impl Default for Params {
             chain_min_std_m: 0.02,
             chain_std_deg_per_m: 0.3,
             chain_min_std_deg: 0.2,
+            map: nrslam_mapper::Params::default(),
+            occupied_percent: 65,
             matcher,
             scan: association,
         }
@@ -135,6 +148,12 @@ impl Params {
         InvalidParam::check_range("local_radius_m", self.local_radius_m, 0.25, 20.0)?;
         InvalidParam::check_range("submap_range_m", self.submap_range_m, 1.0, 200.0)?;
         InvalidParam::check_count("confirmations", self.confirmations, 1, 10)?;
+        InvalidParam::check_range(
+            "confirm_separation_m",
+            self.confirm_separation_m,
+            0.0,
+            1000.0,
+        )?;
         for (field, value) in [
             ("agree_m", self.agree_m),
             ("agree_deg", self.agree_deg),
@@ -153,6 +172,11 @@ impl Params {
                 ));
             }
         }
+        self.map.validate().map_err(|e| InvalidParam {
+            field: format!("map.{}", e.field),
+            ..e
+        })?;
+        InvalidParam::check_count("occupied_percent", self.occupied_percent, 1, 100)?;
         self.scan.validate().map_err(|e| InvalidParam {
             field: format!("scan.{}", e.field),
             ..e
@@ -190,6 +214,7 @@ mod tests {
             local_radius_m: [0.0],
             submap_range_m: [f64::INFINITY],
             confirmations: [0],
+            confirm_separation_m: [-1.0, f64::NAN],
             agree_m: [0.0],
             agree_deg: [-1.0],
             inter_std_m: [f64::NAN],
