@@ -56,6 +56,10 @@ struct AgentKeyframe {
     fused: Option<Pose2>,
     /// Its id in the fused graph once published.
     global_id: Option<u32>,
+    /// Its pose as of the last published revision (what the map was last built with).
+    published: Option<Pose2>,
+    /// The pose it was integrated at into the whole-map search's occupancy grid.
+    in_occupancy: Option<Pose2>,
 }
 
 /// A verified match between agents: an edge of the fused graph.
@@ -133,6 +137,9 @@ pub struct Fusion {
     /// Pose-graph solves so far: the published revision.
     revision: u32,
     stats: FusionStats,
+    /// The occupancy grid of the aligned keyframes and how many of each agent's keyframes it
+    /// holds; dropped when the graph is re-solved (every keyframe may have moved).
+    occupied: Option<(nrslam_mapper::OccupancyMap, Vec<usize>)>,
 }
 
 /// Why an input was refused (the node drops and counts it).
@@ -187,6 +194,7 @@ impl Fusion {
             next_global_id: 0,
             revision: 0,
             stats: FusionStats::default(),
+            occupied: None,
         }
     }
 
@@ -350,8 +358,7 @@ impl Fusion {
         a.loops = loops.to_vec();
         let mut update = Update::default();
         if (moved || loops_changed) && a.frame.is_some() {
-            self.optimise();
-            update.corrected = true;
+            update.corrected = self.optimise();
         }
         Ok(update)
     }
@@ -403,6 +410,8 @@ impl Fusion {
             travelled_m,
             fused: None,
             global_id: None,
+            published: None,
+            in_occupancy: None,
         });
         a.keyframes.len() - 1
     }
@@ -423,6 +432,7 @@ impl Fusion {
         };
         let k = &mut a.keyframes[index];
         k.fused = Some(fused);
+        k.published = Some(fused);
         k.global_id = Some(self.next_global_id);
         self.next_global_id += 1;
         update.published.push((agent, index));
@@ -499,16 +509,36 @@ impl Fusion {
         }
     }
 
-    /// The occupied cells of an occupancy grid of every aligned keyframe, map frame, each with
-    /// the keyframe nearest to it (what an edge from a match there hangs on).
-    fn aligned_occupied(&self) -> (Vec<[f64; 2]>, Vec<(usize, usize)>) {
-        let Ok(mut map) = nrslam_mapper::OccupancyMap::new(&self.params.map) else {
-            return (Vec::new(), Vec::new());
+    /// The occupied cells of an occupancy grid of every aligned keyframe, map frame. The grid
+    /// is kept between searches and takes only the keyframes placed since.
+    fn aligned_occupied(&mut self) -> Vec<[f64; 2]> {
+        // A grid built at poses the graph has since moved by more than a search cell is rebuilt;
+        // smaller moves do not change what the coarse search finds.
+        let stale = self
+            .agents
+            .iter()
+            .flat_map(|a| a.keyframes.iter())
+            .filter_map(|k| Some((k.fused?, k.in_occupancy?)))
+            .any(|(f, at)| f.distance_m(&at) > self.params.matcher.search_step_m);
+        if stale {
+            self.occupied = None;
+            for k in self.agents.iter_mut().flat_map(|a| a.keyframes.iter_mut()) {
+                k.in_occupancy = None;
+            }
+        }
+        if self.occupied.is_none() {
+            let Ok(map) = nrslam_mapper::OccupancyMap::new(&self.params.map) else {
+                return Vec::new();
+            };
+            self.occupied = Some((map, vec![0; self.agents.len()]));
+        }
+        let Some((map, integrated)) = self.occupied.as_mut() else {
+            return Vec::new();
         };
-        let mut placed = Vec::new();
-        for (i, a) in self.agents.iter().enumerate() {
-            for (j, k) in a.keyframes.iter().enumerate() {
-                let Some(fused) = k.fused else { continue };
+        for (a, done) in self.agents.iter_mut().zip(integrated.iter_mut()) {
+            for k in &mut a.keyframes[*done..] {
+                let Some(fused) = k.fused else { break };
+                k.in_occupancy = Some(fused);
                 let points: Vec<[f64; 2]> = k
                     .points_body_m
                     .iter()
@@ -516,35 +546,40 @@ impl Fusion {
                     .collect();
                 // Inputs were checked finite; a point that overflows is left out of the map.
                 let _ = map.integrate_points([fused.x_m, fused.y_m], &points);
-                placed.push((fused, (i, j)));
+                *done += 1;
             }
         }
         let threshold = i8::try_from(self.params.occupied_percent).unwrap_or(i8::MAX);
         let data = map.occupancy_data();
-        let mut points = Vec::new();
-        let mut owners = Vec::new();
-        for row in 0..map.height_cells() {
-            for column in 0..map.width_cells() {
-                if data[row * map.width_cells() + column] < threshold {
-                    continue;
-                }
-                let centre = map.cell_centre(column, row);
-                let probe = Pose2::new(centre[0], centre[1], 0.0);
-                let nearest = placed
-                    .iter()
-                    .min_by(|a, b| a.0.distance_m(&probe).total_cmp(&b.0.distance_m(&probe)));
-                if let Some((_, owner)) = nearest {
-                    points.push(centre);
-                    owners.push(*owner);
+        let width = map.width_cells();
+        data.iter()
+            .enumerate()
+            .filter(|(_, &percent)| percent >= threshold)
+            .map(|(cell, _)| map.cell_centre(cell % width, cell / width))
+            .collect()
+    }
+
+    /// The aligned keyframe nearest to `pose`, other than `except`'s.
+    fn nearest_aligned(&self, except: usize, pose: &Pose2) -> Option<(usize, usize)> {
+        let mut best: Option<(f64, (usize, usize))> = None;
+        for (i, a) in self.agents.iter().enumerate() {
+            if i == except {
+                continue;
+            }
+            for (j, k) in a.keyframes.iter().enumerate() {
+                let Some(fused) = k.fused else { continue };
+                let d = fused.distance_m(pose);
+                if best.is_none_or(|(bd, _)| d < bd) {
+                    best = Some((d, (i, j)));
                 }
             }
         }
-        (points, owners)
+        best.map(|(_, owner)| owner)
     }
 
     /// An unaligned agent searches the whole aligned map for its newest place.
     fn match_unaligned(&mut self, agent: usize, update: &mut Update) {
-        let (points, owners) = self.aligned_occupied();
+        let points = self.aligned_occupied();
         if points.is_empty() {
             return;
         }
@@ -575,7 +610,7 @@ impl Fusion {
                 return;
             }
         };
-        let Some(owner) = self.edge_anchor(&owners, &found.relative) else {
+        let Some(owner) = self.nearest_aligned(agent, &found.relative) else {
             return;
         };
         let a = &self.agents[agent];
@@ -626,8 +661,7 @@ impl Fusion {
         for index in 0..self.agents[agent].keyframes.len() {
             self.place_new(agent, index, update);
         }
-        self.optimise();
-        update.corrected = true;
+        update.corrected = self.optimise();
         tracing::info!(agent, ?frame, "agent merged into the map frame");
     }
 
@@ -697,12 +731,13 @@ impl Fusion {
         }
         self.stats.inter_edges += accepted.len() as u64;
         self.edges.extend(accepted);
-        self.optimise();
-        update.corrected = true;
+        update.corrected = self.optimise();
     }
 
-    /// Re-solves the graph of every aligned keyframe and stores the fused poses.
-    fn optimise(&mut self) {
+    /// Re-solves the graph of every aligned keyframe and stores the fused poses; true when that
+    /// moved a published keyframe by more than `republish_m` or `republish_deg`, which starts a
+    /// new revision (every revision costs each subscribed mapper a rebuild of its whole grid).
+    fn optimise(&mut self) -> bool {
         let p = &self.params;
         let mut graph = PoseGraph::new();
         let mut node_of: Vec<Vec<Option<usize>>> = Vec::with_capacity(self.agents.len());
@@ -803,7 +838,48 @@ impl Fusion {
                 }
             }
         }
+        let (limit_m, limit_rad) = (
+            self.params.republish_m,
+            self.params.republish_deg.to_radians(),
+        );
+        let moved = self.max_unpublished_move();
+        if moved.0 > limit_m || moved.1 > limit_rad {
+            self.start_revision();
+            return true;
+        }
+        false
+    }
+
+    /// The largest (distance m, rotation rad) of a keyframe from its published pose.
+    fn max_unpublished_move(&self) -> (f64, f64) {
+        self.agents
+            .iter()
+            .flat_map(|a| a.keyframes.iter())
+            .filter_map(|k| Some((k.fused?, k.published?)))
+            .fold((0.0, 0.0), |(m, r), (f, p)| {
+                (
+                    f64::max(m, f.distance_m(&p)),
+                    f64::max(r, f.rotation_to_rad(&p)),
+                )
+            })
+    }
+
+    fn start_revision(&mut self) {
+        for k in self.agents.iter_mut().flat_map(|a| a.keyframes.iter_mut()) {
+            k.published = k.fused;
+        }
         self.revision += 1;
+    }
+
+    /// At the end of the input: a last revision if any keyframe moved since the last one, so
+    /// that the final map is built at the final poses. True when it started one.
+    pub fn finish(&mut self) -> bool {
+        let moved = self.max_unpublished_move();
+        if moved.0 > 0.0 || moved.1 > 0.0 {
+            self.start_revision();
+            return true;
+        }
+        false
     }
 }
 

@@ -413,7 +413,12 @@ impl Node for FusionNode {
         }
     }
 
-    fn on_end(&mut self, _outbox: &mut Outbox) -> Result<(), NodeError> {
+    fn on_end(&mut self, outbox: &mut Outbox) -> Result<(), NodeError> {
+        if self.fusion.finish() {
+            let stamp = self.last_stamp;
+            outbox.publish(KEYFRAME_POSES, self.keyframe_poses(stamp));
+            outbox.publish(FUSION_EDGES, self.edge_markers(stamp));
+        }
         let stats = self.fusion.stats();
         let unmerged: Vec<usize> = (0..self.fusion.agent_count())
             .filter(|&a| !self.fusion.is_aligned(a))

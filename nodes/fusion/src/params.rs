@@ -51,6 +51,11 @@ pub struct Params {
     pub agree_m: f64,
     /// … and this (degrees, > 0).
     pub agree_deg: f64,
+    /// A re-solved graph starts a new revision (subscribers rebuild their maps) only when it
+    /// moved a published keyframe by more than this (m, ≥ 0) …
+    pub republish_m: f64,
+    /// … or this (degrees, ≥ 0); smaller moves wait for a larger one or the end of the run.
+    pub republish_deg: f64,
     /// Std of an inter-agent or station edge's translation (m, > 0).
     pub inter_std_m: f64,
     /// Std of an inter-agent or station edge's heading (degrees, > 0).
@@ -102,6 +107,8 @@ impl Default for Params {
             confirm_separation_m: 10.0,
             agree_m: 0.5,
             agree_deg: 2.0,
+            republish_m: 0.05,
+            republish_deg: 0.5,
             inter_std_m: 0.15,
             inter_std_deg: 1.0,
             chain_std_per_m: 0.02,
@@ -154,6 +161,8 @@ impl Params {
             0.0,
             1000.0,
         )?;
+        InvalidParam::check_range("republish_m", self.republish_m, 0.0, 100.0)?;
+        InvalidParam::check_range("republish_deg", self.republish_deg, 0.0, 180.0)?;
         for (field, value) in [
             ("agree_m", self.agree_m),
             ("agree_deg", self.agree_deg),
@@ -216,6 +225,8 @@ mod tests {
             confirmations: [0],
             confirm_separation_m: [-1.0, f64::NAN],
             agree_m: [0.0],
+            republish_m: [-0.1, f64::NAN],
+            republish_deg: [181.0],
             agree_deg: [-1.0],
             inter_std_m: [f64::NAN],
             inter_std_deg: [0.0],

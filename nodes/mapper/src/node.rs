@@ -31,6 +31,8 @@ pub struct MapperNode {
     revision: u32,
     /// Rebuilds so far.
     rebuilds: u64,
+    /// Keyframes integrated since the grid was last published, and the newest one's stamp.
+    unpublished: Option<(u32, nrslam_msgs::Time)>,
 }
 
 /// Builds the mapper from `params` (validated here). The node draws no random numbers and reads no
@@ -48,6 +50,7 @@ impl MapperNode {
             keyframes: Vec::new(),
             revision: 0,
             rebuilds: 0,
+            unpublished: None,
         })
     }
 
@@ -91,6 +94,7 @@ impl MapperNode {
         self.keyframes = corrected;
         self.revision = poses.revision;
         self.rebuilds += 1;
+        self.unpublished = None;
         tracing::debug!(
             revision = poses.revision,
             keyframes = self.keyframes.len(),
@@ -127,7 +131,13 @@ impl MapperNode {
         if self.params.rebuild_on_correction {
             self.keyframes.push(keyframe.clone());
         }
-        outbox.publish(MAP, self.map.to_occupancy_grid(keyframe.header.stamp));
+        let waiting = self.unpublished.map_or(0, |(count, _)| count) + 1;
+        if waiting >= self.params.publish_every_keyframes {
+            self.unpublished = None;
+            outbox.publish(MAP, self.map.to_occupancy_grid(keyframe.header.stamp));
+        } else {
+            self.unpublished = Some((waiting, keyframe.header.stamp));
+        }
         Ok(())
     }
 }
@@ -154,6 +164,14 @@ impl Node for MapperNode {
             }
             other => Err(NodeError::unexpected(topic, other)),
         }
+    }
+
+    fn on_end(&mut self, outbox: &mut Outbox) -> Result<(), NodeError> {
+        // The last keyframes are always in a published grid, whatever publish_every_keyframes.
+        if let Some((_, stamp)) = self.unpublished.take() {
+            outbox.publish(MAP, self.map.to_occupancy_grid(stamp));
+        }
+        Ok(())
     }
 }
 
@@ -220,6 +238,34 @@ mod tests {
         let grid = publish(&mut node, keyframe(1, 3.0, 4.0));
         assert_eq!(grid.header.stamp, Time::from_seconds(3.0));
         assert_eq!(&grid.data[6..12], &[31, 31, 31, 61, 70, -1]);
+    }
+
+    #[test]
+    fn publish_every_keyframes_skips_grids_but_never_the_last() {
+        let mut node = MapperNode::new(&Params {
+            publish_every_keyframes: 3,
+            ..params()
+        })
+        .unwrap();
+        let mut outbox = Outbox::new();
+        let mut published = Vec::new();
+        for k in 0..5 {
+            let message = Message::Keyframe(keyframe(k, 1.0 + f64::from(k), 2.0));
+            node.on_message(KEYFRAME, &message, &mut outbox).unwrap();
+            published.push(outbox.drain().count());
+        }
+        // The third keyframe's grid only; the fifth's waits for the end.
+        assert_eq!(published, vec![0, 0, 1, 0, 0]);
+        node.on_end(&mut outbox).unwrap();
+        let last: Vec<_> = outbox.drain().collect();
+        match last.as_slice() {
+            [(MAP, Message::OccupancyGrid(grid))] => {
+                assert_eq!(grid.header.stamp, Time::from_seconds(5.0))
+            }
+            other => panic!("expected the last grid, got {other:?}"),
+        }
+        node.on_end(&mut outbox).unwrap();
+        assert!(outbox.is_empty(), "nothing is published twice");
     }
 
     #[test]

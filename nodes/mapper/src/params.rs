@@ -62,6 +62,11 @@ pub struct Params {
     pub range_resolution_m: f64,
     /// Beam width at boresight, degrees. Default 3.58 (2/32 in sin θ: a 32-element λ/2 ULA).
     pub beamwidth_deg: f64,
+    /// Publish the grid after every this many keyframes (1–1000), and always after a rebuild and
+    /// at the end. Default 1: every keyframe, as the paper's per-step metrics need. Each
+    /// published grid costs the segmenter, shapes and evaluator a whole pass, so a graph that
+    /// fuses several agents' keyframes trades the metrics' time resolution for CPU here.
+    pub publish_every_keyframes: u32,
 }
 
 impl Default for Params {
@@ -81,6 +86,7 @@ impl Default for Params {
             footprint: false,
             range_resolution_m: 0.122,
             beamwidth_deg: 3.58,
+            publish_every_keyframes: 1,
         }
     }
 }
@@ -91,6 +97,12 @@ impl Params {
         use nrslam_runtime::InvalidParam;
         let positive = |field: &'static str, value: f64| {
             if value.is_finite() && value > 0.0 {
+                InvalidParam::check_count(
+                    "publish_every_keyframes",
+                    self.publish_every_keyframes,
+                    1,
+                    1000,
+                )?;
                 Ok(())
             } else {
                 Err(InvalidParam::new(
