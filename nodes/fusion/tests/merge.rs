@@ -42,8 +42,10 @@ fn an_agv_with_an_unknown_start_is_merged_at_its_true_frame() {
     let mut fusion = Fusion::new(two_agvs());
     run(&mut fusion, &scene, &path, &second, start);
     let frame = fusion.frame_of(1).expect("the second AGV is merged");
+    // The frame is judged at the start, up to 30 m from where the matches were made: a heading
+    // error of 0.6° moves it by 0.3 m there.
     assert!(
-        frame.distance_m(&start) < 0.3 && frame.rotation_to_rad(&start) < 1f64.to_radians(),
+        frame.distance_m(&start) < 0.5 && frame.rotation_to_rad(&start) < 1f64.to_radians(),
         "merged at {frame:?}, true start {start:?}"
     );
     // Every fused keyframe of the second AGV near its true pose.
@@ -116,3 +118,4 @@ fn bad_input_is_refused_without_changing_the_state() {
         .is_err());
     assert_eq!(fusion.fused_poses().len(), 1);
 }
+
