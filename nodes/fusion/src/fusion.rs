@@ -112,6 +112,8 @@ pub struct FusionStats {
     pub candidates: u64,
     /// Agents merged into the map frame by place recognition.
     pub merges: u64,
+    /// Merges refused because the agent's detections fell on floor the map saw free.
+    pub refused_merges: u64,
     /// Inter-agent (and station) edges in the graph.
     pub inter_edges: u64,
     /// Pose-graph solves.
@@ -311,7 +313,8 @@ impl Fusion {
         }
         let a = &mut self.agents[agent];
         a.since_query += 1;
-        if a.since_query >= self.params.match_every_keyframes
+        if self.params.matching
+            && a.since_query >= self.params.match_every_keyframes
             && a.keyframes.len() >= self.params.query_keyframes as usize
         {
             a.since_query = 0;
@@ -559,6 +562,54 @@ impl Fusion {
             .collect()
     }
 
+    /// Of `agent`'s detections placed with map-from-agent `frame`: (within `conflict_distance_m`
+    /// of an occupied cell of the whole-map search's grid, on a cell the aligned agents saw free
+    /// with no occupied cell that near). A 5G detection is blurred across its beam by a metre,
+    /// so only a detection far from every outline the map holds contradicts it; cells nobody
+    /// observed count neither way.
+    fn free_space_check(&self, agent: usize, frame: &Pose2) -> (usize, usize) {
+        let Some((map, _)) = self.occupied.as_ref() else {
+            return (0, 0);
+        };
+        let data = map.occupancy_data();
+        let width = map.width_cells();
+        let height = map.height_cells();
+        let occupied = i8::try_from(self.params.occupied_percent).unwrap_or(i8::MAX);
+        let free = i8::try_from(self.params.free_percent).unwrap_or(0);
+        let reach = (self.params.conflict_distance_m / map.resolution_m()).ceil() as usize;
+        let reach2 = (reach * reach) as i64;
+        let near_occupied = |column: usize, row: usize| {
+            let rows = row.saturating_sub(reach)..=(row + reach).min(height - 1);
+            rows.into_iter().any(|r| {
+                let columns = column.saturating_sub(reach)..=(column + reach).min(width - 1);
+                columns.into_iter().any(|c| {
+                    let (dc, dr) = (c as i64 - column as i64, r as i64 - row as i64);
+                    dc * dc + dr * dr <= reach2 && data[r * width + c] >= occupied
+                })
+            })
+        };
+        let (mut support, mut conflict) = (0, 0);
+        for k in &self.agents[agent].keyframes {
+            let pose = frame.compose(&k.local_pose);
+            for p in &k.points_body_m {
+                let [x, y] = pose.transform_point(*p);
+                let Some((column, row)) = map.cell_of(x, y) else {
+                    continue;
+                };
+                let percent = data[row * width + column];
+                if percent < 0 {
+                    continue;
+                }
+                if near_occupied(column, row) {
+                    support += 1;
+                } else if percent <= free {
+                    conflict += 1;
+                }
+            }
+        }
+        (support, conflict)
+    }
+
     /// The aligned keyframe nearest to `pose`, other than `except`'s.
     fn nearest_aligned(&self, except: usize, pose: &Pose2) -> Option<(usize, usize)> {
         let mut best: Option<(f64, (usize, usize))> = None;
@@ -650,7 +701,31 @@ impl Fusion {
         if agreeing.len() + 1 < self.params.confirmations as usize {
             return;
         }
+        // Where a hall repeats itself, every match of one group of targets can agree on the
+        // other group's place. What tells them apart is everything else the agent has seen: at
+        // the wrong place its detections fall where the aligned agents saw free floor.
+        let (support, conflict) = self.free_space_check(agent, &frame);
+        let conflict_ratio = conflict as f64 / (support + conflict).max(1) as f64;
+        tracing::debug!(
+            agent,
+            support,
+            conflict,
+            conflict_ratio,
+            "merge checked against free space"
+        );
+        if conflict_ratio > self.params.max_conflict_ratio {
+            self.stats.refused_merges += 1;
+            tracing::debug!(
+                agent,
+                ?frame,
+                conflict_ratio,
+                "merge refused: detections on free floor"
+            );
+            self.agents[agent].candidates.clear();
+            return;
+        }
         // Merged: the agent's keyframes enter the map frame, the agreeing matches the graph.
+        let a = &mut self.agents[agent];
         a.frame = Some(frame);
         a.candidates.clear();
         self.stats.merges += 1;

@@ -13,23 +13,31 @@
 //! `agv1/12 agv2/40 x_m=1.250000 y_m=-0.500000 yaw_rad=0.010000` (the pose of `agv2`'s keyframe
 //! 40 in the frame of `agv1`'s keyframe 12, each keyframe by its agent's own id).
 //!
-//! Bad input is normal: a message with a NaN pose, a keyframe id not after the agent's last, or
-//! a frame that is not the agent's own is dropped, counted and logged once per kind, never
-//! fatal; the other agents keep fusing.
+//! Bad input is normal: a message with a NaN pose, a keyframe id not after the agent's last, a
+//! header frame that is not the one the input is in (an AGV's keyframes, keyframe poses and pose,
+//! and a station's surveyed pose, are all in `map`: the agent's own map frame for an AGV, the
+//! survey's for a station), a stamp before an earlier input's, a station whose surveyed pose
+//! changes, or a topic that is not an input is dropped, counted by topic and reason
+//! ([`FusionNode::dropped`]) and logged once per kind, never fatal; the other agents keep fusing.
+//! The counts go out on `/diagnostics` as component `nrslam/<node name>/inputs`, in the format of
+//! the receive path's reports (`nrslam_runtime::receive::diagnostics`, behind the runtime's zenoh
+//! feature, which a node crate does without), whenever a new kind of drop appears and at the
+//! end, so that they reach the run's `summary.json` (`dropped`) in either mode.
 
 use std::collections::BTreeMap;
 
 use nrslam_association::{detection_to_agv_m, Pose2};
 use nrslam_msgs::topics::{
-    intern, DETECTIONS, FUSION_EDGES, FUSION_POSE, KEYFRAME, KEYFRAME_POSES, ODOM, SLAM_POSE,
+    intern, DETECTIONS, DIAGNOSTICS, FUSION_EDGES, FUSION_POSE, KEYFRAME, KEYFRAME_POSES, ODOM,
+    SLAM_POSE,
 };
 use nrslam_msgs::{
-    ColorRGBA, Detections, Header, Keyframe, KeyframePoses, Marker, MarkerArray, Message, Odometry,
-    Point, Pose, PoseStamped, Time, Vector3,
+    ColorRGBA, Detections, DiagnosticArray, DiagnosticStatus, Header, KeyValue, Keyframe,
+    KeyframePoses, Marker, MarkerArray, Message, Odometry, Point, Pose, PoseStamped, Time, Vector3,
 };
 use nrslam_runtime::{Node, NodeContext, NodeError, NodeResult, Outbox};
 
-use crate::fusion::{Fusion, Update};
+use crate::fusion::{Fusion, FusionError, Update};
 use crate::params::Params;
 
 /// Frame of everything published.
@@ -61,15 +69,22 @@ pub struct FusionNode {
     keyframes: Vec<Vec<Keyframe>>,
     /// Per station: the surveyed pose from its latest odometry.
     station_pose: Vec<Option<Pose2>>,
-    /// Inputs dropped, by reason.
-    dropped: BTreeMap<String, u64>,
+    /// Inputs dropped, by topic and reason.
+    dropped: BTreeMap<(String, &'static str), u64>,
+    /// A new kind of drop (topic and reason) since the last `/diagnostics` report.
+    unreported: bool,
+    /// The `/diagnostics` component the drops are reported as.
+    component: String,
     /// Stamp of the newest message handled: outputs never go back in time.
     last_stamp: Time,
 }
 
 /// Builds the fusion node from validated `params`; it draws no random numbers and reads no files.
-pub fn build(params: Params, _ctx: &NodeContext) -> Result<Box<dyn Node>, NodeError> {
-    Ok(Box::new(FusionNode::new(params)?))
+/// Its drops are reported on `/diagnostics` as `nrslam/<ctx.name>/inputs`.
+pub fn build(params: Params, ctx: &NodeContext) -> Result<Box<dyn Node>, NodeError> {
+    let mut node = FusionNode::new(params)?;
+    node.component = format!("nrslam/{}/inputs", ctx.name);
+    Ok(Box::new(node))
 }
 
 /// `/ns<topic>` as a `&'static str`.
@@ -119,6 +134,8 @@ impl FusionNode {
             keyframes: vec![Vec::new(); agents],
             station_pose: vec![None; agents],
             dropped: BTreeMap::new(),
+            unreported: false,
+            component: "nrslam/fusion/inputs".into(),
             last_stamp: Time::default(),
         })
     }
@@ -128,17 +145,67 @@ impl FusionNode {
         &self.fusion
     }
 
-    /// Inputs dropped so far, by reason.
-    pub fn dropped(&self) -> &BTreeMap<String, u64> {
+    /// Inputs dropped so far, by topic and reason (`non_finite`, `wrong_frame`,
+    /// `stamp_backwards`, `not_an_input`, `unexpected_type`, `station_moved`,
+    /// `before_station_pose`, `out_of_order`, `wrong_kind`, `unknown_agent`).
+    pub fn dropped(&self) -> &BTreeMap<(String, &'static str), u64> {
         &self.dropped
     }
 
-    fn drop_input(&mut self, topic: &str, reason: impl std::fmt::Display) {
-        let key = format!("{topic}: {reason}");
-        let count = self.dropped.entry(key.clone()).or_insert(0);
-        *count += 1;
+    /// Drops an input on `topic` for `reason` (a word: the `/diagnostics` key is `"<topic>
+    /// <reason>"`), logging `detail` the first time this topic and reason occur.
+    fn drop_input(&mut self, topic: &str, reason: &'static str, detail: impl std::fmt::Display) {
+        let count = self.dropped.entry((topic.to_owned(), reason)).or_insert(0);
+        *count = count.saturating_add(1);
         if *count == 1 {
-            tracing::warn!("fusion dropped an input (later ones like it are counted): {key}");
+            self.unreported = true;
+            tracing::warn!(
+                topic,
+                reason,
+                "fusion dropped an input (later ones like it are only counted): {detail}"
+            );
+        }
+    }
+
+    /// The drops as a `/diagnostics` report: one status named after the component, WARN, one
+    /// value per topic and reason, key `"<topic> <reason>"` and value the count (what the run's
+    /// report reads back into `summary.json`'s `dropped`).
+    fn diagnostics(&self) -> DiagnosticArray {
+        let total: u64 = self.dropped.values().sum();
+        DiagnosticArray {
+            header: Header::new(self.last_stamp, ""),
+            status: vec![DiagnosticStatus {
+                level: DiagnosticStatus::WARN,
+                name: self.component.clone(),
+                message: format!("dropped {total} unusable inputs"),
+                hardware_id: String::new(),
+                values: self
+                    .dropped
+                    .iter()
+                    .map(|((topic, reason), n)| KeyValue {
+                        key: format!("{topic} {reason}"),
+                        value: n.to_string(),
+                    })
+                    .collect(),
+            }],
+        }
+    }
+
+    fn drop_refused(&mut self, topic: &str, error: FusionError) {
+        let reason = match error {
+            FusionError::UnknownAgent(_) => "unknown_agent",
+            FusionError::NonFinite(_) => "non_finite",
+            FusionError::OutOfOrder { .. } => "out_of_order",
+            FusionError::WrongKind(_) => "wrong_kind",
+        };
+        self.drop_input(topic, reason, error);
+    }
+
+    /// The drops on `/diagnostics`, once per new kind of drop (a bounded number of reports
+    /// however many inputs are bad) and at the end. Nothing while nothing was dropped.
+    fn report_drops(&mut self, outbox: &mut Outbox) {
+        if std::mem::take(&mut self.unreported) {
+            outbox.publish(DIAGNOSTICS, self.diagnostics());
         }
     }
 
@@ -247,13 +314,7 @@ impl FusionNode {
         }
     }
 
-    fn on_keyframe(
-        &mut self,
-        topic: &str,
-        agent: usize,
-        keyframe: &Keyframe,
-        outbox: &mut Outbox,
-    ) -> NodeResult {
+    fn on_keyframe(&mut self, topic: &str, agent: usize, keyframe: &Keyframe, outbox: &mut Outbox) {
         let (x_m, y_m, yaw_rad) = keyframe.pose.planar();
         let points = body_points(keyframe.boresight_rad, &keyframe.detections);
         let stamp = keyframe.header.stamp;
@@ -265,9 +326,8 @@ impl FusionNode {
                 self.keyframes[agent].push(keyframe.clone());
                 self.publish_update(&update, stamp, outbox);
             }
-            Err(e) => self.drop_input(topic, e),
+            Err(e) => self.drop_refused(topic, e),
         }
-        Ok(())
     }
 
     fn on_keyframe_poses(
@@ -276,7 +336,7 @@ impl FusionNode {
         agent: usize,
         poses: &KeyframePoses,
         outbox: &mut Outbox,
-    ) -> NodeResult {
+    ) {
         let local: Vec<(u32, Pose2)> = poses
             .ids
             .iter()
@@ -292,15 +352,14 @@ impl FusionNode {
             .collect();
         match self.fusion.set_local_poses(agent, &local, &loops) {
             Ok(update) => self.publish_update(&update, poses.header.stamp, outbox),
-            Err(e) => self.drop_input(topic, e),
+            Err(e) => self.drop_refused(topic, e),
         }
-        Ok(())
     }
 
     fn on_agv_pose(&mut self, topic: &str, agent: usize, pose: &PoseStamped, outbox: &mut Outbox) {
         let local = planar(&pose.pose);
         if !local.is_finite() {
-            return self.drop_input(topic, "non-finite pose");
+            return self.drop_input(topic, "non_finite", "non-finite pose");
         }
         if let Some(corrected) = self.fusion.corrected_pose(agent, local) {
             outbox.publish(
@@ -319,10 +378,13 @@ impl FusionNode {
         agent: usize,
         detections: &Detections,
         outbox: &mut Outbox,
-    ) -> NodeResult {
+    ) {
         let Some(pose) = self.station_pose[agent] else {
-            self.drop_input(topic, "detections before the station's surveyed pose");
-            return Ok(());
+            return self.drop_input(
+                topic,
+                "before_station_pose",
+                "detections before the station's surveyed pose",
+            );
         };
         let stamp = detections.header.stamp;
         let points = body_points(detections.boresight_rad, &detections.detections);
@@ -339,7 +401,7 @@ impl FusionNode {
                 }
                 self.publish_update(&update, stamp, outbox);
             }
-            Err(e) => self.drop_input(topic, e),
+            Err(e) => self.drop_refused(topic, e),
         }
         outbox.publish(
             self.pose_topics[agent],
@@ -348,22 +410,98 @@ impl FusionNode {
                 pose: to_pose(&pose),
             },
         );
-        Ok(())
     }
 
     fn on_station_odom(&mut self, topic: &str, agent: usize, odometry: &Odometry) {
         let pose = planar(&odometry.pose.pose);
         if !pose.is_finite() {
-            return self.drop_input(topic, "non-finite surveyed pose");
+            return self.drop_input(topic, "non_finite", "non-finite surveyed pose");
         }
         if let Some(known) = self.station_pose[agent] {
             // A station does not move: a changed survey is another program's bug.
             if known.distance_m(&pose) > 1e-3 || known.rotation_to_rad(&pose) > 1e-4 {
-                return self.drop_input(topic, "surveyed pose changed");
+                return self.drop_input(
+                    topic,
+                    "station_moved",
+                    format!("surveyed pose changed from {known:?} to {pose:?}"),
+                );
             }
         }
         self.station_pose[agent] = Some(pose);
     }
+
+    /// One input: checked (an input topic, the type and header frame it carries, not before an
+    /// earlier input), then fused; anything unusable is dropped and counted.
+    fn handle(&mut self, topic: &str, message: &Message, outbox: &mut Outbox) {
+        let Some(&(agent, input)) = self.inputs.get(topic) else {
+            return self.drop_input(topic, "not_an_input", "not an input of this fusion node");
+        };
+        let Some((stamp, frame_id)) = header_of(input, message) else {
+            return self.drop_input(
+                topic,
+                "unexpected_type",
+                format!("unexpected {}", message.type_name()),
+            );
+        };
+        // Checked before the stamp, so that a message dropped for its frame cannot move the
+        // clock on and make the other agents' inputs late.
+        if let Some(expected) = input.frame() {
+            if frame_id != expected {
+                return self.drop_input(
+                    topic,
+                    "wrong_frame",
+                    format!("header frame {frame_id:?}, expected {expected:?}"),
+                );
+            }
+        }
+        if stamp < self.last_stamp {
+            return self.drop_input(
+                topic,
+                "stamp_backwards",
+                format!(
+                    "stamp {} s before an earlier input's {} s",
+                    stamp.as_seconds(),
+                    self.last_stamp.as_seconds()
+                ),
+            );
+        }
+        self.last_stamp = stamp;
+        // `header_of` matched the type to the input already.
+        match message {
+            Message::Keyframe(k) => self.on_keyframe(topic, agent, k, outbox),
+            Message::KeyframePoses(p) => self.on_keyframe_poses(topic, agent, p, outbox),
+            Message::PoseStamped(p) => self.on_agv_pose(topic, agent, p, outbox),
+            Message::Odometry(o) => self.on_station_odom(topic, agent, o),
+            Message::Detections(d) => self.on_station_detections(topic, agent, d, outbox),
+            _ => {}
+        }
+    }
+}
+
+impl Input {
+    /// The header frame this input must carry (`None`: any; a station's detections are in its
+    /// radar's frame, whatever the driver calls it).
+    fn frame(self) -> Option<&'static str> {
+        match self {
+            Input::Keyframe | Input::KeyframePoses | Input::AgvPose | Input::StationOdom => {
+                Some(MAP_FRAME)
+            }
+            Input::StationDetections => None,
+        }
+    }
+}
+
+/// The stamp and header frame of `message` if it is of the type `input` carries.
+fn header_of(input: Input, message: &Message) -> Option<(Time, &str)> {
+    let header = match (input, message) {
+        (Input::Keyframe, Message::Keyframe(k)) => &k.header,
+        (Input::KeyframePoses, Message::KeyframePoses(p)) => &p.header,
+        (Input::AgvPose, Message::PoseStamped(p)) => &p.header,
+        (Input::StationOdom, Message::Odometry(o)) => &o.header,
+        (Input::StationDetections, Message::Detections(d)) => &d.header,
+        _ => return None,
+    };
+    Some((header.stamp, header.frame_id.as_str()))
 }
 
 impl Node for FusionNode {
@@ -372,48 +510,21 @@ impl Node for FusionNode {
     }
 
     fn outputs(&self) -> Vec<&'static str> {
-        let mut out = vec![KEYFRAME, KEYFRAME_POSES, FUSION_EDGES];
+        let mut out = vec![KEYFRAME, KEYFRAME_POSES, FUSION_EDGES, DIAGNOSTICS];
         out.extend(&self.pose_topics);
         out
     }
 
     fn on_message(&mut self, topic: &str, message: &Message, outbox: &mut Outbox) -> NodeResult {
-        let Some(&(agent, input)) = self.inputs.get(topic) else {
-            self.drop_input(topic, "not an input of this fusion node");
-            return Ok(());
-        };
-        let stamp = message_stamp(message);
-        if let Some(stamp) = stamp {
-            if stamp < self.last_stamp {
-                self.drop_input(topic, "stamp before an earlier input's");
-                return Ok(());
-            }
-            self.last_stamp = stamp;
-        }
-        match (input, message) {
-            (Input::Keyframe, Message::Keyframe(k)) => self.on_keyframe(topic, agent, k, outbox),
-            (Input::KeyframePoses, Message::KeyframePoses(p)) => {
-                self.on_keyframe_poses(topic, agent, p, outbox)
-            }
-            (Input::AgvPose, Message::PoseStamped(p)) => {
-                self.on_agv_pose(topic, agent, p, outbox);
-                Ok(())
-            }
-            (Input::StationOdom, Message::Odometry(o)) => {
-                self.on_station_odom(topic, agent, o);
-                Ok(())
-            }
-            (Input::StationDetections, Message::Detections(d)) => {
-                self.on_station_detections(topic, agent, d, outbox)
-            }
-            (_, other) => {
-                self.drop_input(topic, format!("unexpected {}", other.type_name()));
-                Ok(())
-            }
-        }
+        self.handle(topic, message, outbox);
+        self.report_drops(outbox);
+        Ok(())
     }
 
     fn on_end(&mut self, outbox: &mut Outbox) -> Result<(), NodeError> {
+        // The final counts, whatever was reported before.
+        self.unreported = !self.dropped.is_empty();
+        self.report_drops(outbox);
         if self.fusion.finish() {
             let stamp = self.last_stamp;
             outbox.publish(KEYFRAME_POSES, self.keyframe_poses(stamp));
@@ -439,17 +550,6 @@ impl Node for FusionNode {
     }
 }
 
-fn message_stamp(message: &Message) -> Option<Time> {
-    match message {
-        Message::Keyframe(k) => Some(k.header.stamp),
-        Message::KeyframePoses(p) => Some(p.header.stamp),
-        Message::PoseStamped(p) => Some(p.header.stamp),
-        Message::Odometry(o) => Some(o.header.stamp),
-        Message::Detections(d) => Some(d.header.stamp),
-        _ => None,
-    }
-}
-
 fn planar(pose: &Pose) -> Pose2 {
     let (x_m, y_m, yaw_rad) = pose.planar();
     Pose2::new(x_m, y_m, yaw_rad)
@@ -464,4 +564,223 @@ fn body_points(boresight_rad: f64, detections: &[nrslam_msgs::Detection]) -> Vec
         .iter()
         .map(|d| detection_to_agv_m(d.range_m, d.angle_rad, boresight_rad))
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nrslam_msgs::{Clock, Detection, PoseWithCovariance};
+
+    /// Two AGVs with known starts (both aligned from their first keyframe, so each good keyframe
+    /// is published at once) and one station.
+    fn node() -> FusionNode {
+        FusionNode::new(Params {
+            agvs: 2,
+            stations: 1,
+            known_starts: 2,
+            ..Params::default()
+        })
+        .unwrap()
+    }
+
+    fn detections() -> Vec<Detection> {
+        (0..5)
+            .map(|i| Detection {
+                range_m: 5.0 + f64::from(i),
+                angle_rad: 0.1 * f64::from(i),
+                range_std_m: 0.05,
+                angle_std_rad: 0.02,
+                power_db: 0.0,
+            })
+            .collect()
+    }
+
+    fn keyframe(stamp_s: f64, frame: &str, id: u32, x_m: f64) -> Message {
+        Message::Keyframe(Keyframe {
+            header: Header::new(Time::from_seconds(stamp_s), frame),
+            id,
+            pose: Pose::from_planar(x_m, 2.0, 0.0),
+            boresight_rad: std::f64::consts::FRAC_PI_2,
+            detections: detections(),
+        })
+    }
+
+    fn station_odom(stamp_s: f64, x_m: f64) -> Message {
+        Message::Odometry(Odometry {
+            header: Header::new(Time::from_seconds(stamp_s), MAP_FRAME),
+            child_frame_id: "base_link".into(),
+            pose: PoseWithCovariance {
+                pose: Pose::from_planar(x_m, 0.0, std::f64::consts::FRAC_PI_2),
+                ..PoseWithCovariance::default()
+            },
+            ..Odometry::default()
+        })
+    }
+
+    /// Feeds `message` on `topic`, which must never be an error; returns what was published.
+    fn feed(node: &mut FusionNode, topic: &str, message: Message) -> Vec<(&'static str, Message)> {
+        let mut outbox = Outbox::new();
+        node.on_message(topic, &message, &mut outbox)
+            .unwrap_or_else(|e| panic!("{topic}: an error instead of a drop: {e}"));
+        outbox.drain().collect()
+    }
+
+    /// The fused keyframes published, as (global id, x).
+    fn keyframes(published: &[(&'static str, Message)]) -> Vec<(u32, f64)> {
+        published
+            .iter()
+            .filter_map(|(topic, m)| match (*topic, m) {
+                (KEYFRAME, Message::Keyframe(k)) => Some((k.id, k.pose.position.x)),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// The values of the last `/diagnostics` report published, as (key, count).
+    fn reported(published: &[(&'static str, Message)]) -> Option<Vec<(String, String)>> {
+        published
+            .iter()
+            .rev()
+            .find_map(|(topic, m)| match (*topic, m) {
+                (DIAGNOSTICS, Message::DiagnosticArray(d)) => {
+                    assert_eq!(d.status.len(), 1);
+                    assert_eq!(d.status[0].name, "nrslam/fusion/inputs");
+                    assert_eq!(d.status[0].level, DiagnosticStatus::WARN);
+                    Some(
+                        d.status[0]
+                            .values
+                            .iter()
+                            .map(|v| (v.key.clone(), v.value.clone()))
+                            .collect(),
+                    )
+                }
+                _ => None,
+            })
+    }
+
+    #[test]
+    fn misbehaving_inputs_are_dropped_and_counted_and_the_other_agents_keep_fusing() {
+        let mut n = node();
+        let (agv1, agv2) = ("/agv1/slam/keyframe", "/agv2/slam/keyframe");
+        let out = feed(&mut n, agv1, keyframe(1.0, MAP_FRAME, 0, 10.0));
+        assert_eq!(keyframes(&out), vec![(0, 10.0)]);
+        assert_eq!(reported(&out), None, "nothing dropped, nothing reported");
+
+        // A NaN pose.
+        let mut nan = keyframe(2.0, MAP_FRAME, 0, 0.0);
+        if let Message::Keyframe(k) = &mut nan {
+            k.pose.position.y = f64::NAN;
+        }
+        let out = feed(&mut n, agv2, nan);
+        assert!(keyframes(&out).is_empty());
+        assert_eq!(
+            reported(&out),
+            Some(vec![(format!("{agv2} non_finite"), "1".into())]),
+            "the first drop of a kind is reported at once"
+        );
+        // A keyframe in its odometry frame instead of its map frame, stamped far ahead: dropped
+        // for its frame before its stamp can make every later input late.
+        assert!(keyframes(&feed(&mut n, agv2, keyframe(100.0, "odom", 0, 20.0))).is_empty());
+        // Before an input already handled.
+        assert!(keyframes(&feed(&mut n, agv2, keyframe(0.5, MAP_FRAME, 0, 20.0))).is_empty());
+        // A topic that is not an input (a third AGV this node does not fuse).
+        let out = feed(
+            &mut n,
+            "/agv3/slam/keyframe",
+            keyframe(2.5, MAP_FRAME, 0, 5.0),
+        );
+        assert!(out.iter().all(|(t, _)| *t == DIAGNOSTICS));
+        // The wrong type on an input.
+        let clock = Message::Clock(Clock {
+            clock: Time::from_seconds(2.6),
+        });
+        assert!(keyframes(&feed(&mut n, agv2, clock)).is_empty());
+
+        // A station whose surveyed pose changes keeps its first one.
+        let (odom, station) = ("/station1/odom", "/station1/radar/detections");
+        feed(&mut n, odom, station_odom(3.0, 27.0));
+        let out = feed(&mut n, odom, station_odom(3.5, 28.0));
+        assert!(out.iter().all(|(t, _)| *t == DIAGNOSTICS));
+        let frame = Message::Detections(Detections {
+            header: Header::new(Time::from_seconds(4.0), "radar"),
+            boresight_rad: 0.0,
+            detections: detections(),
+        });
+        let out = feed(&mut n, station, frame);
+        assert_eq!(keyframes(&out), vec![(1, 27.0)]);
+        let pose = out.iter().find_map(|(t, m)| match (*t, m) {
+            ("/station1/fusion/pose", Message::PoseStamped(p)) => Some(p.pose.position.x),
+            _ => None,
+        });
+        assert_eq!(pose, Some(27.0));
+
+        // After all that, a good keyframe of the agent that misbehaved is fused, and so is the
+        // other agent's next one.
+        let out = feed(&mut n, agv2, keyframe(5.0, MAP_FRAME, 0, 20.0));
+        assert_eq!(keyframes(&out), vec![(2, 20.0)]);
+        let out = feed(&mut n, agv1, keyframe(6.0, MAP_FRAME, 1, 11.0));
+        assert_eq!(keyframes(&out), vec![(3, 11.0)]);
+        // An id the agent already sent.
+        assert!(keyframes(&feed(&mut n, agv1, keyframe(7.0, MAP_FRAME, 1, 11.0))).is_empty());
+
+        let expected = [
+            (agv1, "out_of_order"),
+            (agv2, "non_finite"),
+            (agv2, "stamp_backwards"),
+            (agv2, "unexpected_type"),
+            (agv2, "wrong_frame"),
+            ("/agv3/slam/keyframe", "not_an_input"),
+            (odom, "station_moved"),
+        ];
+        let dropped: Vec<(&str, &str, u64)> = n
+            .dropped()
+            .iter()
+            .map(|((topic, reason), count)| (topic.as_str(), *reason, *count))
+            .collect();
+        assert_eq!(
+            dropped,
+            expected.map(|(topic, reason)| (topic, reason, 1)).to_vec()
+        );
+        // The end reports every count, keyed as the receive path's reports are.
+        let mut outbox = Outbox::new();
+        n.on_end(&mut outbox).unwrap();
+        let end: Vec<_> = outbox.drain().collect();
+        let mut keys: Vec<(String, String)> = expected
+            .iter()
+            .map(|(topic, reason)| (format!("{topic} {reason}"), "1".to_owned()))
+            .collect();
+        keys.sort();
+        assert_eq!(reported(&end), Some(keys));
+    }
+
+    #[test]
+    fn a_drop_of_a_kind_already_reported_is_counted_without_a_new_report() {
+        let mut n = node();
+        let topic = "/agv1/slam/pose";
+        let pose = |stamp_s: f64| {
+            Message::PoseStamped(PoseStamped {
+                header: Header::new(Time::from_seconds(stamp_s), "odom"),
+                pose: Pose::from_planar(1.0, 2.0, 0.0),
+            })
+        };
+        assert!(reported(&feed(&mut n, topic, pose(1.0))).is_some());
+        for k in 2..10 {
+            assert_eq!(reported(&feed(&mut n, topic, pose(f64::from(k)))), None);
+        }
+        assert_eq!(n.dropped()[&(topic.to_owned(), "wrong_frame")], 9);
+    }
+
+    #[test]
+    fn a_clean_run_reports_nothing_on_diagnostics() {
+        let mut n = node();
+        feed(
+            &mut n,
+            "/agv1/slam/keyframe",
+            keyframe(1.0, MAP_FRAME, 0, 1.0),
+        );
+        let mut outbox = Outbox::new();
+        n.on_end(&mut outbox).unwrap();
+        assert!(outbox.iter().all(|(t, _)| *t != DIAGNOSTICS));
+        assert!(n.dropped().is_empty());
+    }
 }

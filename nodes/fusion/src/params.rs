@@ -27,6 +27,10 @@ pub struct Params {
     /// A station's detections become a keyframe every this many of its frames (1–1000): a fixed
     /// sensor sees the same place every frame, and every keyframe costs the mapper an update.
     pub station_keyframe_every: u32,
+    /// Match agents against each other (default true). False: no inter-agent edge and no merge,
+    /// so every AGV's start must be known (`known_starts = agvs`): the fused true-pose oracle,
+    /// whose agents' poses are exact and must stay so.
+    pub matching: bool,
     /// An AGV's keyframes are matched against the other agents every this many keyframes
     /// (1–1000): fewer searches and less CPU against later merges and fewer inter-agent edges.
     pub match_every_keyframes: u32,
@@ -76,6 +80,16 @@ pub struct Params {
     pub map: nrslam_mapper::Params,
     /// A cell of that grid is occupied at this probability and above (percent, 1–100).
     pub occupied_percent: u8,
+    /// A cell of that grid was seen free at this probability and below (percent, 0–100, below
+    /// `occupied_percent`).
+    pub free_percent: u8,
+    /// A placed detection supports a merge within this distance of an occupied cell (m, > 0):
+    /// about the blur of a detection across its beam.
+    pub conflict_distance_m: f64,
+    /// A merge is refused when more than this fraction of the agent's detections, placed in the
+    /// map frame, land on cells seen free rather than occupied (0–1): the agreeing matches found
+    /// a place that looks alike, not the place.
+    pub max_conflict_ratio: f64,
     /// The matcher and its verification (the single-AGV loop closure's; `enabled`, the search
     /// radii and candidate selection are not used here: fusion chooses its own windows).
     pub matcher: LoopClosureParams,
@@ -97,6 +111,7 @@ impl Default for Params {
             agvs: 1,
             stations: 0,
             known_starts: 1,
+            matching: true,
             station_keyframe_every: 10,
             match_every_keyframes: 2,
             query_keyframes: 5,
@@ -117,6 +132,9 @@ impl Default for Params {
             chain_min_std_deg: 0.2,
             map: nrslam_mapper::Params::default(),
             occupied_percent: 65,
+            free_percent: 25,
+            conflict_distance_m: 1.5,
+            max_conflict_ratio: 0.2,
             matcher,
             scan: association,
         }
@@ -141,6 +159,17 @@ impl Params {
                 "known_starts",
                 "0 with no station: nothing anchors the map frame",
                 ">= 1 when stations = 0",
+            ));
+        }
+        if !self.matching && self.known_starts < self.agvs {
+            return Err(InvalidParam::new(
+                "matching",
+                format!(
+                    "false with {} of {} AGVs starting at a known pose: the others could never \
+                     be merged",
+                    self.known_starts, self.agvs
+                ),
+                "true, or known_starts = agvs",
             ));
         }
         InvalidParam::check_count(
@@ -186,6 +215,14 @@ impl Params {
             ..e
         })?;
         InvalidParam::check_count("occupied_percent", self.occupied_percent, 1, 100)?;
+        InvalidParam::check_count(
+            "free_percent",
+            self.free_percent,
+            0,
+            self.occupied_percent - 1,
+        )?;
+        InvalidParam::check_range("conflict_distance_m", self.conflict_distance_m, 0.01, 20.0)?;
+        InvalidParam::check_range("max_conflict_ratio", self.max_conflict_ratio, 0.0, 1.0)?;
         self.scan.validate().map_err(|e| InvalidParam {
             field: format!("scan.{}", e.field),
             ..e
@@ -225,6 +262,9 @@ mod tests {
             confirmations: [0],
             confirm_separation_m: [-1.0, f64::NAN],
             agree_m: [0.0],
+            free_percent: [65],
+            max_conflict_ratio: [1.5],
+            matching: [false],
             republish_m: [-0.1, f64::NAN],
             republish_deg: [181.0],
             agree_deg: [-1.0],

@@ -118,4 +118,3 @@ fn bad_input_is_refused_without_changing_the_state() {
         .is_err());
     assert_eq!(fusion.fused_poses().len(), 1);
 }
-

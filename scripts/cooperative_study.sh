@@ -1,0 +1,78 @@
+#!/bin/bash
+# What cooperation buys, and what fusion costs against its oracle (docs/cooperative.md): every
+# run of launch/cooperative.toml (the agents' own SLAM, fused) beside the same seed of
+# launch/cooperative-true-poses.toml (every AGV at its true pose: the fused oracle, same
+# detections), at paper-5g.toml's sensing. Then the tables and plots (scripts/cooperative_table.py).
+#
+#   scripts/cooperative_study.sh OUT [SEEDS] [SCENES]
+#
+# Studies (STUDIES, default "hall random separate repeated"):
+#   hall      the paper's hall with 4 AGVs and 4 stations on the walls (config/hall-cooperative.toml):
+#             agvs 1-4 × stations 0, 2, 4, SEEDS seeds each (default 20);
+#   random    SCENES random scenes (default 10; `nrslam scene --random --seed K --agvs 2
+#             --stations 2`: two AGVs on one loop half a lap apart) with 2 AGVs, stations 0 and 2,
+#             2 seeds each;
+#   separate  config/two-rooms.toml: two AGVs that never see the same targets, both starts known;
+#   repeated  config/repeated-structure.toml: two identical groups of targets, agv2's start unknown.
+# JOBS runs in parallel (default nproc). Runs already in OUT are not run again (resumable).
+# Needs the release binary (cargo build --release) or NRSLAM pointing at one.
+set -euo pipefail
+out=${1:?usage: scripts/cooperative_study.sh OUT [SEEDS] [SCENES]}
+seeds=${2:-20}
+scenes=${3:-10}
+bin=${NRSLAM:-target/release/nrslam}
+jobs=${JOBS:-$(nproc)}
+studies=${STUDIES:-hall random separate repeated}
+mkdir -p "$out/runs" "$out/scenes"
+plan="$out/plan.txt"
+: > "$plan"
+line() { printf '%s\n' "$(echo "$*" | sed 's/[[:space:]]*$//')" >> "$plan"; }
+both() { # NAME SEED ARGS...: the SLAM run and its oracle
+  local name=$1 seed=$2; shift 2
+  line "${name}_slam_$seed $seed launch/cooperative.toml $*"
+  # The oracle knows every start (known_starts is its own, not an argument).
+  line "${name}_oracle_$seed $seed launch/cooperative-true-poses.toml $(echo "$*" | sed 's/known_starts:=[0-9]*//')"
+}
+for study in $studies; do
+  case $study in
+    hall)
+      for a in 1 2 3 4; do for m in 0 2 4; do for s in $(seq 1 "$seeds"); do
+        both "hall_a${a}_m${m}" "$s" "agvs:=$a stations:=$m"
+      done; done; done ;;
+    random)
+      for k in $(seq 1 "$scenes"); do
+        "$bin" scene --random --seed "$k" --agvs 2 --stations 2 --out "$out/scenes/s$k.toml" >/dev/null
+        for m in 0 2; do for s in 1 2; do
+          both "random_s${k}_m${m}" "$s" "agvs:=2 stations:=$m scene:=$out/scenes/s$k.toml"
+        done; done
+      done ;;
+    separate)
+      for s in $(seq 1 "$seeds"); do
+        both separate "$s" "agvs:=2 known_starts:=2 scene:=config/two-rooms.toml"
+      done ;;
+    repeated)
+      for s in $(seq 1 "$seeds"); do
+        both repeated "$s" "agvs:=2 scene:=config/repeated-structure.toml"
+      done ;;
+    *) echo "unknown study $study" >&2; exit 2 ;;
+  esac
+done
+
+run_one() { # NAME SEED LAUNCH ARGS...
+  local name=$1 seed=$2 launch=$3; shift 3
+  [ -f "$out/runs/$name.json" ] && return 0
+  local dir="$out/work/$name"
+  if "$bin" launch "$launch" "$@" --seed "$seed" --out "$dir" > "$out/work/$name.log" 2>&1; then
+    cp "$dir/summary.json" "$out/runs/$name.json"
+    rm -rf "$dir"
+  else
+    echo "FAILED $name (log: $out/work/$name.log)" >&2
+  fi
+}
+export -f run_one
+export out bin
+mkdir -p "$out/work"
+total=$(wc -l < "$plan")
+echo "$total runs, $jobs at a time" >&2
+xargs -P "$jobs" -L 1 bash -c 'run_one "$@"' _ < "$plan"
+python3 scripts/cooperative_table.py "$out"
