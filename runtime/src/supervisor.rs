@@ -1,7 +1,9 @@
 //! Supervision of a graph's node processes, as ROS 2 launch does it: each process is watched;
 //! one declared `respawn = true` that dies is started again after `respawn_delay_s`, at most
 //! `max_restarts` times; one that is not respawnable (or has used up its restarts) stops the
-//! graph with its name, exit status and last line on stderr.
+//! graph with its name, exit status and last line on stderr, unless it is declared
+//! `on_exit = "continue"` ([`OnExit::Continue`]): then it is reported ([`Event::Exited`]) and
+//! the graph goes on without it (the launcher ends its output streams for it).
 //!
 //! A process that exits with status 0 has finished its work and is never restarted. Every line a
 //! process writes to stderr is forwarded to ours prefixed `[name]`, and the last one is kept for
@@ -15,6 +17,18 @@ use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
+/// What a process's death does to the graph once it may not (or may no more) be restarted
+/// (`on_exit` of a launch file's node or include).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum OnExit {
+    /// The graph stops, naming the process (the default: a node the graph needs is gone).
+    #[default]
+    Stop,
+    /// The graph goes on without it: one agent of several, whose loss the others survive.
+    Continue,
+}
+
 /// What to do when a process dies.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RestartPolicy {
@@ -22,8 +36,11 @@ pub struct RestartPolicy {
     pub respawn: bool,
     /// Wait this long before starting it again.
     pub respawn_delay: Duration,
-    /// Restarts allowed; past them, a death stops the graph.
+    /// Restarts allowed; past them, a death stops the graph (or, with [`OnExit::Continue`],
+    /// ends the process's part in it).
     pub max_restarts: u32,
+    /// What a death that is not restarted does.
+    pub on_exit: OnExit,
 }
 
 impl Default for RestartPolicy {
@@ -32,6 +49,7 @@ impl Default for RestartPolicy {
             respawn: false,
             respawn_delay: Duration::from_secs(1),
             max_restarts: 3,
+            on_exit: OnExit::Stop,
         }
     }
 }
@@ -88,6 +106,14 @@ pub enum Event {
         /// Restarts so far, this one included.
         restarts: u32,
     },
+    /// A process declared [`OnExit::Continue`] died and is not restarted: the graph goes on
+    /// without it.
+    Exited {
+        /// Node name.
+        name: String,
+        /// How it died, e.g. "signal: 9 (SIGKILL)".
+        status: String,
+    },
 }
 
 struct Supervised {
@@ -98,6 +124,8 @@ struct Supervised {
     /// When a dead respawnable process is due to start again.
     restart_at: Option<(Instant, String)>,
     finished: bool,
+    /// How it died, when it died for good and the graph went on ([`OnExit::Continue`]).
+    exited: Option<String>,
 }
 
 /// The processes of a graph under supervision.
@@ -156,6 +184,7 @@ impl Supervisor {
                     restarts: 0,
                     restart_at: None,
                     finished: false,
+                    exited: None,
                 }),
                 Err(source) => {
                     supervisor.kill_all();
@@ -193,7 +222,23 @@ impl Supervisor {
                     continue;
                 }
                 let policy = process.spec.restart;
-                if !policy.respawn || process.restarts >= policy.max_restarts {
+                let gone = !policy.respawn || process.restarts >= policy.max_restarts;
+                if gone && policy.on_exit == OnExit::Continue {
+                    // Done with, as one that finished: the graph goes on without it.
+                    process.finished = true;
+                    process.exited = Some(status.to_string());
+                    tracing::warn!(
+                        node = process.spec.name,
+                        "node process died ({status}); on_exit = \"continue\": the graph goes on \
+                         without it"
+                    );
+                    events.push(Event::Exited {
+                        name: process.spec.name.clone(),
+                        status: status.to_string(),
+                    });
+                    continue;
+                }
+                if gone {
                     // Let the stderr forwarder catch the last line.
                     std::thread::sleep(Duration::from_millis(50));
                     let last_line = process
@@ -247,7 +292,16 @@ impl Supervisor {
         Ok(events)
     }
 
-    /// Whether every process has finished with status 0.
+    /// Processes that died for good while the graph went on ([`OnExit::Continue`]), and how.
+    pub fn exited(&self) -> BTreeMap<String, String> {
+        self.processes
+            .iter()
+            .filter_map(|p| Some((p.spec.name.clone(), p.exited.clone()?)))
+            .collect()
+    }
+
+    /// Whether every process has finished: with status 0, or died for good with
+    /// [`OnExit::Continue`].
     pub fn all_finished(&self) -> bool {
         self.processes.iter().all(|p| p.finished)
     }
@@ -328,6 +382,7 @@ mod tests {
             respawn: true,
             respawn_delay: Duration::from_millis(50),
             max_restarts: 2,
+            ..RestartPolicy::default()
         };
         let mut supervisor = Supervisor::start(vec![
             shell("flaky", "echo dying >&2; kill -9 $$", "exit 0", respawn),
@@ -368,11 +423,55 @@ mod tests {
     }
 
     #[test]
+    fn a_process_that_may_continue_is_reported_and_the_graph_goes_on() {
+        let go_on = RestartPolicy {
+            on_exit: OnExit::Continue,
+            ..RestartPolicy::default()
+        };
+        let respawn_then_go_on = RestartPolicy {
+            respawn: true,
+            respawn_delay: Duration::ZERO,
+            max_restarts: 1,
+            on_exit: OnExit::Continue,
+        };
+        let mut supervisor = Supervisor::start(vec![
+            shell("agent", "kill -9 $$", "", go_on),
+            shell("flaky", "exit 4", "exit 5", respawn_then_go_on),
+            shell("steady", "sleep 0.3", "", RestartPolicy::default()),
+        ])
+        .unwrap();
+        let mut events = Vec::new();
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while !supervisor.all_finished() && Instant::now() < deadline {
+            events.extend(supervisor.poll().unwrap());
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        assert!(supervisor.all_finished());
+        assert!(
+            events.contains(&Event::Exited {
+                name: "agent".into(),
+                status: "signal: 9 (SIGKILL)".into()
+            }),
+            "{events:?}"
+        );
+        // Restarted once, then gone for good with its restart's status.
+        assert_eq!(supervisor.restarts(), BTreeMap::from([("flaky".into(), 1)]));
+        assert_eq!(
+            supervisor.exited(),
+            BTreeMap::from([
+                ("agent".into(), "signal: 9 (SIGKILL)".into()),
+                ("flaky".into(), "exit status: 5".into()),
+            ])
+        );
+    }
+
+    #[test]
     fn restarts_are_limited() {
         let respawn = RestartPolicy {
             respawn: true,
             respawn_delay: Duration::ZERO,
             max_restarts: 2,
+            ..RestartPolicy::default()
         };
         let mut supervisor =
             Supervisor::start(vec![shell("crashy", "exit 7", "exit 7", respawn)]).unwrap();

@@ -40,6 +40,7 @@ pub const REPORTED: &[&str] = &[
     topics::SEGMENTS,
     topics::MAP_TARGETS,
     topics::METRICS,
+    topics::FUSION_EDGES,
 ];
 
 /// A message stamp as (sec, nanosec), exact, for matching keyframes to the truth.

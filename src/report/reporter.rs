@@ -48,6 +48,9 @@ pub struct Reporter {
     pub dropped: BTreeMap<String, nrslam_runtime::receive::Drops>,
     /// Node processes restarted by supervision, and how many times.
     pub restarts: BTreeMap<String, u32>,
+    /// Node processes that died for good while the graph went on without them (`on_exit =
+    /// "continue"`), and how they died.
+    pub exited: BTreeMap<String, String>,
     /// The evaluator's parameters (the launch's, else the paper's), for the final ET-GOPSA of
     /// each choice of representatives in `summary.json`.
     pub evaluator: nrslam_evaluator::Params,

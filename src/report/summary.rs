@@ -66,6 +66,7 @@ impl Reporter {
                 .collect(),
             dropped: self.dropped.clone(),
             restarts: self.restarts.clone(),
+            exited: self.exited.clone(),
             shapes: self.shape_summary(),
             differs_from_recording: BTreeMap::new(),
             agents: self
@@ -141,6 +142,10 @@ pub struct Summary {
     /// Node processes restarted by supervision (absent when none).
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub restarts: BTreeMap<String, u32>,
+    /// Node processes that died for good while the graph went on without them (`on_exit =
+    /// "continue"`, docs/launch.md), each with how it died (absent when none).
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub exited: BTreeMap<String, String>,
     /// The fitted shapes against the truth, and the final ET-GOPSA with each choice of
     /// representatives (absent when the run fits no shapes; see `report/shapes.rs`).
     #[serde(skip_serializing_if = "Option::is_none")]

@@ -62,6 +62,10 @@ pub(super) struct IncludeDecl {
     /// Included nodes not to run.
     #[serde(default)]
     drop: Vec<String>,
+    /// `on_exit` of every node the include adds (nested includes' too), e.g. `"continue"` for
+    /// an agent's chain, which the graph survives losing ([`super::NodeDecl::on_exit`]).
+    #[serde(default)]
+    on_exit: Option<crate::supervisor::OnExit>,
 }
 
 /// The including file, as far as its includes need it.
@@ -364,6 +368,11 @@ fn expand_copy(
                 "{} [include.params.{node}]",
                 includer.path.display()
             ));
+        }
+    }
+    if let Some(on_exit) = decl.on_exit {
+        for node in &mut expanded.nodes {
+            node.on_exit = on_exit;
         }
     }
     // `drop` and `params` name the nodes as the included file knows them; then the namespace.

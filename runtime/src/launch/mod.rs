@@ -179,6 +179,13 @@ pub struct NodeDecl {
     /// Respawns allowed before a death stops the graph, 0–1000.
     #[serde(default = "default_max_restarts")]
     pub max_restarts: u32,
+    /// In a processes-mode launch, what the node's death does once it is not (or no more)
+    /// respawned: `"stop"` the graph (the default), or `"continue"` without it, the launcher
+    /// ending its output streams for it so that the nodes downstream finish what they have (an
+    /// agent of a cooperative run that is switched off). An `[[include]]`'s `on_exit` sets it
+    /// for every node the include adds.
+    #[serde(default)]
+    pub on_exit: crate::supervisor::OnExit,
     /// The launch file that declares the node (for an included node, the included file).
     #[serde(skip)]
     pub file: PathBuf,

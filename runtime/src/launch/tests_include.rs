@@ -433,3 +433,55 @@ fn node_parameter_overrides_set_nested_values_and_are_recorded() {
         &["no node runs with these arguments"],
     );
 }
+
+#[test]
+fn on_exit_is_a_nodes_and_an_include_sets_it_for_every_node_it_adds() {
+    let top = r#"
+[[include]]
+file = "base.toml"
+namespace = "agv1"
+on_exit = "continue"
+[[include]]
+file = "base.toml"
+namespace = "agv2"
+[[node]]
+name = "fusion"
+kind = "fusion"
+on_exit = "stop"
+"#;
+    let dir = folder(&[("top.toml", top), ("base.toml", BASE)]);
+    let launch = load(dir.path(), "top.toml", &[]).unwrap();
+    let on_exit: Vec<(&str, crate::supervisor::OnExit)> = launch
+        .nodes
+        .iter()
+        .map(|n| (n.name.as_str(), n.on_exit))
+        .collect();
+    use crate::supervisor::OnExit::{Continue, Stop};
+    assert_eq!(
+        on_exit,
+        [
+            ("agv1/radar", Continue),
+            ("agv1/mapper", Continue),
+            ("agv2/radar", Stop),
+            ("agv2/mapper", Stop),
+            ("fusion", Stop),
+        ]
+    );
+    // Any other value: refused with the file's line and the two allowed.
+    for (bad, line) in [
+        (
+            "[[node]]\nname = \"a\"\nkind = \"b\"\non_exit = \"ignore\"\n",
+            4,
+        ),
+        (
+            "[[include]]\nfile = \"base.toml\"\non_exit = \"restart\"\n",
+            3,
+        ),
+    ] {
+        let dir = folder(&[("top.toml", bad), ("base.toml", BASE)]);
+        assert_refused(
+            load(dir.path(), "top.toml", &[]),
+            &["expected `stop` or `continue`", &format!("(line {line})")],
+        );
+    }
+}

@@ -12,12 +12,11 @@ use nrslam_msgs::{topics, Message};
 use nrslam_runtime::compose::{anyhow_free, Observer};
 use nrslam_runtime::launch::{Launch, NodeDecl};
 use nrslam_runtime::receive::Inbox;
-use nrslam_runtime::supervised::receive_supervised;
+use nrslam_runtime::supervised::{receive_supervised, NodeTopics};
 use nrslam_runtime::supervisor::{Event, ProcessSpec, RestartPolicy, Supervisor};
-use nrslam_runtime::transport::{self, SessionMode};
+use nrslam_runtime::transport::{self, SessionMode, TopicPublisher};
 use nrslam_runtime::wiring::check_respawnable;
 use nrslam_runtime::Node;
-use std::collections::BTreeMap;
 use std::ffi::OsString;
 use std::path::Path;
 use std::time::Duration;
@@ -101,6 +100,7 @@ fn restart_policy(decl: &NodeDecl, node: &dyn Node) -> Result<RestartPolicy> {
         respawn: decl.respawn,
         respawn_delay: flags::seconds("respawn_delay_s", decl.respawn_delay_s)?,
         max_restarts: decl.max_restarts,
+        on_exit: decl.on_exit,
     })
 }
 
@@ -114,11 +114,18 @@ pub(super) fn run_processes(
     let (mut listened, policies) = listened_topics(launch, &built, &recorder)?;
     let open: Vec<&'static str> = listened.clone();
     listened.push(topics::DIAGNOSTICS);
-    let inputs: BTreeMap<String, Vec<&'static str>> = built
-        .nodes
-        .iter()
-        .map(|(name, node)| (name.clone(), node.inputs()))
-        .collect();
+    let topics = NodeTopics {
+        inputs: built
+            .nodes
+            .iter()
+            .map(|(name, node)| (name.clone(), node.inputs()))
+            .collect(),
+        outputs: built
+            .nodes
+            .iter()
+            .map(|(name, node)| (name.clone(), node.outputs()))
+            .collect(),
+    };
     drop(built.nodes);
     let port = free_loopback_port()?;
     let endpoint = format!("tcp/127.0.0.1:{port}");
@@ -148,19 +155,28 @@ pub(super) fn run_processes(
     )
     .map_err(|e| anyhow!("{e}"))?;
     let bar = progress(built.expected_frames);
+    // Ends the streams of a node that died for good while the graph goes on without it.
+    let mut ender = TopicPublisher::with_style(
+        &session,
+        &args.transport.namespace,
+        &[],
+        crate::args::key_style(args.ros_domain_id),
+    )?;
     let mut reporter = receive(
         &mut inbox,
         &mut supervisor,
-        &inputs,
+        &topics,
         open,
         &bar,
         &mut recorder,
+        &mut ender,
     )?;
     bar.finish_and_clear();
     if !supervisor.wait_all(Duration::from_secs(60))? {
         bail!("node processes still running 60 s after their topics ended");
     }
     reporter.restarts = supervisor.restarts();
+    reporter.exited = supervisor.exited();
     reporter.note_drops("nrslam/launch/receive", inbox.drops());
     let _ = zenoh::Wait::wait(session.close());
     if let Some(recorder) = recorder {
@@ -169,11 +185,14 @@ pub(super) fn run_processes(
     Ok(reporter)
 }
 
-/// The catalogue topics whose namespaced copies (`/agv1/slam/pose`) the report takes per agent.
-const AGENT_POSES: [&str; 3] = [
+/// The catalogue topics whose namespaced copies (`/agv1/slam/pose`) the report takes per agent:
+/// the poses of its agent tracks, and the keyframes whose stamps score the inter-agent edges
+/// (src/report/agents.rs).
+const AGENT_TOPICS: [&str; 4] = [
     topics::GROUND_TRUTH_POSE,
     topics::SLAM_POSE,
     topics::FUSION_POSE,
+    topics::KEYFRAME,
 ];
 
 /// The topics the launcher listens to, sorted (without /diagnostics), and each node's restart
@@ -190,11 +209,11 @@ fn listened_topics(
     if let Some(recorder) = recorder {
         listened.extend(recorder.topics.iter().copied());
     }
-    // Each agent's poses under its namespace, which the report's agent tracks take
-    // (src/report/agents.rs), as the in-process observer sees them.
+    // Each agent's poses and keyframes under its namespace, which the report's agent tracks
+    // take (src/report/agents.rs), as the in-process observer sees them.
     for (_, node) in &built.nodes {
         listened.extend(node.outputs().into_iter().filter(|t| {
-            topics::split_namespace(t).is_some_and(|(_, spec)| AGENT_POSES.contains(&spec.name))
+            topics::split_namespace(t).is_some_and(|(_, spec)| AGENT_TOPICS.contains(&spec.name))
         }));
     }
     let mut policies = Vec::new();
@@ -286,19 +305,33 @@ impl Observer for Taker<'_> {
 fn receive(
     inbox: &mut Inbox,
     supervisor: &mut Supervisor,
-    inputs: &BTreeMap<String, Vec<&'static str>>,
+    topics: &NodeTopics,
     open: Vec<&'static str>,
     bar: &ProgressBar,
     recorder: &mut Option<Recorder>,
+    ender: &mut TopicPublisher,
 ) -> Result<Reporter> {
     let mut taker = Taker {
         reporter: Reporter::default(),
         bar,
         recorder,
     };
-    receive_supervised(inbox, supervisor, inputs, open, &mut taker, &mut |event| {
-        let Event::Restarted { name, status, .. } = event;
-        bar.println(format!("node {name} died ({status}) and was restarted"));
-    })?;
+    receive_supervised(
+        inbox,
+        supervisor,
+        topics,
+        open,
+        &mut taker,
+        ender,
+        &mut |event| match event {
+            Event::Restarted { name, status, .. } => {
+                bar.println(format!("node {name} died ({status}) and was restarted"))
+            }
+            Event::Exited { name, status } => bar.println(format!(
+                "node {name} died ({status}); on_exit = \"continue\": its streams were ended \
+                 and the graph goes on without it"
+            )),
+        },
+    )?;
     Ok(taker.reporter)
 }
