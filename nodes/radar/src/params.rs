@@ -93,6 +93,13 @@ pub struct Params {
     pub angle_std_deg: f64,
     /// Stop after this many frames; 0 runs the whole trajectory.
     pub frames: u32,
+    /// The sensor is switched on at this frame (counted from 0, on the run's clock): the frames
+    /// before it publish nothing (no `/clock`, pose, odometry or measurement), as if the AGV or
+    /// station were switched on later, and an AGV's odometry starts there, at its true pose then
+    /// (`odom_origin = "map"`) or at the identity (`"start"`). The ground-truth targets are
+    /// still published first. 0 (the default): from the first frame. Must be before the last
+    /// frame; not with `sensor = "none"`, which is the run's clock.
+    pub start_frame: u32,
     /// Spacing of the point scatterers along each target's outline (m), overriding the scene
     /// file's `scatterer_spacing_m`; 0 keeps the scene's. Scatterer density trades frame cost
     /// (echoes per frame) against how densely the outlines are sampled.
@@ -146,6 +153,7 @@ impl Default for Params {
             range_std_m: 0.0,
             angle_std_deg: 1.0,
             frames: 0,
+            start_frame: 0,
             scatterer_spacing_m: 0.0,
             odom_translation_noise: 0.02,
             odom_rotation_noise_deg_per_m: 0.5,
@@ -192,6 +200,26 @@ impl Params {
                     self.sensor
                 ),
                 "\"map\", or \"start\" with sensor \"\" or \"agvN\"",
+            ));
+        }
+        if self.start_frame > 0 && role == Role::NoSensor {
+            return Err(InvalidParam::new(
+                "start_frame",
+                format!(
+                    "is {} with sensor = \"none\", the run's clock, which starts at frame 0",
+                    self.start_frame
+                ),
+                "0 with sensor \"none\"; an AGV or station may start later",
+            ));
+        }
+        if self.frames > 0 && self.start_frame >= self.frames {
+            return Err(InvalidParam::new(
+                "start_frame",
+                format!(
+                    "is {} with frames = {}: the sensor would never be switched on",
+                    self.start_frame, self.frames
+                ),
+                "below frames (and below the path's frame count)",
             ));
         }
         if self.scatterer_spacing_m != 0.0 {
@@ -353,6 +381,8 @@ mod tests {
                 "odom_origin",
             ),
             ("sensor = \"none\"\nodom_origin = \"start\"", "odom_origin"),
+            ("sensor = \"none\"\nstart_frame = 3", "start_frame"),
+            ("frames = 10\nstart_frame = 10", "start_frame"),
         ] {
             let p: Params = toml::from_str(text).unwrap();
             assert_eq!(p.validate().unwrap_err().field, field, "{text}");

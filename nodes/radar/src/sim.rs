@@ -199,6 +199,8 @@ pub struct Simulator {
     platform: Platform,
     model: Model,
     frame_count: usize,
+    /// The frame the sensor is switched on at (`start_frame`): the first this run produces.
+    first_frame: usize,
     next_frame: usize,
 }
 
@@ -217,6 +219,19 @@ impl Simulator {
     pub fn new(scene: Scene, params: &Params, seed: u64) -> Result<Self, RadarError> {
         params.validate()?;
         let role = resolve_role(&scene, params, None)?;
+        let frame_count = frame_count(&scene, params)?;
+        let first_frame = params.start_frame as usize;
+        if first_frame >= frame_count {
+            return Err(RadarError::Param(nrslam_runtime::InvalidParam::new(
+                "start_frame",
+                format!(
+                    "is {first_frame}, but {} drives {frame_count} frames: it would never be \
+                     switched on",
+                    role.name()
+                ),
+                format!("0 to {}", frame_count.saturating_sub(1)),
+            )));
+        }
         let model = match params.fidelity {
             Fidelity::Ideal => {
                 let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -243,7 +258,8 @@ impl Simulator {
                 let agv = &scene.agvs[index];
                 let mut odometry_rng = ChaCha8Rng::seed_from_u64(seed);
                 odometry_rng.set_stream(ODOMETRY_STREAM);
-                let start = agv.trajectory.pose_at_frame(0);
+                // Switched on at `first_frame`: its odometry starts there.
+                let start = agv.trajectory.pose_at_frame(first_frame);
                 let odometry = WheelOdometry::new(start, params.odometry_noise(), odometry_rng);
                 let origin = (params.odom_origin == OdomOrigin::Start).then_some(start);
                 (
@@ -265,7 +281,6 @@ impl Simulator {
             }
             Role::NoSensor => (scene.trajectory.clone(), scene.sensor, Platform::NoSensor),
         };
-        let frame_count = frame_count(&scene, params)?;
         Ok(Self {
             fidelity: params.fidelity,
             scene,
@@ -275,7 +290,8 @@ impl Simulator {
             platform,
             model,
             frame_count,
-            next_frame: 0,
+            first_frame,
+            next_frame: first_frame,
         })
     }
 
@@ -304,7 +320,8 @@ impl Simulator {
         &self.trajectory
     }
 
-    /// Number of frames this run produces.
+    /// One past the index of the last frame this run produces (it produces the frames from
+    /// `start_frame` up to this).
     pub fn frame_count(&self) -> usize {
         self.frame_count
     }
@@ -321,9 +338,9 @@ impl Simulator {
         let (true_pose, odometry, speed_mps) = match &mut self.platform {
             Platform::Agv { odometry, origin } => {
                 let true_pose = trajectory.pose_at_frame(k);
-                let mut reading = if k == 0 {
-                    // Frame 0 has no increment: report the truth and the true velocities.
-                    let s = trajectory.distance_at_frame_m(0);
+                let mut reading = if k == self.first_frame {
+                    // The first frame has no increment: report the truth and the true velocities.
+                    let s = trajectory.distance_at_frame_m(k);
                     odometry
                         .initial_reading(trajectory.speed_mps(), trajectory.yaw_rate_at_distance(s))
                 } else {

@@ -621,3 +621,86 @@ fn the_documented_example_is_a_valid_scene() {
         assert!(error.contains(message), "{error}");
     }
 }
+
+#[test]
+fn a_sensor_switched_on_late_publishes_nothing_before_its_start_frame() {
+    let coop = scene("hall-cooperative.toml");
+    let path = &coop.agvs[1].trajectory;
+    let late = |origin, start_frame| Params {
+        frames: 12,
+        start_frame,
+        odom_origin: origin,
+        ..cooperative("agv2")
+    };
+    // Through the node: the targets first, then frames 5 to 11 only, each with its clock, pose,
+    // odometry and detections, on the run's clock.
+    let published = run_node(late(OdomOrigin::Start, 5), 3);
+    assert_eq!(published[0].0, GROUND_TRUTH_TARGETS);
+    assert_eq!(published.len(), 1 + 7 * 4);
+    let stamps: Vec<f64> = on(&published, CLOCK)
+        .iter()
+        .map(|m| m.stamp().as_seconds())
+        .collect();
+    let expected: Vec<f64> = (5..12).map(|k| path.stamp_s(k)).collect();
+    assert_eq!(stamps, expected);
+    assert_eq!(on(&published, DETECTIONS).len(), 7);
+    // Its odometry starts where it is switched on: the identity from an unknown start, its true
+    // pose then from a known one.
+    let Message::Odometry(odom) = &on(&published, ODOM)[0] else {
+        unreachable!()
+    };
+    assert_eq!(odom.pose.pose, Pose::from_planar(0.0, 0.0, 0.0));
+    let published = run_node(late(OdomOrigin::Map, 5), 3);
+    let Message::Odometry(odom) = &on(&published, ODOM)[0] else {
+        unreachable!()
+    };
+    assert_eq!(odom.pose.pose, pose_of(path.pose_at_frame(5)));
+    let Message::PoseStamped(truth) = &on(&published, GROUND_TRUTH_POSE)[0] else {
+        unreachable!()
+    };
+    assert_eq!(truth.pose, pose_of(path.pose_at_frame(5)));
+
+    // Without noise, the frames it does sense are those of a sensor on from the start, and its
+    // odometry is the truth's motion from where it was switched on.
+    let frames = |start_frame| {
+        Simulator::new(
+            coop.clone(),
+            &noiseless(late(OdomOrigin::Start, start_frame)),
+            3,
+        )
+        .unwrap()
+        .collect::<Vec<_>>()
+    };
+    let (from_start, from_5) = (frames(0), frames(5));
+    assert_eq!(from_5.len(), 7);
+    let on_at_5 = path.pose_at_frame(5);
+    for (late, early) in from_5.iter().zip(&from_start[5..]) {
+        assert_eq!(late.index, early.index);
+        assert_eq!(late.stamp_s, early.stamp_s);
+        assert_eq!(late.true_pose, early.true_pose);
+        assert_eq!(late.detections, early.detections);
+        let expected = late.true_pose.relative_to(on_at_5);
+        assert!((late.odometry.pose.position() - expected.position()).norm() < 1e-9);
+    }
+
+    // Never switched on, or a clock switched on late: refused by name.
+    for params in [
+        late(OdomOrigin::Start, 12),
+        Params {
+            frames: 0,
+            ..late(OdomOrigin::Start, 294)
+        },
+        Params {
+            start_frame: 1,
+            ..cooperative("none")
+        },
+    ] {
+        assert_eq!(params_error(params).field, "start_frame");
+    }
+    // Just before the last frame: one frame.
+    let last = Params {
+        frames: 0,
+        ..late(OdomOrigin::Map, 293)
+    };
+    assert_eq!(on(&run_node(last, 3), CLOCK).len(), 1);
+}
