@@ -1,0 +1,448 @@
+//! Cooperative runs through the binary (launch/cooperative.toml, docs/cooperative.md; issue 43's
+//! acceptance 5, 6 and 8), kept small (ideal fidelity, 30 to 120 frames) so that each takes
+//! seconds in a debug build:
+//!
+//! - across processes: every agent's nodes in their own processes, joined over zenoh, give the
+//!   fused summary of the in-process run, byte for byte;
+//! - faults: an agent whose streams end early, or whose process is killed mid-run, leaves the
+//!   others fused to the end; an agent switched on late is merged once it overlaps;
+//! - stations alone: fixed stations map what they see in the true frame, with no alignment.
+//!
+//! (A fusion node fed misbehaving messages, NaN poses, wrong frames, stamps in the past, is tested
+//! on the node itself: nodes/fusion/src/node.rs.)
+
+mod common;
+use common::*;
+
+use nrslam_msgs::{Message, Segments, TargetSet};
+use nrslam_runtime::bag::{Bag, ReadMode};
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+
+/// `nrslam launch launch/cooperative.toml ARGS --out DIR/NAME`, which must succeed; the output
+/// folder.
+fn cooperative(dir: &Path, name: &str, args: &[&str]) -> PathBuf {
+    let out = dir.join(name);
+    let mut all = vec!["launch", "launch/cooperative.toml"];
+    all.extend_from_slice(args);
+    all.extend(["--out", out.to_str().unwrap()]);
+    run_ok(&all);
+    out
+}
+
+/// `summary.json`'s `agents.NAME.FIELD`, which must be there.
+fn agent<'a>(summary: &'a Value, name: &str, field: &str) -> &'a Value {
+    summary["agents"]
+        .get(name)
+        .and_then(|a| a.get(field))
+        .unwrap_or_else(|| panic!("no agents.{name}.{field} in {summary:#}"))
+}
+
+fn agent_u64(summary: &Value, name: &str, field: &str) -> u64 {
+    agent(summary, name, field)
+        .as_u64()
+        .unwrap_or_else(|| panic!("agents.{name}.{field} is not a count"))
+}
+
+#[test]
+fn each_node_in_its_own_process_gives_the_in_process_fused_summary() {
+    let dir = temp();
+    let args = [
+        "agvs:=2",
+        "stations:=1",
+        "frames:=80",
+        "fidelity:=ideal",
+        "known_starts:=2",
+    ];
+    let one = cooperative(dir.path(), "in-process", &args);
+    let mut processes_args = args.to_vec();
+    processes_args.extend(["--mode", "processes"]);
+    let many = cooperative(dir.path(), "processes", &processes_args);
+    // The whole summary.json: nothing in it is run-specific (the mode and the wall time are in
+    // run.json), and the launcher hears every agent's poses and keyframes and the inter-agent
+    // edges over zenoh as the in-process observer does.
+    assert_eq!(
+        read(&many.join("summary.json")),
+        read(&one.join("summary.json"))
+    );
+    for file in ["metrics.csv", "loops.csv", "shapes.csv"] {
+        assert_eq!(read(&many.join(file)), read(&one.join(file)), "{file}");
+    }
+    // What was compared is the fused result of three agents, not an empty section.
+    let s = summary(&one);
+    for name in ["agv1", "agv2", "station1"] {
+        assert_eq!(agent_u64(&s, name, "fused_frames"), 80, "{name}");
+    }
+    assert!(
+        s["inter_agent_edges"]["accepted"].as_u64() > Some(0),
+        "{:#}",
+        s["inter_agent_edges"]
+    );
+}
+
+/// The ideal-fidelity hall run of two AGVs with known starts and one station, 80 frames.
+const TWO_AGVS: [&str; 5] = [
+    "agvs:=2",
+    "stations:=1",
+    "known_starts:=2",
+    "frames:=80",
+    "fidelity:=ideal",
+];
+
+/// Stamp (s) of frame `k` of the hall scenes (t0 = 1 s, 0.5 s apart).
+fn frame_stamp_s(k: u64) -> f64 {
+    1.0 + 0.5 * k as f64
+}
+
+/// Each `/map` of the bag at `dir`: (stamp s, occupied cells, at or above the segmenter's 65 %).
+fn maps(dir: &Path) -> Vec<(f64, usize)> {
+    let bag = Bag::open(dir, ReadMode::Strict).unwrap();
+    bag.messages_on(&["/map".to_owned()])
+        .unwrap()
+        .map(|message| match message.unwrap().decode().unwrap() {
+            Message::OccupancyGrid(grid) => (
+                grid.header.stamp.as_seconds(),
+                grid.data.iter().filter(|&&p| p >= 65).count(),
+            ),
+            other => panic!("/map carried {}", other.type_name()),
+        })
+        .collect()
+}
+
+/// Asserts that the fused map went on growing after `stopped_s` (an agent's last frame): the
+/// last map has more occupied cells than the last one published by then, and came later.
+fn assert_map_grew_after(bag: &Path, stopped_s: f64) {
+    let maps = maps(bag);
+    let before = maps
+        .iter()
+        .rfind(|(stamp, _)| *stamp <= stopped_s)
+        .unwrap_or_else(|| panic!("no map by {stopped_s} s: {maps:?}"));
+    let last = maps.last().unwrap();
+    assert!(
+        last.0 > before.0 && last.1 > before.1,
+        "the map stopped at {before:?} (agent stopped at {stopped_s} s): {maps:?}"
+    );
+}
+
+#[test]
+fn an_agent_whose_streams_end_early_leaves_the_others_fused_to_the_end() {
+    let dir = temp();
+    let bag = dir.path().join("stopped-bag");
+    let mut args = TWO_AGVS.to_vec();
+    args.extend(["agv2/radar.frames:=40", "--record", bag.to_str().unwrap()]);
+    args.extend(["--record-topics", "/map"]);
+    let out = cooperative(dir.path(), "stopped", &args);
+    let s = summary(&out);
+    assert_eq!(s["frames"], 80);
+    // agv2 sensed and was fused for its 40 frames; agv1 on to the end.
+    assert_eq!(agent_u64(&s, "agv2", "frames"), 40);
+    assert_eq!(agent_u64(&s, "agv2", "fused_frames"), 40);
+    assert_eq!(agent_u64(&s, "agv1", "fused_frames"), 80);
+    assert_eq!(agent_u64(&s, "station1", "fused_frames"), 80);
+    // The fused map is scored at every step, and agv1 keeps adding to it after agv2 stopped.
+    assert_eq!(s["metric_steps"], 80);
+    assert_map_grew_after(&bag, frame_stamp_s(39));
+    // What agv2 mapped before it stopped stays in the map: it scores better than the same run
+    // without agv2 at all.
+    let alone = cooperative(
+        dir.path(),
+        "alone",
+        &[
+            "agvs:=1",
+            "stations:=1",
+            "known_starts:=1",
+            "frames:=80",
+            "fidelity:=ideal",
+        ],
+    );
+    let (with, without) = (s["etgospa"].as_f64(), summary(&alone)["etgospa"].as_f64());
+    assert!(
+        with.is_some() && without.is_some() && with < without,
+        "ET-GOPSA {with:?} with agv2's first 40 frames, {without:?} without agv2"
+    );
+}
+
+#[cfg(target_os = "linux")]
+mod killed {
+    use super::*;
+    use std::io::{BufRead, BufReader};
+    use std::process::Stdio;
+    use std::time::{Duration, Instant};
+
+    /// The pid of the child of `parent` running the node `name` (`--name NAME` on its command
+    /// line).
+    fn node_pid(parent: u32, name: &str) -> Option<u32> {
+        let needle = format!("--name\0{name}\0");
+        for entry in std::fs::read_dir("/proc").ok()?.flatten() {
+            let Ok(pid) = entry.file_name().to_string_lossy().parse::<u32>() else {
+                continue;
+            };
+            let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else {
+                continue;
+            };
+            // The parent pid is the second field after the parenthesised command name.
+            let ppid = stat
+                .rsplit_once(')')
+                .and_then(|(_, rest)| rest.split_whitespace().nth(1))
+                .and_then(|p| p.parse::<u32>().ok());
+            let cmdline = std::fs::read(format!("/proc/{pid}/cmdline")).unwrap_or_default();
+            if ppid == Some(parent) && String::from_utf8_lossy(&cmdline).contains(&needle) {
+                return Some(pid);
+            }
+        }
+        None
+    }
+
+    #[test]
+    fn an_agent_killed_mid_run_leaves_the_others_fused_to_the_end() {
+        let dir = temp();
+        let (out, bag) = (dir.path().join("killed"), dir.path().join("bag"));
+        // Paced (2 × real time: 20 s for 80 frames) so that agv2's radar is still running when
+        // it is killed; its association logs each frame it handles (debug level), which tells
+        // when the run is under way.
+        let mut child = nrslam()
+            .args(["launch", "launch/cooperative.toml"])
+            .args(TWO_AGVS)
+            .args(["--mode", "processes", "--rate", "2", "--out"])
+            .arg(&out)
+            .arg("--record")
+            .arg(&bag)
+            .args(["--record-topics", "/map"])
+            .env("NRSLAM_LOG", "warn,nrslam_association=debug")
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("nrslam launch starts");
+        let stderr = BufReader::new(child.stderr.take().unwrap());
+        let mut log = Vec::new();
+        let mut handled = 0;
+        let mut killed = None;
+        let deadline = Instant::now() + Duration::from_secs(300);
+        // Reading to the end of stderr is waiting for the launcher to exit.
+        for line in stderr.lines().map_while(Result::ok) {
+            if killed.is_none()
+                && line.starts_with("[agv2/association]")
+                && line.contains("association frame")
+            {
+                handled += 1;
+                // 20 frames in (of 80): kill agv2's radar, the AGV switched off mid-run.
+                if handled == 20 {
+                    let pid = node_pid(child.id(), "agv2/radar").expect("agv2/radar runs");
+                    let status = std::process::Command::new("kill")
+                        .args(["-9", &pid.to_string()])
+                        .status()
+                        .unwrap();
+                    assert!(status.success());
+                    killed = Some(pid);
+                }
+            }
+            if !line.contains("association frame") {
+                log.push(line);
+            }
+            if Instant::now() > deadline {
+                let _ = child.kill();
+                panic!("nrslam launch still running after 300 s");
+            }
+        }
+        let status = child.wait().unwrap();
+        let log = log.join("\n");
+        assert!(killed.is_some(), "agv2 handled {handled} frames: {log}");
+        assert!(status.success(), "{log}");
+        assert!(
+            log.contains("node process died (signal: 9 (SIGKILL)); on_exit = \"continue\"")
+                && log.contains("agv2/radar"),
+            "{log}"
+        );
+
+        let s = summary(&out);
+        assert_eq!(
+            s["exited"],
+            serde_json::json!({ "agv2/radar": "signal: 9 (SIGKILL)" })
+        );
+        assert!(s.get("restarts").is_none());
+        // agv2 stopped mid-run: fused for the frames it sensed, at least those its association
+        // had handled when it was killed, and fewer than the run's.
+        let agv2 = agent_u64(&s, "agv2", "frames");
+        assert!((20..80).contains(&agv2), "agv2 sensed {agv2} frames");
+        assert!(agent_u64(&s, "agv2", "fused_frames") >= 20);
+        // Everyone else to the end, the map scored at every step and still growing.
+        assert_eq!(s["frames"], 80);
+        assert_eq!(agent_u64(&s, "agv1", "fused_frames"), 80);
+        assert_eq!(agent_u64(&s, "station1", "fused_frames"), 80);
+        assert_eq!(s["metric_steps"], 80);
+        assert_map_grew_after(&bag, frame_stamp_s(agv2 - 1));
+        assert!(s["etgospa"].as_f64().is_some_and(f64::is_finite));
+    }
+}
+
+#[test]
+fn an_agent_switched_on_late_is_merged_once_it_overlaps() {
+    let dir = temp();
+    // tests/launch/late-join-scene.toml: agv2 drives agv1's loop 30 m behind it, its start
+    // unknown to fusion (known_starts = 1), switched on at frame 60, where agv1 started.
+    let scene = root().join("tests/launch/late-join-scene.toml");
+    let scene = format!("scene:={}", scene.display());
+    let args = [
+        "agvs:=2",
+        "stations:=0",
+        "known_starts:=1",
+        "frames:=120",
+        "fidelity:=ideal",
+        &scene,
+    ];
+    let mut late = args.to_vec();
+    late.push("agv2/radar.start_frame:=60");
+    let out = cooperative(dir.path(), "late", &late);
+    let s = summary(&out);
+    // Nothing of agv2 before frame 60: its first true pose is its 61st frame's.
+    assert_eq!(agent_u64(&s, "agv2", "frames"), 60);
+    // Merged: fused poses from a time after it was switched on, through to the end.
+    let merged_after_s = agent(&s, "agv2", "merged_after_s")
+        .as_f64()
+        .unwrap_or_else(|| panic!("agv2 never merged: {:#}", s["agents"]));
+    let fused = agent_u64(&s, "agv2", "fused_frames");
+    assert!(merged_after_s > 0.0 && fused > 0, "{:#}", s["agents"]);
+    // Once merged, a fused pose for each of its frames to the end (0.5 s apart).
+    assert_eq!(fused, 60 - (merged_after_s / 0.5).round() as u64);
+    // At its true place in the map frame, not merely somewhere.
+    let error = agent(&s, "agv2", "fused_pose_rmse_m").as_f64().unwrap();
+    assert!(error < 0.5, "agv2's fused pose RMSE {error} m");
+    assert_eq!(s["inter_agent_edges"]["wrong"], 0);
+    assert_eq!(agent_u64(&s, "agv1", "fused_frames"), 120);
+
+    // Switched on late is not the same run as from the start: agv2's first 60 frames are gone.
+    let early = cooperative(dir.path(), "early", &args);
+    assert_eq!(agent_u64(&summary(&early), "agv2", "frames"), 120);
+}
+
+/// Distance (m) from `p` to the closed polygon `outline`.
+fn distance_to_outline(p: (f64, f64), outline: &[(f64, f64)]) -> f64 {
+    let n = outline.len();
+    (0..n)
+        .map(|i| {
+            let (a, b) = (outline[i], outline[(i + 1) % n]);
+            let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+            let length2 = dx * dx + dy * dy;
+            let t = if length2 > 0.0 {
+                (((p.0 - a.0) * dx + (p.1 - a.1) * dy) / length2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            (p.0 - (a.0 + t * dx)).hypot(p.1 - (a.1 + t * dy))
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// The last message on `topic` in the bag at `dir`.
+fn last_on(dir: &Path, topic: &str) -> Message {
+    let bag = Bag::open(dir, ReadMode::Strict).unwrap();
+    let mut last = None;
+    for message in bag.messages_on(&[topic.to_owned()]).unwrap() {
+        last = Some(message.unwrap().decode().unwrap());
+    }
+    last.unwrap_or_else(|| panic!("nothing on {topic}"))
+}
+
+#[test]
+fn stations_alone_map_what_they_see_in_the_true_frame() {
+    let dir = temp();
+    let (out, bag) = (dir.path().join("stations"), dir.path().join("bag"));
+    let output = run_ok(&[
+        "launch",
+        "launch/cooperative.toml",
+        "agvs:=0",
+        "stations:=4",
+        "known_starts:=0",
+        "frames:=30",
+        "fidelity:=ideal",
+        "--out",
+        out.to_str().unwrap(),
+        "--record",
+        bag.to_str().unwrap(),
+        "--record-topics",
+        "/map/segments",
+        "/ground_truth/targets",
+    ]);
+    // Ends cleanly: no agent left unmerged, nothing dropped, no warning at all.
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!stderr.contains("WARN"), "{stderr}");
+    let s = summary(&out);
+    assert!(s.get("dropped").is_none(), "{s:#}");
+    // The evaluator scores station1's surveyed pose: exact, at every step.
+    assert_eq!(s["metric_steps"], 30);
+    assert_eq!(s["pose_rmse_m"], 0.0);
+    for m in 1..=4 {
+        let name = format!("station{m}");
+        assert_eq!(agent_u64(&s, &name, "fused_frames"), 30, "{name}");
+        assert_eq!(agent(&s, &name, "fused_pose_rmse_m"), 0.0, "{name}");
+    }
+    // No alignment: nothing is matched, every keyframe stays at its survey.
+    assert_eq!(s["inter_agent_edges"]["accepted"], 0);
+
+    let Message::TargetSet(TargetSet { targets, .. }) = last_on(&bag, "/ground_truth/targets")
+    else {
+        panic!("/ground_truth/targets is not a TargetSet")
+    };
+    let Message::Segments(Segments {
+        points,
+        labels,
+        cluster_count,
+        ..
+    }) = last_on(&bag, "/map/segments")
+    else {
+        panic!("/map/segments is not a Segments")
+    };
+    let outlines: Vec<Vec<(f64, f64)>> = targets
+        .iter()
+        .map(|t| t.outline.iter().map(|p| (p.x, p.y)).collect())
+        .collect();
+    assert_eq!(outlines.len(), 10);
+    assert!(points.len() > 100, "{} occupied cells", points.len());
+    // Every occupied cell of the final map in the true frame within 1 m of a true outline (the
+    // cells are 0.1 m; the angle error at 20 m is about 0.4 m), with no alignment: the map
+    // frame is the survey's.
+    let nearest = |p: (f64, f64)| {
+        outlines
+            .iter()
+            .enumerate()
+            .map(|(id, o)| (distance_to_outline(p, o), id))
+            .fold((f64::INFINITY, 0), |a, b| if b.0 < a.0 { b } else { a })
+    };
+    for p in &points {
+        let (distance, id) = nearest((p.x, p.y));
+        assert!(
+            distance <= 1.0,
+            "cell ({:.2}, {:.2}) is {distance:.2} m from the nearest target ({id})",
+            p.x,
+            p.y
+        );
+    }
+    // At least one cluster on each target a station sees (docs/scene.md: south sees targets 0
+    // to 3, east 3, 7 and 9, north 8 and 9, west 0, 4 and 8), none on the two no station sees
+    // whole (the conveyor, 5, and the pillar, 6).
+    let mut clustered: Vec<usize> = points
+        .iter()
+        .zip(&labels)
+        .filter(|(_, label)| **label >= 0)
+        .map(|(p, _)| nearest((p.x, p.y)).1)
+        .collect();
+    clustered.sort_unstable();
+    clustered.dedup();
+    assert_eq!(clustered, vec![0, 1, 2, 3, 4, 7, 8, 9]);
+    assert!(cluster_count >= 8, "{cluster_count} clusters");
+    // Of those two, only the conveyor's one scatterer within the north station's 20 m (its
+    // corner at (24.09, 24.06), 19.94 m away): a few cells there, too few for a cluster.
+    let unseen: Vec<_> = points
+        .iter()
+        .zip(&labels)
+        .map(|(p, label)| ((p.x, p.y), *label, nearest((p.x, p.y)).1))
+        .filter(|(_, _, id)| *id == 5 || *id == 6)
+        .collect();
+    assert!(
+        unseen.len() < 10
+            && unseen.iter().all(|((x, y), label, id)| {
+                *id == 5 && *label == -1 && (x - 24.09).hypot(y - 24.06) < 1.0
+            }),
+        "{unseen:?}"
+    );
+}
