@@ -7,7 +7,7 @@
 use crate::compose::Observer;
 use crate::receive::{Delivery, Inbox, ReceiveError};
 use crate::supervisor::{Event, Supervisor, SupervisorError};
-use crate::transport::{TopicPublisher, TransportError};
+use crate::transport::TransportError;
 use std::collections::BTreeMap;
 use std::ffi::OsString;
 use std::time::{Duration, Instant};
@@ -52,8 +52,9 @@ pub struct NodeTopics {
 /// Hands every message of the node processes to `observer` until every `open` topic has ended.
 /// `topics` are each node's input and output topics, by instance name: a restarted node gets
 /// `--ended TOPIC` for each of its inputs that has ended; a node that died for good while the
-/// graph goes on ([`Event::Exited`]) has each of its outputs ended through `ender` (the
-/// launcher's publisher, in the graph's key style), and they are no longer waited for.
+/// graph goes on ([`Event::Exited`]) has each of its outputs ended by `end` (the launcher's
+/// publisher's [`crate::transport::TopicPublisher::end`], in the graph's key style), and they
+/// are no longer waited for.
 /// `on_event` is told of each restart and exit.
 pub fn receive_supervised(
     inbox: &mut Inbox,
@@ -61,7 +62,7 @@ pub fn receive_supervised(
     topics: &NodeTopics,
     mut open: Vec<&'static str>,
     observer: &mut dyn Observer,
-    ender: &mut TopicPublisher,
+    end: &mut dyn FnMut(&'static str) -> Result<(), TransportError>,
     on_event: &mut dyn FnMut(&Event),
 ) -> Result<(), SupervisedError> {
     let inputs = &topics.inputs;
@@ -92,12 +93,10 @@ pub fn receive_supervised(
             for event in supervisor.poll_with(&ended)? {
                 if let Event::Exited { name, .. } = &event {
                     for &topic in topics.outputs.get(name).into_iter().flatten() {
-                        ender
-                            .end(topic)
-                            .map_err(|source| SupervisedError::EndStreams {
-                                name: name.clone(),
-                                source,
-                            })?;
+                        end(topic).map_err(|source| SupervisedError::EndStreams {
+                            name: name.clone(),
+                            source,
+                        })?;
                         open.retain(|t| *t != topic);
                     }
                 }

@@ -155,13 +155,22 @@ pub(super) fn run_processes(
     )
     .map_err(|e| anyhow!("{e}"))?;
     let bar = progress(built.expected_frames);
-    // Ends the streams of a node that died for good while the graph goes on without it.
-    let mut ender = TopicPublisher::with_style(
-        &session,
-        &args.transport.namespace,
-        &[],
-        crate::args::key_style(args.ros_domain_id),
-    )?;
+    // Ends the streams of a node that died for good while the graph goes on without it. Declared
+    // only then: with --ros-domain-id a publisher is a ROS node of the graph, and a run without
+    // such a death should not show one more.
+    let mut ender: Option<TopicPublisher> = None;
+    let mut end = |topic: &'static str| -> Result<(), transport::TransportError> {
+        let publisher = match &mut ender {
+            Some(publisher) => publisher,
+            None => ender.insert(TopicPublisher::with_style(
+                &session,
+                &args.transport.namespace,
+                &[],
+                crate::args::key_style(args.ros_domain_id),
+            )?),
+        };
+        publisher.end(topic)
+    };
     let mut reporter = receive(
         &mut inbox,
         &mut supervisor,
@@ -169,7 +178,7 @@ pub(super) fn run_processes(
         open,
         &bar,
         &mut recorder,
-        &mut ender,
+        &mut end,
     )?;
     bar.finish_and_clear();
     if !supervisor.wait_all(Duration::from_secs(60))? {
@@ -309,7 +318,7 @@ fn receive(
     open: Vec<&'static str>,
     bar: &ProgressBar,
     recorder: &mut Option<Recorder>,
-    ender: &mut TopicPublisher,
+    end: &mut dyn FnMut(&'static str) -> Result<(), transport::TransportError>,
 ) -> Result<Reporter> {
     let mut taker = Taker {
         reporter: Reporter::default(),
@@ -322,7 +331,7 @@ fn receive(
         topics,
         open,
         &mut taker,
-        ender,
+        end,
         &mut |event| match event {
             Event::Restarted { name, status, .. } => {
                 bar.println(format!("node {name} died ({status}) and was restarted"))
