@@ -313,8 +313,12 @@ impl Fusion {
         }
         let a = &mut self.agents[agent];
         a.since_query += 1;
+        let every = match a.frame {
+            Some(_) => self.params.match_every_keyframes,
+            None => self.params.global_every_keyframes,
+        };
         if self.params.matching
-            && a.since_query >= self.params.match_every_keyframes
+            && a.since_query >= every
             && a.keyframes.len() >= self.params.query_keyframes as usize
         {
             a.since_query = 0;
@@ -643,6 +647,7 @@ impl Fusion {
             .max(self.params.matcher.search_step_m);
         let matcher = nrslam_association::LoopClosureParams {
             max_search_rotation_deg: 180.0,
+            search_step_deg: self.params.global_step_deg,
             ..self.params.matcher.clone()
         };
         self.stats.global_searches += 1;

@@ -34,6 +34,14 @@ pub struct Params {
     /// An AGV's keyframes are matched against the other agents every this many keyframes
     /// (1–1000): fewer searches and less CPU against later merges and fewer inter-agent edges.
     pub match_every_keyframes: u32,
+    /// An AGV not yet merged searches the whole aligned map every this many keyframes
+    /// (1–1000): the whole-map search is the costliest step of fusion, and its matches must
+    /// come 10 m apart to confirm each other anyway.
+    pub global_every_keyframes: u32,
+    /// Rotation step of the whole-map search (degrees, 0.05–45): it covers every heading, so
+    /// its cost is inversely proportional to this; the match is refined finer afterwards (ICP
+    /// and the matcher's fine search).
+    pub global_step_deg: f64,
     /// Keyframes of an AGV that make one query (1–50): the newest and those before it.
     pub query_keyframes: u32,
     /// Widest translation an unaligned AGV's global search covers about the centre of the
@@ -114,6 +122,8 @@ impl Default for Params {
             matching: true,
             station_keyframe_every: 10,
             match_every_keyframes: 2,
+            global_every_keyframes: 4,
+            global_step_deg: 1.0,
             query_keyframes: 5,
             max_global_radius_m: 40.0,
             local_radius_m: 2.0,
@@ -179,6 +189,13 @@ impl Params {
             1000,
         )?;
         InvalidParam::check_count("match_every_keyframes", self.match_every_keyframes, 1, 1000)?;
+        InvalidParam::check_count(
+            "global_every_keyframes",
+            self.global_every_keyframes,
+            1,
+            1000,
+        )?;
+        InvalidParam::check_range("global_step_deg", self.global_step_deg, 0.05, 45.0)?;
         InvalidParam::check_count("query_keyframes", self.query_keyframes, 1, 50)?;
         InvalidParam::check_range("max_global_radius_m", self.max_global_radius_m, 1.0, 200.0)?;
         InvalidParam::check_range("local_radius_m", self.local_radius_m, 0.25, 20.0)?;
@@ -256,6 +273,8 @@ mod tests {
             station_keyframe_every: [0],
             match_every_keyframes: [0],
             query_keyframes: [0, 51],
+            global_every_keyframes: [0],
+            global_step_deg: [0.0, 90.0],
             max_global_radius_m: [0.5, f64::NAN],
             local_radius_m: [0.0],
             submap_range_m: [f64::INFINITY],
