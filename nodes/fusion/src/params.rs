@@ -283,7 +283,6 @@ mod tests {
             agree_m: [0.0],
             free_percent: [65],
             max_conflict_ratio: [1.5],
-            matching: [false],
             republish_m: [-0.1, f64::NAN],
             republish_deg: [181.0],
             agree_deg: [-1.0],
@@ -295,6 +294,18 @@ mod tests {
             chain_min_std_deg: [0.0],
         });
         nrslam_runtime::config::assert_each_refused_by_name(cases, Params::validate);
+    }
+
+    #[test]
+    fn no_matching_needs_every_start_known() {
+        let p = Params {
+            agvs: 2,
+            known_starts: 1,
+            matching: false,
+            ..Params::default()
+        };
+        assert!(p.validate().unwrap_err().to_string().contains("matching"));
+        Params { known_starts: 2, ..p }.validate().unwrap();
     }
 
     #[test]
