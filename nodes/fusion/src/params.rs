@@ -305,7 +305,12 @@ mod tests {
             ..Params::default()
         };
         assert!(p.validate().unwrap_err().to_string().contains("matching"));
-        Params { known_starts: 2, ..p }.validate().unwrap();
+        Params {
+            known_starts: 2,
+            ..p
+        }
+        .validate()
+        .unwrap();
     }
 
     #[test]
