@@ -183,6 +183,7 @@ fn replaying_bag(launch: &Launch) -> Option<&NodeDecl> {
 /// returned unchanged.
 pub(super) fn prepare(launch: Launch, args: &LaunchArgs) -> Result<(Launch, Option<Replay>)> {
     let Some(bag_node) = replaying_bag(&launch) else {
+        check_bag_folders(&launch)?;
         return Ok((launch, None));
     };
     let path = bag_node
@@ -301,6 +302,44 @@ pub(super) fn prepare(launch: Launch, args: &LaunchArgs) -> Result<(Launch, Opti
         differences,
     };
     Ok((rebuilt, Some(replay)))
+}
+
+/// Refuses a launch with a `bag` node given no folder, naming the launch's path arguments left
+/// empty (`launch/multi-session.toml`'s `first` and `second`), before any bag is opened.
+fn check_bag_folders(launch: &Launch) -> Result<()> {
+    let Some(node) = launch.nodes.iter().find(|n| {
+        n.kind == "bag" && n.params.get("path").and_then(toml::Value::as_str) == Some("")
+    }) else {
+        return Ok(());
+    };
+    let mut empty: Vec<&String> = launch
+        .declared
+        .iter()
+        .filter(|(name, argument)| {
+            argument.path && launch.arguments.get(*name).and_then(toml::Value::as_str) == Some("")
+        })
+        .map(|(name, _)| name)
+        .collect();
+    // An argument named as the node (multi-session.toml's `first` feeds node agv1/first) is the
+    // one; otherwise every empty path argument may be.
+    let local = node.name.rsplit('/').next().unwrap_or(&node.name);
+    if empty.iter().any(|name| name.as_str() == local) {
+        empty.retain(|name| name.as_str() == local);
+    }
+    let empty: Vec<String> = empty.iter().map(|name| format!("{name}:=DIR")).collect();
+    if empty.is_empty() {
+        bail!(
+            "{}: node {} has no bag folder (its path is empty)",
+            launch.path.display(),
+            node.name
+        );
+    }
+    bail!(
+        "{}: node {} has no bag folder: give {}",
+        launch.path.display(),
+        node.name,
+        empty.join(" and ")
+    )
 }
 
 /// What the bag node plays: every topic of the bag when none are `listed`, else each listed
