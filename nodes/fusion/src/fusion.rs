@@ -865,7 +865,8 @@ impl Fusion {
                             .ok()
                             .and_then(|i| nodes[i])
                     };
-                    for (older, newer, relative) in &a.loops {
+                    let own_loops = if p.own_loop_edges { &a.loops[..] } else { &[] };
+                    for (older, newer, relative) in own_loops {
                         if let (Some(from), Some(to)) = (by_id(*older), by_id(*newer)) {
                             graph.add_edge(Edge::with_std(
                                 from,

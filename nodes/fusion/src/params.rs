@@ -68,6 +68,10 @@ pub struct Params {
     pub republish_m: f64,
     /// … or this (degrees, ≥ 0); smaller moves wait for a larger one or the end of the run.
     pub republish_deg: f64,
+    /// Add each AGV's own loop edges to the fused graph (default true). Its chain edges are taken
+    /// from its own optimised poses, which already hold those loops, so true counts them twice
+    /// (docs/cooperative.md, "Where each acceptance item stands").
+    pub own_loop_edges: bool,
     /// Std of an inter-agent or station edge's translation (m, > 0).
     pub inter_std_m: f64,
     /// Std of an inter-agent or station edge's heading (degrees, > 0).
@@ -134,6 +138,7 @@ impl Default for Params {
             agree_deg: 2.0,
             republish_m: 0.05,
             republish_deg: 0.5,
+            own_loop_edges: true,
             inter_std_m: 0.15,
             inter_std_deg: 1.0,
             chain_std_per_m: 0.02,

@@ -118,3 +118,39 @@ fn bad_input_is_refused_without_changing_the_state() {
         .is_err());
     assert_eq!(fusion.fused_poses().len(), 1);
 }
+
+#[test]
+fn an_agents_own_loop_edges_are_counted_again_only_when_asked() {
+    // One AGV, its frame the map's: four keyframes on a square, and an own loop edge between the
+    // first and the last that disagrees with its poses by 0.5 m (as a loop edge does before the
+    // agent's own graph has absorbed it).
+    let poses = [
+        Pose2::new(0.0, 0.0, 0.0),
+        Pose2::new(4.0, 0.0, 0.0),
+        Pose2::new(4.0, 4.0, 0.0),
+        Pose2::new(0.0, 4.0, 0.0),
+    ];
+    let fused_after_loop = |own_loop_edges: bool| {
+        let mut fusion = Fusion::new(Params {
+            own_loop_edges,
+            ..Params::default()
+        });
+        for (k, pose) in poses.iter().enumerate() {
+            fusion
+                .add_keyframe(0, k as u32, *pose, vec![[1.0, 1.0]])
+                .unwrap();
+        }
+        let local: Vec<(u32, Pose2)> = poses
+            .iter()
+            .enumerate()
+            .map(|(k, p)| (k as u32, *p))
+            .collect();
+        let loops = [(0, 3, Pose2::new(0.5, 4.0, 0.0))];
+        fusion.set_local_poses(0, &local, &loops).unwrap();
+        fusion.fused_keyframe(0, 3).unwrap().1
+    };
+    // Without them the fused poses are the agent's own: its chain already holds its loops.
+    assert!(fused_after_loop(false).distance_m(&poses[3]) < 1e-6);
+    // With them the loop pulls the last keyframe toward its measurement a second time.
+    assert!(fused_after_loop(true).distance_m(&poses[3]) > 0.05);
+}
