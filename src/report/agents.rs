@@ -6,18 +6,17 @@ use nrslam_msgs::{topics, Message};
 use serde::Serialize;
 use std::collections::BTreeMap;
 
-/// (x_m, y_m, yaw_rad).
-type Planar = (f64, f64, f64);
+use nrslam_association::Pose2;
 
 /// The poses one agent published, by stamp.
 #[derive(Debug, Default, Clone)]
 pub struct AgentTrack {
     /// `/<ns>/ground_truth/pose`.
-    pub truth: BTreeMap<StampKey, Planar>,
+    pub truth: BTreeMap<StampKey, Pose2>,
     /// `/<ns>/slam/pose`: its own SLAM, in its own frame.
-    pub own: BTreeMap<StampKey, Planar>,
+    pub own: BTreeMap<StampKey, Pose2>,
     /// `/<ns>/fusion/pose`: corrected into the map frame by the fusion node.
-    pub fused: BTreeMap<StampKey, Planar>,
+    pub fused: BTreeMap<StampKey, Pose2>,
     /// `/<ns>/slam/keyframe`: each keyframe's stamp by the agent's own id.
     pub keyframes: BTreeMap<u32, StampKey>,
 }
@@ -75,7 +74,8 @@ pub fn take(agents: &mut BTreeMap<String, AgentTrack>, topic: &str, message: &Me
     };
     let track = agents.entry(namespace.to_owned()).or_default();
     let stamp = (p.header.stamp.sec, p.header.stamp.nanosec);
-    let pose = p.pose.planar();
+    let (x_m, y_m, yaw_rad) = p.pose.planar();
+    let pose = Pose2::new(x_m, y_m, yaw_rad);
     let into = match base {
         topics::GROUND_TRUTH_POSE => &mut track.truth,
         topics::SLAM_POSE => &mut track.own,
@@ -84,14 +84,8 @@ pub fn take(agents: &mut BTreeMap<String, AgentTrack>, topic: &str, message: &Me
     into.insert(stamp, pose);
 }
 
-fn compose(a: Planar, b: Planar) -> Planar {
-    let (s, c) = a.2.sin_cos();
-    (a.0 + c * b.0 - s * b.1, a.1 + s * b.0 + c * b.1, a.2 + b.2)
-}
-
-fn inverse(a: Planar) -> Planar {
-    let (s, c) = a.2.sin_cos();
-    (-(c * a.0 + s * a.1), s * a.0 - c * a.1, -a.2)
+fn squared_distance_m2(a: &Pose2, b: &Pose2) -> f64 {
+    (a.x_m - b.x_m).powi(2) + (a.y_m - b.y_m).powi(2)
 }
 
 fn rms(squared: &[f64]) -> Option<f64> {
@@ -110,12 +104,11 @@ impl AgentTrack {
             .own
             .iter()
             .find_map(|(stamp, own)| Some((*own, *self.truth.get(stamp)?)));
-        let to_truth = first.map(|(own, truth)| compose(truth, inverse(own)));
+        let to_truth = first.map(|(own, truth)| truth.compose(&own.inverse()));
         let own_error = |stamp: &StampKey| {
             let own = *self.own.get(stamp)?;
             let truth = self.truth.get(stamp)?;
-            let aligned = compose(to_truth?, own);
-            Some((aligned.0 - truth.0).powi(2) + (aligned.1 - truth.1).powi(2))
+            Some(squared_distance_m2(&to_truth?.compose(&own), truth))
         };
         let own_all: Vec<f64> = self.own.keys().filter_map(own_error).collect();
         let own_fused: Vec<f64> = self.fused.keys().filter_map(own_error).collect();
@@ -124,7 +117,7 @@ impl AgentTrack {
             .iter()
             .filter_map(|(stamp, f)| {
                 let truth = self.truth.get(stamp)?;
-                Some((f.0 - truth.0).powi(2) + (f.1 - truth.1).powi(2))
+                Some(squared_distance_m2(f, truth))
             })
             .collect();
         AgentSummary {
@@ -174,7 +167,7 @@ pub struct PairEdges {
 
 /// (from namespace, from id, to namespace, to id, measured relative pose) of an edge marker's
 /// text, `agv1/12 agv2/40 x_m=… y_m=… yaw_rad=…` (nodes/fusion/src/node.rs).
-fn parse_edge(text: &str) -> Option<(&str, u32, &str, u32, Planar)> {
+fn parse_edge(text: &str) -> Option<(&str, u32, &str, u32, Pose2)> {
     let mut words = text.split_whitespace();
     fn end(word: &str) -> Option<(&str, u32)> {
         let (ns, id) = word.rsplit_once('/')?;
@@ -183,7 +176,7 @@ fn parse_edge(text: &str) -> Option<(&str, u32, &str, u32, Planar)> {
     let (from_ns, from_id) = end(words.next()?)?;
     let (to_ns, to_id) = end(words.next()?)?;
     let mut value = |key: &str| -> Option<f64> { words.next()?.strip_prefix(key)?.parse().ok() };
-    let relative = (value("x_m=")?, value("y_m=")?, value("yaw_rad=")?);
+    let relative = Pose2::new(value("x_m=")?, value("y_m=")?, value("yaw_rad=")?);
     Some((from_ns, from_id, to_ns, to_id, relative))
 }
 
@@ -193,7 +186,7 @@ fn true_keyframe_pose(
     agents: &BTreeMap<String, AgentTrack>,
     agent: &str,
     id: u32,
-) -> Option<Planar> {
+) -> Option<Pose2> {
     let track = agents.get(agent)?;
     match track.keyframes.get(&id) {
         Some(stamp) => track.truth.get(stamp).copied(),
@@ -219,9 +212,9 @@ pub fn score_edges(
         ) else {
             continue;
         };
-        let truth = compose(inverse(from), to);
-        let error_m = (measured.0 - truth.0).hypot(measured.1 - truth.1);
-        let error_deg = nrslam_association::wrap_angle_rad(measured.2 - truth.2)
+        let truth = from.between(&to);
+        let error_m = measured.distance_m(&truth);
+        let error_deg = nrslam_association::wrap_angle_rad(measured.yaw_rad - truth.yaw_rad)
             .abs()
             .to_degrees();
         scored.scored += 1;

@@ -290,13 +290,7 @@ impl Fusion {
         local_pose: Pose2,
         points_body_m: Vec<[f64; 2]>,
     ) -> Result<Update, FusionError> {
-        let a = self
-            .agents
-            .get(agent)
-            .ok_or(FusionError::UnknownAgent(agent))?;
-        if a.kind == AgentKind::Station {
-            return Err(FusionError::WrongKind(agent));
-        }
+        let a = self.agent_of_kind(agent, false)?;
         check_input(&local_pose, &points_body_m)?;
         if let Some(last) = a.keyframes.last() {
             if local_id <= last.local_id {
@@ -339,13 +333,8 @@ impl Fusion {
         poses: &[(u32, Pose2)],
         loops: &[(u32, u32, Pose2)],
     ) -> Result<Update, FusionError> {
-        let a = self
-            .agents
-            .get_mut(agent)
-            .ok_or(FusionError::UnknownAgent(agent))?;
-        if a.kind == AgentKind::Station {
-            return Err(FusionError::WrongKind(agent));
-        }
+        self.agent_of_kind(agent, false)?;
+        let a = &mut self.agents[agent];
         if poses.iter().any(|(_, p)| !p.is_finite()) || loops.iter().any(|(_, _, p)| !p.is_finite())
         {
             return Err(FusionError::NonFinite("keyframe pose"));
@@ -380,16 +369,11 @@ impl Fusion {
         points_body_m: Vec<[f64; 2]>,
     ) -> Result<Update, FusionError> {
         let every = self.params.station_keyframe_every;
-        let a = self
-            .agents
-            .get_mut(agent)
-            .ok_or(FusionError::UnknownAgent(agent))?;
-        if a.kind != AgentKind::Station {
-            return Err(FusionError::WrongKind(agent));
-        }
+        self.agent_of_kind(agent, true)?;
         check_input(&pose, &points_body_m)?;
+        let a = &mut self.agents[agent];
         let mut update = Update::default();
-        let due = a.station_frames % every == 0;
+        let due = a.station_frames.is_multiple_of(every);
         a.station_frames += 1;
         if due {
             let local_id = a.keyframes.last().map_or(0, |k| k.local_id + 1);
@@ -397,6 +381,18 @@ impl Fusion {
             self.place_new(agent, index, &mut update);
         }
         Ok(update)
+    }
+
+    /// Agent `agent`, if it is a station when `station`, else an AGV.
+    fn agent_of_kind(&self, agent: usize, station: bool) -> Result<&Agent, FusionError> {
+        let a = self
+            .agents
+            .get(agent)
+            .ok_or(FusionError::UnknownAgent(agent))?;
+        if (a.kind == AgentKind::Station) != station {
+            return Err(FusionError::WrongKind(agent));
+        }
+        Ok(a)
     }
 
     fn push_keyframe(
@@ -493,14 +489,18 @@ impl Fusion {
         (points, owners)
     }
 
-    /// The keyframe an edge from a match at `pose` (map frame) hangs on: the owner of the most
-    /// submap points, nearest to `pose` among its keyframes.
-    fn edge_anchor(&self, owners: &[(usize, usize)], pose: &Pose2) -> Option<(usize, usize)> {
+    /// Of `candidates` (agent, keyframe index), the placed keyframe nearest to `pose` (map
+    /// frame): the one an edge from a match there hangs on.
+    fn nearest_keyframe(
+        &self,
+        candidates: impl IntoIterator<Item = (usize, usize)>,
+        pose: &Pose2,
+    ) -> Option<(usize, usize)> {
         let mut best: Option<(f64, (usize, usize))> = None;
-        let mut seen: Vec<(usize, usize)> = owners.to_vec();
-        seen.dedup();
-        for (i, j) in seen {
-            let fused = self.agents[i].keyframes[j].fused?;
+        for (i, j) in candidates {
+            let Some(fused) = self.agents[i].keyframes[j].fused else {
+                continue;
+            };
             let d = fused.distance_m(pose);
             if best.is_none_or(|(bd, _)| d < bd) {
                 best = Some((d, (i, j)));
@@ -616,20 +616,13 @@ impl Fusion {
 
     /// The aligned keyframe nearest to `pose`, other than `except`'s.
     fn nearest_aligned(&self, except: usize, pose: &Pose2) -> Option<(usize, usize)> {
-        let mut best: Option<(f64, (usize, usize))> = None;
-        for (i, a) in self.agents.iter().enumerate() {
-            if i == except {
-                continue;
-            }
-            for (j, k) in a.keyframes.iter().enumerate() {
-                let Some(fused) = k.fused else { continue };
-                let d = fused.distance_m(pose);
-                if best.is_none_or(|(bd, _)| d < bd) {
-                    best = Some((d, (i, j)));
-                }
-            }
-        }
-        best.map(|(_, owner)| owner)
+        let candidates = self
+            .agents
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| *i != except)
+            .flat_map(|(i, a)| (0..a.keyframes.len()).map(move |j| (i, j)));
+        self.nearest_keyframe(candidates, pose)
     }
 
     /// An unaligned agent searches the whole aligned map for its newest place.
@@ -772,7 +765,7 @@ impl Fusion {
                 return;
             }
         };
-        let Some(owner) = self.edge_anchor(&owners, &found.relative) else {
+        let Some(owner) = self.nearest_keyframe(owners.iter().copied(), &found.relative) else {
             return;
         };
         let owner_fused = self.agents[owner.0].keyframes[owner.1]
