@@ -702,10 +702,27 @@ impl<'g> PreparedSearch<'g> {
         away: Option<Exclusion>,
         min_score: f64,
     ) -> Result<Option<Match>, CorrelativeError> {
+        self.first_outside_where(away, min_score, |_| false)
+    }
+
+    /// As [`PreparedSearch::best_outside`], but the search stops at the first motion it meets
+    /// whose score makes `enough` true, and returns that one: the question "does any motion
+    /// outside `away` score above a threshold?" is answered by the first that does, without
+    /// finding the highest. When no motion satisfies `enough` the answer is exactly
+    /// `best_outside`'s. `enough` must be monotone (true for a score, true for every higher one)
+    /// for "none satisfies it" to follow from the best not satisfying it.
+    ///
+    /// Errors: as [`PreparedSearch::best_outside`].
+    pub fn first_outside_where(
+        &mut self,
+        away: Option<Exclusion>,
+        min_score: f64,
+        enough: impl Fn(f64) -> bool,
+    ) -> Result<Option<Match>, CorrelativeError> {
         check_target(away, min_score)?;
         self.lattice.exclude = away;
         self.lattice.min_score = min_score;
-        Ok(self.lattice.branch_and_bound(self.grids)?.0)
+        Ok(self.lattice.branch_and_bound(self.grids, &enough)?.0)
     }
 }
 
@@ -1265,6 +1282,7 @@ impl Lattice {
     fn branch_and_bound(
         &self,
         grids: &MultiResolutionGrid,
+        enough: &dyn Fn(f64) -> bool,
     ) -> Result<(Option<Match>, u64), CorrelativeError> {
         let depth = grids.depth();
         let size = 1i64 << depth;
@@ -1286,19 +1304,20 @@ impl Lattice {
         }
         let mut scored = roots.len() as u64;
         let mut best = None;
-        self.descend(grids, roots, &mut best, &mut scored);
+        self.descend(grids, roots, &mut best, &mut scored, enough);
         Ok((best.map(|leaf| self.to_match(&leaf)), scored))
     }
 
     /// Visits `nodes` best bound first (then smallest key), descending into those that may beat
-    /// the best leaf so far.
+    /// the best leaf so far; true (and the search is over) once a best leaf's score is `enough`.
     fn descend(
         &self,
         grids: &MultiResolutionGrid,
         mut nodes: Vec<Node>,
         best: &mut Option<Node>,
         scored: &mut u64,
-    ) {
+        enough: &dyn Fn(f64) -> bool,
+    ) -> bool {
         nodes.sort_unstable_by(|a, b| b.bound.total_cmp(&a.bound).then(a.key().cmp(&b.key())));
         for node in nodes {
             // Sorted by bound, then key: once a node cannot beat the best, no later one can
@@ -1308,6 +1327,9 @@ impl Lattice {
             }
             if node.depth == 0 {
                 *best = Some(node);
+                if enough(node.bound) {
+                    return true;
+                }
                 continue;
             }
             let depth = node.depth - 1;
@@ -1321,8 +1343,11 @@ impl Lattice {
                 }
             }
             *scored += children.len() as u64;
-            self.descend(grids, children, best, scored);
+            if self.descend(grids, children, best, scored, enough) {
+                return true;
+            }
         }
+        false
     }
 
     fn to_match(&self, leaf: &Node) -> Match {
@@ -1424,7 +1449,7 @@ mod tests {
             min_score,
         )
         .unwrap()
-        .branch_and_bound(grids)
+        .branch_and_bound(grids, &|_| false)
         .unwrap()
     }
 
@@ -2040,6 +2065,33 @@ mod tests {
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(200))]
+
+        /// Stopping at the first motion above a threshold answers "is any motion above it?" as
+        /// the full search does: a motion above it exactly when the best is, and the best itself
+        /// when none is.
+        #[test]
+        fn the_first_motion_above_a_threshold_answers_as_the_best_does(
+            (map, scan, initial, cell_m, kernel, window, options, depth, min_score) in case(),
+            fraction in 0.0..1.2f64,
+        ) {
+            let grids = crate::fixtures::build_grids(&map, cell_m, kernel, 0, depth);
+            let Ok(mut search) = PreparedSearch::new(&grids, &scan, initial, &window, &options)
+            else {
+                return Ok(());
+            };
+            let best = search.best_outside(options.exclude, min_score).unwrap();
+            let threshold = fraction * best.map_or(1.0, |m| m.score);
+            let first = search
+                .first_outside_where(options.exclude, min_score, |s| s > threshold)
+                .unwrap();
+            let above = |m: &Option<Match>| m.is_some_and(|m| m.score > threshold);
+            prop_assert_eq!(above(&first), above(&best));
+            if !above(&best) {
+                prop_assert_eq!(first, best);
+            } else {
+                prop_assert!(first.unwrap().score <= best.unwrap().score);
+            }
+        }
 
         /// Whatever the padding (none, part of the window, or all of it as `for_window` pads):
         /// the same best motion as the exhaustive search of the grid without padding.

@@ -114,10 +114,13 @@ pub enum LoopRejection {
     },
 }
 
-/// The best score at least `distance_m` from `best`'s motion, in `best`'s units: a mean grid value
-/// scaled by the prior as `best.mean_value` is. Only a runner-up scoring at least `ambiguity` of
-/// the best is looked for (that is all the verifier asks, and branch and bound prunes the rest):
-/// 0 when none does.
+/// A runner-up's score at least `ambiguity_distance_m` from `best`'s motion, in `best`'s units: a
+/// mean grid value scaled by the prior as `best.mean_value` is. Only a runner-up scoring at least
+/// `max_ambiguity` of the best is looked for (that is all the verifier asks, and branch and bound
+/// prunes the rest), and the search stops at the first that makes the match ambiguous: that one's
+/// score, which may be below the highest runner-up's (a whole-map search of a repetitive hall
+/// then costs half as much). When the match is not ambiguous the answer is the highest runner-up
+/// at or above the fraction, or 0 when none is.
 fn runner_up_mean_value(
     search: &mut PreparedSearch,
     best: &crate::correlative::Match,
@@ -125,16 +128,20 @@ fn runner_up_mean_value(
 ) -> f64 {
     let min_score = loop_params.max_ambiguity * best.score;
     let away = Exclusion::around(best, loop_params.ambiguity_distance_m);
-    let runner = search
-        .best_outside(Some(away), min_score)
+    let scaled = |score: f64| {
+        if best.score > 0.0 {
+            best.mean_value * score / best.score
+        } else {
+            0.0
+        }
+    };
+    // The very comparison match_loop makes, so that stopping early never changes its verdict.
+    let ambiguous = |score: f64| scaled(score) > loop_params.max_ambiguity * best.mean_value;
+    search
+        .first_outside_where(Some(away), min_score, ambiguous)
         .ok()
         .flatten()
-        .map_or(0.0, |m| m.score);
-    if best.score > 0.0 {
-        best.mean_value * runner / best.score
-    } else {
-        0.0
-    }
+        .map_or(0.0, |m| scaled(m.score))
 }
 
 /// (inliers, overlapping): query points within `inlier_distance_m` + `slack_m` of the map after
