@@ -114,6 +114,8 @@ pub struct FusionStats {
     pub merges: u64,
     /// Merges refused because the agent's detections fell on floor the map saw free.
     pub refused_merges: u64,
+    /// Verified matches refused because they paired detections seen from opposite sides.
+    pub opposite_views: u64,
     /// Inter-agent (and station) edges in the graph.
     pub inter_edges: u64,
     /// Pose-graph solves.
@@ -441,23 +443,96 @@ impl Fusion {
         update.published.push((agent, index));
     }
 
-    /// The query of `agent`'s newest keyframes: (anchor keyframe index, points in its frame).
-    fn query(&self, agent: usize) -> (usize, Vec<[f64; 2]>) {
+    /// The query of `agent`'s newest keyframes: (anchor keyframe index, points in its frame,
+    /// and for each point the position of the sensor that saw it, in the same frame).
+    fn query(&self, agent: usize) -> (usize, Vec<[f64; 2]>, Vec<[f64; 2]>) {
         let a = &self.agents[agent];
         let last = a.keyframes.len() - 1;
         let first = (last + 1).saturating_sub(self.params.query_keyframes as usize);
         let anchor = (first + last) / 2;
         let to_anchor = a.keyframes[anchor].local_pose.inverse();
-        let points = a.keyframes[first..=last]
-            .iter()
-            .flat_map(|k| {
-                let pose = to_anchor.compose(&k.local_pose);
-                k.points_body_m
-                    .iter()
-                    .map(move |p| pose.transform_point(*p))
-            })
-            .collect();
-        (anchor, points)
+        let (mut points, mut sensors) = (Vec::new(), Vec::new());
+        for k in &a.keyframes[first..=last] {
+            let pose = to_anchor.compose(&k.local_pose);
+            for p in &k.points_body_m {
+                points.push(pose.transform_point(*p));
+                sensors.push([pose.x_m, pose.y_m]);
+            }
+        }
+        (anchor, points, sensors)
+    }
+
+    /// Of a match placing the query's anchor at `relative` (map frame) against `points` of the
+    /// keyframes `owners`: (pairs, of which seen from opposite sides). A pair is a query point
+    /// within the matcher's `inlier_distance_m` of its nearest map point; opposite when the lines
+    /// of sight from the two sensors to the two points are more than 90° apart.
+    fn opposite_views(
+        &self,
+        query: &[[f64; 2]],
+        sensors: &[[f64; 2]],
+        relative: &Pose2,
+        points: &[[f64; 2]],
+        owners: &[(usize, usize)],
+    ) -> (usize, usize) {
+        let mut map = nrslam_association::PointMap::new();
+        map.extend(points);
+        // Inputs were checked finite; should a transformed point not be, indices would shift.
+        if map.len() != points.len() {
+            return (0, 0);
+        }
+        let inlier_m2 = self.params.matcher.inlier_distance_m.powi(2);
+        let (mut pairs, mut opposite) = (0, 0);
+        for (q, s) in query.iter().zip(sensors) {
+            let q = relative.transform_point(*q);
+            let Some((index, d2)) = map.nearest_index(&q) else {
+                continue;
+            };
+            let (owner, keyframe) = owners[index];
+            let Some(seen_from) = self.agents[owner].keyframes[keyframe].fused else {
+                continue;
+            };
+            if d2 > inlier_m2 {
+                continue;
+            }
+            let s = relative.transform_point(*s);
+            let m = points[index];
+            let sight_q = [q[0] - s[0], q[1] - s[1]];
+            let sight_m = [m[0] - seen_from.x_m, m[1] - seen_from.y_m];
+            pairs += 1;
+            if sight_q[0] * sight_m[0] + sight_q[1] * sight_m[1] < 0.0 {
+                opposite += 1;
+            }
+        }
+        (pairs, opposite)
+    }
+
+    /// True when the match must be refused as pairing opposite faces (`max_opposite_ratio`).
+    fn sees_opposite_faces(
+        &mut self,
+        agent: usize,
+        anchor: usize,
+        query: (&[[f64; 2]], &[[f64; 2]]),
+        relative: &Pose2,
+        submap: (&[[f64; 2]], &[(usize, usize)]),
+    ) -> bool {
+        if self.params.max_opposite_ratio >= 1.0 {
+            return false;
+        }
+        let (pairs, opposite) = self.opposite_views(query.0, query.1, relative, submap.0, submap.1);
+        let ratio = opposite as f64 / pairs.max(1) as f64;
+        tracing::debug!(agent, anchor, pairs, opposite, "views of a match");
+        if ratio > self.params.max_opposite_ratio {
+            self.stats.opposite_views += 1;
+            tracing::debug!(
+                agent,
+                anchor,
+                pairs,
+                opposite,
+                "match refused: opposite faces"
+            );
+            return true;
+        }
+        false
     }
 
     /// Points of every aligned agent but `except`, map frame, each with its (agent, keyframe);
@@ -631,7 +706,7 @@ impl Fusion {
         if points.is_empty() {
             return;
         }
-        let (anchor, query) = self.query(agent);
+        let (anchor, query, sensors) = self.query(agent);
         let (lo, hi) = bounds(&points);
         let centre = Pose2::new(0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.0);
         let half_diagonal_m = 0.5 * ((hi[0] - lo[0]).hypot(hi[1] - lo[1]));
@@ -662,6 +737,18 @@ impl Fusion {
         let Some(owner) = self.nearest_aligned(agent, &found.relative) else {
             return;
         };
+        if self.params.max_opposite_ratio < 1.0 {
+            let (points, owners) = self.aligned_points(agent, None);
+            if self.sees_opposite_faces(
+                agent,
+                anchor,
+                (&query, &sensors),
+                &found.relative,
+                (&points, &owners),
+            ) {
+                return;
+            }
+        }
         let a = &self.agents[agent];
         let frame = found
             .relative
@@ -740,7 +827,7 @@ impl Fusion {
 
     /// An aligned agent matches its newest place against the other agents' points near it.
     fn match_aligned(&mut self, agent: usize, update: &mut Update) {
-        let (anchor, query) = self.query(agent);
+        let (anchor, query, sensors) = self.query(agent);
         let Some(predicted) = self.agents[agent].keyframes[anchor].fused else {
             return;
         };
@@ -765,6 +852,15 @@ impl Fusion {
                 return;
             }
         };
+        if self.sees_opposite_faces(
+            agent,
+            anchor,
+            (&query, &sensors),
+            &found.relative,
+            (&points, &owners),
+        ) {
+            return;
+        }
         let Some(owner) = self.nearest_keyframe(owners.iter().copied(), &found.relative) else {
             return;
         };

@@ -107,6 +107,15 @@ pub struct Params {
     /// map frame, land on cells seen free rather than occupied (0–1): the agreeing matches found
     /// a place that looks alike, not the place.
     pub max_conflict_ratio: f64,
+    /// An inter-agent match is refused when more than this fraction of its pairs (a query point
+    /// within the matcher's `inlier_distance_m` of another agent's point) pair detections seen
+    /// from opposite sides, their two sensors' lines of sight more than 90° apart (0–1; 1: never
+    /// refused). A 5G detection is the near face of a target: an AGV in an inner aisle sees the
+    /// inner faces of the targets the others see from outside, and a match of one face onto the
+    /// other is off by the target's depth. Default 0.6: on the hall, matches between AGVs that
+    /// see the same faces paired 5–40 % of their points from opposite sides (a thin target's
+    /// two faces lie within a metre), the inner-aisle AGV's matches with the others 50–93 %.
+    pub max_opposite_ratio: f64,
     /// The matcher and its verification (the single-AGV loop closure's; `enabled`, the search
     /// radii and candidate selection are not used here: fusion chooses its own windows).
     pub matcher: LoopClosureParams,
@@ -155,6 +164,7 @@ impl Default for Params {
             free_percent: 25,
             conflict_distance_m: 1.5,
             max_conflict_ratio: 0.2,
+            max_opposite_ratio: 0.6,
             matcher,
             scan: association,
         }
@@ -250,6 +260,7 @@ impl Params {
         )?;
         InvalidParam::check_range("conflict_distance_m", self.conflict_distance_m, 0.01, 20.0)?;
         InvalidParam::check_range("max_conflict_ratio", self.max_conflict_ratio, 0.0, 1.0)?;
+        InvalidParam::check_range("max_opposite_ratio", self.max_opposite_ratio, 0.0, 1.0)?;
         self.scan.validate().map_err(|e| InvalidParam {
             field: format!("scan.{}", e.field),
             ..e
@@ -293,6 +304,7 @@ mod tests {
             agree_m: [0.0],
             free_percent: [65],
             max_conflict_ratio: [1.5],
+            max_opposite_ratio: [-0.1, f64::NAN],
             republish_m: [-0.1, f64::NAN],
             republish_deg: [181.0],
             agree_deg: [-1.0],

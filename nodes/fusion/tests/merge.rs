@@ -154,3 +154,54 @@ fn an_agents_own_loop_edges_are_counted_again_only_when_asked() {
     // With them the loop pulls the last keyframe toward its measurement a second time.
     assert!(fused_after_loop(true).distance_m(&poses[3]) > 0.05);
 }
+
+#[test]
+fn agents_that_see_opposite_faces_of_a_row_are_not_matched_face_to_face() {
+    // A row of boxes 1.2 m deep; agv1 drives east along its south side and sees only the south
+    // faces, agv2 west along its north side and sees only the north faces (a 5G detection is
+    // the near face). Both starts known: every match between them would pull one row of faces
+    // onto the other, 1.2 m off.
+    let boxes = [
+        (0.0, 3.0),
+        (6.0, 1.5),
+        (11.0, 3.0),
+        (17.0, 2.0),
+        (22.0, 1.0),
+        (27.0, 3.0),
+    ];
+    let face = |y_m: f64| -> Vec<[f64; 2]> {
+        boxes
+            .iter()
+            .flat_map(|&(x0, width_m)| {
+                let n = (width_m / 0.25) as usize;
+                (0..=n).map(move |i| [x0 + width_m * i as f64 / n as f64, y_m])
+            })
+            .collect()
+    };
+    let (south, north) = (face(9.4), face(10.6));
+    let east: Vec<Pose2> = (0..30).map(|k| Pose2::new(k as f64, 5.0, 0.0)).collect();
+    let west: Vec<Pose2> = (0..30)
+        .map(|k| Pose2::new(29.0 - k as f64, 15.0, std::f64::consts::PI))
+        .collect();
+    let edges = |max_opposite_ratio: f64| {
+        let mut fusion = Fusion::new(Params {
+            known_starts: 2,
+            max_opposite_ratio,
+            ..two_agvs()
+        });
+        for (k, (a, b)) in east.iter().zip(&west).enumerate() {
+            let k = k as u32;
+            fusion.add_keyframe(0, k, *a, observe(&south, a)).unwrap();
+            fusion.add_keyframe(1, k, *b, observe(&north, b)).unwrap();
+        }
+        (fusion.inter_edges().len(), fusion.stats().opposite_views)
+    };
+    let (unchecked, _) = edges(1.0);
+    assert!(
+        unchecked > 0,
+        "without the rule the faces are matched: {unchecked}"
+    );
+    let (checked, refused) = edges(Params::default().max_opposite_ratio);
+    assert_eq!(checked, 0, "with it no face-to-face edge is accepted");
+    assert!(refused > 0);
+}
