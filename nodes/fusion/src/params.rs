@@ -112,9 +112,12 @@ pub struct Params {
     /// from opposite sides, their two sensors' lines of sight more than 90° apart (0–1; 1: never
     /// refused). A 5G detection is the near face of a target: an AGV in an inner aisle sees the
     /// inner faces of the targets the others see from outside, and a match of one face onto the
-    /// other is off by the target's depth. Default 0.6: on the hall, matches between AGVs that
-    /// see the same faces paired 5–40 % of their points from opposite sides (a thin target's
-    /// two faces lie within a metre), the inner-aisle AGV's matches with the others 50–93 %.
+    /// other is off by the target's depth. On the hall, matches between AGVs that see the same
+    /// faces paired 5–40 % of their points from opposite sides (a thin target's two faces lie
+    /// within a metre), the inner-aisle AGV's matches with the others 50–93 %. Default 1 (off):
+    /// at 0.6 the 4-AGV hall's wrong edges fell by two thirds and fewer AGVs ended worse than
+    /// alone, but the fused map lost most of the inner faces and scored 2–4 ET-GOPSA worse
+    /// (docs/cooperative.md, "Both sides of a target").
     pub max_opposite_ratio: f64,
     /// The matcher and its verification (the single-AGV loop closure's; `enabled`, the search
     /// radii and candidate selection are not used here: fusion chooses its own windows).
@@ -164,7 +167,7 @@ impl Default for Params {
             free_percent: 25,
             conflict_distance_m: 1.5,
             max_conflict_ratio: 0.2,
-            max_opposite_ratio: 0.6,
+            max_opposite_ratio: 1.0,
             matcher,
             scan: association,
         }

@@ -201,7 +201,7 @@ fn agents_that_see_opposite_faces_of_a_row_are_not_matched_face_to_face() {
         unchecked > 0,
         "without the rule the faces are matched: {unchecked}"
     );
-    let (checked, refused) = edges(Params::default().max_opposite_ratio);
+    let (checked, refused) = edges(0.6);
     assert_eq!(checked, 0, "with it no face-to-face edge is accepted");
     assert!(refused > 0);
 }
