@@ -487,13 +487,13 @@ impl Fusion {
             let Some((index, d2)) = map.nearest_index(&q) else {
                 continue;
             };
+            if d2 > inlier_m2 {
+                continue;
+            }
             let (owner, keyframe) = owners[index];
             let Some(seen_from) = self.agents[owner].keyframes[keyframe].fused else {
                 continue;
             };
-            if d2 > inlier_m2 {
-                continue;
-            }
             let s = relative.transform_point(*s);
             let m = points[index];
             let sight_q = [q[0] - s[0], q[1] - s[1]];
