@@ -141,3 +141,27 @@ pub fn assert_launch_refused(text: &str, must_contain: &[&str]) {
     let output = run(&["launch", file.to_str().unwrap()]);
     assert_one_line_failure(&output, must_contain);
 }
+
+/// The pid of the child of `parent` running the node `name` (`--name NAME` on its command
+/// line, as processes mode starts each node), read from /proc; `None` where there is none.
+pub fn node_pid(parent: u32, name: &str) -> Option<u32> {
+    let needle = format!("--name\0{name}\0");
+    for entry in std::fs::read_dir("/proc").ok()?.flatten() {
+        let Ok(pid) = entry.file_name().to_string_lossy().parse::<u32>() else {
+            continue;
+        };
+        let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else {
+            continue;
+        };
+        // The parent pid is the second field after the parenthesised command name.
+        let ppid = stat
+            .rsplit_once(')')
+            .and_then(|(_, rest)| rest.split_whitespace().nth(1))
+            .and_then(|p| p.parse::<u32>().ok());
+        let cmdline = std::fs::read(format!("/proc/{pid}/cmdline")).unwrap_or_default();
+        if ppid == Some(parent) && String::from_utf8_lossy(&cmdline).contains(&needle) {
+            return Some(pid);
+        }
+    }
+    None
+}

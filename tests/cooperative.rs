@@ -169,30 +169,6 @@ mod killed {
     use std::process::Stdio;
     use std::time::{Duration, Instant};
 
-    /// The pid of the child of `parent` running the node `name` (`--name NAME` on its command
-    /// line).
-    fn node_pid(parent: u32, name: &str) -> Option<u32> {
-        let needle = format!("--name\0{name}\0");
-        for entry in std::fs::read_dir("/proc").ok()?.flatten() {
-            let Ok(pid) = entry.file_name().to_string_lossy().parse::<u32>() else {
-                continue;
-            };
-            let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else {
-                continue;
-            };
-            // The parent pid is the second field after the parenthesised command name.
-            let ppid = stat
-                .rsplit_once(')')
-                .and_then(|(_, rest)| rest.split_whitespace().nth(1))
-                .and_then(|p| p.parse::<u32>().ok());
-            let cmdline = std::fs::read(format!("/proc/{pid}/cmdline")).unwrap_or_default();
-            if ppid == Some(parent) && String::from_utf8_lossy(&cmdline).contains(&needle) {
-                return Some(pid);
-            }
-        }
-        None
-    }
-
     #[test]
     fn an_agent_killed_mid_run_leaves_the_others_fused_to_the_end() {
         let dir = temp();

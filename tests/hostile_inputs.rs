@@ -162,29 +162,6 @@ fn malformed_payloads_on_every_topic_are_dropped_counted_and_change_nothing() {
     );
 }
 
-/// The pid of the child of `parent` running the node `name`.
-fn node_pid(parent: u32, name: &str) -> Option<u32> {
-    let needle = format!("--name\0{name}\0");
-    for entry in std::fs::read_dir("/proc").ok()?.flatten() {
-        let Ok(pid) = entry.file_name().to_string_lossy().parse::<u32>() else {
-            continue;
-        };
-        let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else {
-            continue;
-        };
-        // The parent pid is the second field after the parenthesised command name.
-        let ppid = stat
-            .rsplit_once(')')
-            .and_then(|(_, rest)| rest.split_whitespace().nth(1))
-            .and_then(|p| p.parse::<u32>().ok());
-        let cmdline = std::fs::read(format!("/proc/{pid}/cmdline")).unwrap_or_default();
-        if ppid == Some(parent) && String::from_utf8_lossy(&cmdline).contains(&needle) {
-            return Some(pid);
-        }
-    }
-    None
-}
-
 fn kill_when_running(parent: u32, name: &str) -> Instant {
     let deadline = Instant::now() + Duration::from_secs(60);
     while Instant::now() < deadline {
