@@ -20,7 +20,12 @@ pub enum Detector {
 /// Sub-bin refinement of a detected peak.
 ///
 /// TOML: `refinement = { kind = "none" }`, `{ kind = "zero_padding", factor = 4 }`,
-/// `{ kind = "interpolation" }`.
+/// `{ kind = "interpolation" }`, `{ kind = "music" }`, `{ kind = "esprit", subarray = 20 }`.
+///
+/// `music` and `esprit` are super-resolution methods (`crate::superres`): each range bin that
+/// holds a detection is resolved into as many plane waves as MDL finds and the detector's
+/// threshold accepts, gridless in angle, interpolated in range. They replace that bin's DFT
+/// peaks; a bin where no wave passes keeps its DFT peaks.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Refinement {
@@ -38,6 +43,44 @@ pub enum Refinement {
     /// interpolation of the log power in a zero-padded one (angle with `zero_padding_angle` > 1),
     /// and the exact two-point (Rife) magnitude ratio at a non-circular map edge.
     Interpolation,
+    /// MUSIC on the forward–backward spatially smoothed covariance of each detected range bin.
+    Music {
+        /// Subarray length L of spatial smoothing, 2 to K; 0 (default) = ⌈2K/3⌉.
+        #[serde(default)]
+        subarray: usize,
+    },
+    /// TLS-ESPRIT on the same covariance.
+    Esprit {
+        /// Subarray length L of spatial smoothing, 2 to K; 0 (default) = ⌈2K/3⌉.
+        #[serde(default)]
+        subarray: usize,
+    },
+}
+
+impl Refinement {
+    /// The refinement named `name` (`none`, `interpolation`, `music`, `esprit`, or
+    /// `zero-padding:F`), with its parameters at their defaults.
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "none" => Some(Self::None),
+            "interpolation" => Some(Self::Interpolation),
+            "music" => Some(Self::Music { subarray: 0 }),
+            "esprit" => Some(Self::Esprit { subarray: 0 }),
+            _ => {
+                let factor = name.strip_prefix("zero-padding:")?.parse().ok()?;
+                Some(Self::ZeroPadding { factor })
+            }
+        }
+    }
+
+    /// The names [`Refinement::from_name`] takes, for help texts.
+    pub const NAMES: &'static str =
+        "none, interpolation, zero-padding:F (1 ≤ F ≤ 64), music, esprit";
+
+    /// Whether this is a super-resolution method (`music`, `esprit`).
+    pub fn is_super_resolution(&self) -> bool {
+        matches!(self, Self::Music { .. } | Self::Esprit { .. })
+    }
 }
 
 /// Parameters of the estimator.
@@ -83,7 +126,8 @@ pub struct EstimatorConfig {
     pub zero_padding_angle: usize,
     /// With `refinement` = interpolation, the range and angle std a detection is published with
     /// (`/radar/detections`), as a fraction of its resolution cell's (Δr/√12, Δ(sin θ)/√12),
-    /// 0.01 to 1. A lone echo's interpolated peak lies within a thousandth of a bin of it
+    /// 0.01 to 1. With `music` or `esprit`, the model floor added (in quadrature) to each wave's
+    /// Cramér–Rao bound, in the same unit. A lone echo's interpolated peak lies within a thousandth of a bin of it
     /// (`nrslam accuracy --refine interpolation`), but on extended targets several scatterers
     /// share a cell and pull the peak. Default 0.3, measured through SLAM on the study's 5G runs
     /// with interpolation (docs/slam.md): the cell's own std weighed refined detections as if
@@ -133,8 +177,15 @@ impl EstimatorConfig {
             ));
         }
         InvalidParam::check_range("cfar_pfa", self.cfar_pfa, 1e-300, 0.5)?;
-        if let Refinement::ZeroPadding { factor } = self.refinement {
-            InvalidParam::check_count("refinement.factor", factor, 1, 64)?;
+        match self.refinement {
+            Refinement::ZeroPadding { factor } => {
+                InvalidParam::check_count("refinement.factor", factor, 1, 64)?;
+            }
+            Refinement::Music { subarray } | Refinement::Esprit { subarray } if subarray != 0 => {
+                // The upper bound, K, is checked against the radar by `Estimator::new`.
+                InvalidParam::check_count("refinement.subarray", subarray, 2, 1 << 16)?;
+            }
+            _ => {}
         }
         if let Some(r) = self.max_range_m {
             if !(r.is_finite() && r > 0.0 && r <= 1e7) {
@@ -159,7 +210,9 @@ impl EstimatorConfig {
     /// (`interpolated_std_fraction` after interpolation, else 1).
     pub fn published_std_fraction(&self) -> f64 {
         match self.refinement {
-            Refinement::Interpolation => self.interpolated_std_fraction,
+            Refinement::Interpolation | Refinement::Music { .. } | Refinement::Esprit { .. } => {
+                self.interpolated_std_fraction
+            }
             Refinement::None | Refinement::ZeroPadding { .. } => 1.0,
         }
     }

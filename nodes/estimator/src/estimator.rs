@@ -14,6 +14,7 @@ use crate::detect::{DetectScratch, Lobes, MapView, Peak};
 use crate::error::EstimatorError;
 use crate::kernels::{self, Isa};
 use crate::refine;
+use crate::superres::{self, CellSolver, Subspace};
 
 const ZERO: Complex64 = Complex64 { re: 0.0, im: 0.0 };
 
@@ -45,6 +46,19 @@ pub struct RangeAngleDetection {
     pub range_bin: usize,
     /// Angle bin of the peak after fftshift: broadside is A/2 (the `RangeAngleSpectrum` order).
     pub angle_bin: usize,
+    /// The detection's own standard deviations, from a super-resolution method (its Cramér–Rao
+    /// bound at the detection's SNR with a model floor); `None` for a DFT-grid peak, whose spread
+    /// is its resolution cell's (`crate::node::cell_detection`).
+    pub std: Option<DetectionStd>,
+}
+
+/// Standard deviations of one detection.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct DetectionStd {
+    /// Range std (m).
+    pub range_m: f64,
+    /// Angle std (rad).
+    pub angle_rad: f64,
 }
 
 /// The range-angle estimator of paper Sec. III-B.
@@ -90,6 +104,8 @@ pub struct Estimator {
     det: DetectScratch,
     detections: Vec<RangeAngleDetection>,
     floor: f64,
+    /// The super-resolution solver and its method, when `refinement` names one (and K ≥ 2).
+    cells: Option<(CellSolver, Subspace)>,
     /// Form of the streaming loops (AVX2 when the CPU has it).
     isa: Isa,
 }
@@ -292,6 +308,69 @@ impl Values<'_> {
             Values::Stored { values, cols } => values[row * cols + col],
         }
     }
+
+    /// The array snapshots of range bin `row` (one per symbol, `k` elements each) into `all`
+    /// and their mean into `mean`, scaled so that a unit echo is a unit-modulus steering vector.
+    /// A stored map row is turned back into its K elements by the inverse of the (padded,
+    /// fftshifted) array DFT: exact when the row holds every angle bin of the echo's response.
+    fn snapshots(
+        &self,
+        row: usize,
+        k: usize,
+        signed: &dyn Fn(usize) -> isize,
+        all: &mut Vec<Complex64>,
+        mean: &mut Vec<Complex64>,
+    ) {
+        all.clear();
+        mean.clear();
+        match *self {
+            Values::Grid {
+                work, m, stride, ..
+            } => {
+                mean.resize(k, ZERO);
+                for mm in 0..m {
+                    for (kk, x) in mean.iter_mut().enumerate() {
+                        let v = work[(kk * m + mm) * stride + row];
+                        *x += v;
+                        // Each symbol's row carries the 1/M of the mean; undo it per snapshot.
+                        all.push(v * m as f64);
+                    }
+                }
+            }
+            Values::Stored { values, cols } => {
+                let line = &values[row * cols..(row + 1) * cols];
+                let a = cols as f64;
+                mean.extend((0..k).map(|kk| {
+                    line.iter()
+                        .enumerate()
+                        .map(|(c, v)| {
+                            let turns = (kk as isize * signed(c)).rem_euclid(cols as isize);
+                            v * Complex64::from_polar(1.0, 2.0 * PI * turns as f64 / a)
+                        })
+                        .sum::<Complex64>()
+                        / a
+                }));
+                all.extend_from_slice(mean);
+            }
+        }
+    }
+}
+
+/// What the super-resolution path needs beyond a [`RefineCtx`].
+struct Resolve<'a> {
+    solver: &'a mut CellSolver,
+    method: Subspace,
+    /// Elements K and unpadded subcarriers N (the apertures of the bounds).
+    k: usize,
+    n: usize,
+    /// A wave is published when its power is at least this (map units): the detector's
+    /// threshold over the floor, and the dynamic range under the frame's strongest peak.
+    min_power: f64,
+    floor: f64,
+    /// Unpadded range bin (m) and the model floor of the std, as a fraction of the cell's.
+    range_cell_m: f64,
+    std_fraction: f64,
+    max_detections: usize,
 }
 
 /// Everything refinement needs about one map.
@@ -316,33 +395,137 @@ impl RefineCtx<'_> {
         if !self.interpolate {
             return 0.0;
         }
-        let at = |row| self.values.at(row, pk.col, (pk.row, pk.col));
-        let (i, rows) = (pk.row, self.rows);
+        self.range_offset_of(pk.row, |row| {
+            Some(self.values.at(row, pk.col, (pk.row, pk.col)))
+        })
+    }
+
+    /// The range bins below and above bin `i` (wrapping when the map is circular in range).
+    fn neighbours(&self, i: usize) -> (Option<usize>, Option<usize>) {
+        let rows = self.rows;
+        let wraps = self.circular_range && rows > 2;
         let below = if i > 0 {
             Some(i - 1)
-        } else if self.circular_range && rows > 2 {
-            Some(rows - 1)
         } else {
-            None
+            wraps.then(|| rows - 1)
         };
         let above = if i + 1 < rows {
             Some(i + 1)
-        } else if self.circular_range && rows > 2 {
-            Some(0)
         } else {
-            None
+            wraps.then_some(0)
         };
-        let x0 = at(i);
+        (below, above)
+    }
+
+    /// The sub-bin range offset of a peak in bin `i` from the complex values `at` gives at its
+    /// neighbours (`None`: no value there): Candan unpadded, parabolic padded, Rife at an edge.
+    fn range_offset_of(&self, i: usize, at: impl Fn(usize) -> Option<Complex64>) -> f64 {
+        let (below, above) = self.neighbours(i);
+        let Some(x0) = at(i) else {
+            return 0.0;
+        };
+        let below = below.and_then(&at);
+        let above = above.and_then(&at);
         let delta = match (below, above, self.range_len) {
-            (Some(b), Some(a), Some(len)) => refine::candan(at(b), x0, at(a), len),
+            (Some(b), Some(a), Some(len)) => refine::candan(b, x0, a, len),
             (Some(b), Some(a), None) => {
-                refine::parabolic_log(at(b).norm_sqr(), x0.norm_sqr(), at(a).norm_sqr())
+                refine::parabolic_log(b.norm_sqr(), x0.norm_sqr(), a.norm_sqr())
             }
-            (None, Some(a), Some(len)) => refine::rife(x0.norm_sqr(), at(a).norm_sqr(), 1.0, len),
-            (Some(b), None, Some(len)) => refine::rife(x0.norm_sqr(), at(b).norm_sqr(), -1.0, len),
+            (None, Some(a), Some(len)) => refine::rife(x0.norm_sqr(), a.norm_sqr(), 1.0, len),
+            (Some(b), None, Some(len)) => refine::rife(x0.norm_sqr(), b.norm_sqr(), -1.0, len),
             _ => None,
         };
         delta.unwrap_or(0.0)
+    }
+
+    /// Super-resolution: each range bin holding a peak resolved into waves
+    /// (`crate::superres`); a bin where no wave passes `min_power` keeps its DFT peaks. Strongest
+    /// first, at most `max_detections`.
+    fn resolved(&self, peaks: &[Peak], r: Resolve<'_>) -> Vec<RangeAngleDetection> {
+        let Resolve {
+            solver,
+            method,
+            k,
+            n,
+            min_power,
+            floor,
+            range_cell_m,
+            std_fraction,
+            max_detections,
+        } = r;
+        let mut rows: Vec<usize> = peaks.iter().map(|p| p.row).collect();
+        rows.sort_unstable();
+        rows.dedup();
+        let (mut all, mut mean) = (Vec::new(), Vec::new());
+        let mut neighbour = Vec::new();
+        let mut out = Vec::new();
+        let sine_per_omega = 1.0 / (2.0 * PI * self.spacing_wl);
+        let sine_cell = 1.0 / (k as f64 * self.spacing_wl);
+        let kk = (k as f64).powi(2);
+        for row in rows {
+            self.values
+                .snapshots(row, k, self.signed, &mut all, &mut mean);
+            let waves = solver.solve(method, &all, &mean, min_power / kk);
+            let omegas: Vec<f64> = waves.iter().map(|w| w.omega).collect();
+            // Each wave's amplitude in the neighbouring bins, for its range offset.
+            let amplitude_in = |other: usize, neighbour: &mut Vec<Complex64>| {
+                let mut scratch = Vec::new();
+                self.values
+                    .snapshots(other, k, self.signed, &mut scratch, neighbour);
+                superres::least_squares_amplitudes(neighbour, &omegas)
+            };
+            let (below_row, above_row) = self.neighbours(row);
+            let below = below_row.and_then(|b| amplitude_in(b, &mut neighbour));
+            let above = above_row.and_then(|a| amplitude_in(a, &mut neighbour));
+            let before = out.len();
+            for (idx, wave) in waves.iter().enumerate() {
+                let power = wave.amplitude.norm_sqr() * kk;
+                let sine = wave.omega * sine_per_omega;
+                if !(power >= min_power) || sine.abs() > 1.0 {
+                    continue;
+                }
+                let offset = self.range_offset_of(row, |other| {
+                    if other == row {
+                        Some(wave.amplitude)
+                    } else if Some(other) == below_row {
+                        below.as_ref().map(|v| v[idx])
+                    } else if Some(other) == above_row {
+                        above.as_ref().map(|v| v[idx])
+                    } else {
+                        None
+                    }
+                });
+                let angle_rad = sine.asin();
+                let snr = power / floor;
+                let range_crb = superres::crb_std(snr, n) * n as f64 * range_cell_m / (2.0 * PI);
+                let sine_crb = superres::crb_std(snr, k) * sine_per_omega;
+                let model = std_fraction / 12f64.sqrt();
+                let sine_std = sine_crb.hypot(model * sine_cell);
+                out.push(RangeAngleDetection {
+                    range_m: ((row as f64 + offset) * self.range_bin_m).max(0.0),
+                    angle_rad,
+                    power_db: 10.0 * power.log10(),
+                    range_bin: row,
+                    angle_bin: nearest_shifted_bin(sine, self.cols, self.spacing_wl),
+                    std: Some(DetectionStd {
+                        range_m: range_crb.hypot(model * range_cell_m),
+                        angle_rad: (sine_std / angle_rad.cos().max(0.05))
+                            .min(std::f64::consts::FRAC_PI_2),
+                    }),
+                });
+            }
+            if out.len() == before {
+                out.extend(
+                    peaks
+                        .iter()
+                        .filter(|p| p.row == row)
+                        .map(|p| self.detection(p)),
+                );
+            }
+        }
+        out.sort_by(|a, b| b.power_db.total_cmp(&a.power_db));
+        out.truncate(max_detections);
+        out
     }
 
     fn angle_offset(&self, pk: &Peak) -> f64 {
@@ -371,8 +554,38 @@ impl RefineCtx<'_> {
             power_db: 10.0 * pk.power.log10(),
             range_bin: pk.row,
             angle_bin: (self.shifted)(pk.col),
+            std: None,
         }
     }
+}
+
+/// The least power (map units) a super-resolved wave needs to be published: the detector's own
+/// threshold over the frame's floor (peak picking's `threshold_db`, or CFAR's factor for its full
+/// training window at `cfar_pfa` with the floor as the training mean), and `dynamic_range_db`
+/// under the frame's strongest peak (`peaks` is sorted strongest first).
+fn min_wave_power(config: &EstimatorConfig, floor: f64, peaks: &[Peak]) -> f64 {
+    let threshold = match config.detector {
+        crate::Detector::PeakPicking => 10f64.powf(config.threshold_db / 10.0),
+        crate::Detector::Cfar => {
+            let (hr, ha) = (
+                config.cfar_guard_range + config.cfar_train_range,
+                config.cfar_guard_angle + config.cfar_train_angle,
+            );
+            let full = ((2 * hr + 1) * (2 * ha + 1)
+                - (2 * config.cfar_guard_range + 1) * (2 * config.cfar_guard_angle + 1))
+                as f64;
+            full * (config.cfar_pfa.powf(-1.0 / full) - 1.0)
+        }
+    };
+    let strongest = peaks.first().map_or(0.0, |p| p.power);
+    (floor * threshold).max(strongest * 10f64.powf(-config.dynamic_range_db / 10.0))
+}
+
+/// The fftshifted angle bin (broadside A/2) nearest to sin θ = `sine`.
+fn nearest_shifted_bin(sine: f64, cols: usize, spacing_wl: f64) -> usize {
+    let a = cols as f64;
+    let signed = (sine * a * spacing_wl).round();
+    ((signed + (cols / 2) as f64).rem_euclid(a) as usize).min(cols - 1)
 }
 
 /// The power map [`Estimator::transform`] left, as the detector reads it. A macro rather than a
@@ -436,6 +649,30 @@ impl Estimator {
                 .into());
             }
         }
+        let cells = match config.refinement {
+            Refinement::Music { subarray } | Refinement::Esprit { subarray } if k >= 2 => {
+                if subarray > k {
+                    return Err(InvalidParam::new(
+                        "refinement.subarray",
+                        format!("{subarray} elements, but the array has {k}"),
+                        format!("0 (auto) or 2 to {k}"),
+                    )
+                    .into());
+                }
+                let method = if matches!(config.refinement, Refinement::Music { .. }) {
+                    Subspace::Music
+                } else {
+                    Subspace::Esprit
+                };
+                let l = if subarray == 0 {
+                    superres::default_subarray(k)
+                } else {
+                    subarray
+                };
+                Some((CellSolver::new(k, l), method))
+            }
+            _ => None,
+        };
         let mut planner = FftPlanner::<f64>::new();
         let ifft_range = planner.plan_fft_inverse(n_pad);
         let fft_angle = planner.plan_fft_forward(a);
@@ -478,6 +715,7 @@ impl Estimator {
             det: DetectScratch::default(),
             detections: Vec::new(),
             floor: 0.0,
+            cells,
             isa: Isa::detect(),
             config,
         })
@@ -668,8 +906,25 @@ impl Estimator {
             shifted: &|c| c,
         };
         self.detections.clear();
-        self.detections
-            .extend(peaks.iter().map(|pk| ctx.detection(pk)));
+        match self.cells.as_mut().filter(|_| a >= self.k) {
+            Some((solver, method)) => {
+                let resolve = Resolve {
+                    solver,
+                    method: *method,
+                    k: self.k,
+                    n: self.n,
+                    min_power: min_wave_power(&self.config, self.floor, peaks),
+                    floor: self.floor,
+                    range_cell_m: spectrum.range_bin_m * range_pad.max(1.0),
+                    std_fraction: self.config.interpolated_std_fraction,
+                    max_detections: self.config.max_detections,
+                };
+                self.detections.extend(ctx.resolved(peaks, resolve));
+            }
+            None => self
+                .detections
+                .extend(peaks.iter().map(|pk| ctx.detection(pk))),
+        }
         if a == self.a {
             self.visible_shifted = visible;
         }
@@ -711,8 +966,25 @@ impl Estimator {
             shifted: &|c| (c + a / 2) % a,
         };
         self.detections.clear();
-        self.detections
-            .extend(peaks.iter().map(|pk| ctx.detection(pk)));
+        match self.cells.as_mut() {
+            Some((solver, method)) => {
+                let resolve = Resolve {
+                    solver,
+                    method: *method,
+                    k: self.k,
+                    n: self.n,
+                    min_power: min_wave_power(&self.config, self.floor, peaks),
+                    floor: self.floor,
+                    range_cell_m: self.range_bin_m * self.config.range_padding() as f64,
+                    std_fraction: self.config.interpolated_std_fraction,
+                    max_detections: self.config.max_detections,
+                };
+                self.detections.extend(ctx.resolved(peaks, resolve));
+            }
+            None => self
+                .detections
+                .extend(peaks.iter().map(|pk| ctx.detection(pk))),
+        }
     }
 
     fn check_grid(&self, grid: &ResourceGrid) -> Result<(), EstimatorError> {

@@ -53,9 +53,10 @@ pub mod error;
 mod estimator;
 mod kernels;
 pub mod refine;
+mod superres;
 
 pub use config::{Detector, EstimatorConfig, Refinement};
 pub use error::EstimatorError;
-pub use estimator::{validate_params, Estimator, RangeAngleDetection};
+pub use estimator::{validate_params, DetectionStd, Estimator, RangeAngleDetection};
 pub mod node;
 pub use node::{build, cell_detection, published_detection, Params};

@@ -171,15 +171,23 @@ impl EstimatorNode {
     }
 }
 
-/// A detection as `/radar/detections` carries it: its resolution cell's std
-/// ([`cell_detection`]) times the refinement's [`EstimatorConfig::published_std_fraction`].
+/// A detection as `/radar/detections` carries it: the detection's own std when its method gives
+/// one (super-resolution), else its resolution cell's std ([`cell_detection`]) times the
+/// refinement's [`EstimatorConfig::published_std_fraction`].
 pub fn published_detection(
     ofdm: &OfdmParams,
     config: &EstimatorConfig,
     found: &RangeAngleDetection,
 ) -> Detection {
-    let fraction = config.published_std_fraction();
     let cell = cell_detection(ofdm, found.range_m, found.angle_rad, found.power_db);
+    if let Some(std) = found.std {
+        return Detection {
+            range_std_m: std.range_m,
+            angle_std_rad: std.angle_rad,
+            ..cell
+        };
+    }
+    let fraction = config.published_std_fraction();
     Detection {
         range_std_m: cell.range_std_m * fraction,
         angle_std_rad: cell.angle_std_rad * fraction,
@@ -266,6 +274,7 @@ mod tests {
             power_db: 0.0,
             range_bin: 82,
             angle_bin: 18,
+            std: None,
         };
         let cell = cell_detection(&ofdm, found.range_m, found.angle_rad, found.power_db);
         let with = |refinement| EstimatorConfig {
