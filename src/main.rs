@@ -59,6 +59,8 @@ enum Command {
     Segment(cmd::segment::SegmentArgs),
     /// Single-scatterer range and angle RMSE against SNR, beside the Cramér–Rao bounds and grid limits: accuracy.csv and accuracy.png in --out.
     Accuracy(accuracy::AccuracyArgs),
+    /// Probability that two equal scatterers are both found against their separation in angle and in range, per estimator: resolution.csv and resolution-{angle,range}.png in --out.
+    Resolution(cmd::resolution::ResolutionArgs),
     /// Monte Carlo trials of a launch in parallel: trials.csv (raw), montecarlo.csv (per-step mean and spread of every metric) and study.json in --out.
     Montecarlo(montecarlo::MonteCarloArgs),
     /// Merge `montecarlo --shard` folders into the result of one unsharded run, in --out.
@@ -88,6 +90,7 @@ impl Command {
             Command::Metric(args) => args.validate(),
             Command::Segment(args) => args.validate(),
             Command::Accuracy(args) => args.validate(),
+            Command::Resolution(args) => args.validate(),
             Command::Montecarlo(args) => args.validate(),
             Command::Merge(_) => Ok(()),
             Command::Reproduce(args) => args.validate(),
@@ -172,6 +175,7 @@ fn main() -> std::process::ExitCode {
         Command::Metric(args) => cmd::metric::metric(args),
         Command::Segment(args) => cmd::segment::segment(args),
         Command::Accuracy(args) => accuracy::accuracy(args),
+        Command::Resolution(args) => cmd::resolution::resolution(args),
         Command::Montecarlo(args) => montecarlo::montecarlo(args),
         Command::Merge(args) => montecarlo::merge(args),
         Command::Reproduce(args) => reproduce::reproduce(args),

@@ -5,7 +5,8 @@
 //!   as its own process (what `launch --mode processes` starts).
 //! - [`montecarlo`]: trials of a launch in parallel, and `merge` of sharded studies.
 //! - [`reproduce`]: the paper's figures; [`tradeoff`]: the speed/accuracy sweep; [`accuracy`]:
-//!   single-scatterer RMSE against the Cramér–Rao bounds; [`scene`]: random scene files.
+//!   single-scatterer RMSE against the Cramér–Rao bounds; [`resolution`]: two-scatterer
+//!   resolution of each estimator; [`scene`]: random scene files.
 //! - [`bag`]: rosbag2 record, info and play.
 //! - [`topics`]: the topic catalogue, or what a live graph publishes (zenoh).
 //! - [`echo`]: one live topic's messages as JSON lines (zenoh).
@@ -22,6 +23,7 @@ pub mod launch;
 pub mod metric;
 pub mod montecarlo;
 pub mod reproduce;
+pub mod resolution;
 #[cfg(feature = "ros2")]
 pub mod ros2;
 pub mod run;

@@ -27,8 +27,9 @@ pub struct AccuracyArgs {
     /// Front end: spectral (closed-form processed map) or waveform (resource grids + FFTs).
     #[arg(long, default_value = "spectral", value_name = "F")]
     pub fidelity: String,
-    /// Sub-bin refinement: none (the paper), interpolation, or zero-padding:F (range IDFT and
-    /// array DFT F times longer).
+    /// Sub-bin refinement: none (the paper), interpolation, zero-padding:F (range IDFT and
+    /// array DFT F times longer), or a super-resolution method: music or esprit (angle resolved
+    /// per range bin, docs/superresolution.md).
     #[arg(long, default_value = "none", value_name = "R")]
     pub refine: String,
     /// Per-element SNR sweep in dB, FROM:TO:STEP.

@@ -9,17 +9,19 @@ use num_complex::Complex64;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-/// The estimator's sub-bin refinement and its zero-padding factor from `--refine` text: none,
-/// interpolation or zero-padding:F.
+/// The estimator's sub-bin refinement and its zero-padding factor from `--refine` text
+/// ([`Refinement::NAMES`]).
 pub(crate) fn parse_refinement(text: &str) -> Result<(Refinement, usize)> {
-    Ok(match text {
-        "none" => (Refinement::None, 1),
-        "interpolation" => (Refinement::Interpolation, 1),
-        text => match text.strip_prefix("zero-padding:").map(str::parse::<usize>) {
-            Some(Ok(factor)) if (1..=64).contains(&factor) => (Refinement::ZeroPadding { factor }, factor),
-            _ => bail!("--refine: {text:?} is not a refinement (allowed: none, interpolation, zero-padding:F with 1 ≤ F ≤ 64)"),
-        },
-    })
+    match Refinement::from_name(text) {
+        Some(Refinement::ZeroPadding { factor }) if (1..=64).contains(&factor) => {
+            Ok((Refinement::ZeroPadding { factor }, factor))
+        }
+        Some(Refinement::ZeroPadding { .. }) | None => bail!(
+            "--refine: {text:?} is not a refinement (allowed: {})",
+            Refinement::NAMES
+        ),
+        Some(refinement) => Ok((refinement, 1)),
+    }
 }
 
 /// Runs `trials` single-scatterer frames at `params` (spectral, or waveform when
@@ -47,6 +49,11 @@ pub(crate) fn single_scatterer_trials(
         max_range_m: 25.0,
         range_zero_padding: padding,
         angle_zero_padding: padding,
+        // A super-resolution method reads each array row back into the K elements' samples:
+        // every angle bin must be evaluated (spectral::SpectralConfig::angle_window_cells).
+        angle_window_cells: refinement
+            .is_super_resolution()
+            .then(|| params.antennas.div_ceil(2)),
         ..spectral::SpectralConfig::default()
     };
     let mut estimator = Estimator::new(params, config).map_err(|e| anyhow!("estimator: {e}"))?;
