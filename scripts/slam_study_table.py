@@ -29,6 +29,8 @@ LABELS = {
     "r01a5": "ΔR 0.1 m, Δθ 5°",
     "5g": "5G (paper chain, no refinement)",
     "5gi": "5G with interpolation",
+    "5gm": "5G with MUSIC",
+    "5ge": "5G with ESPRIT",
 }
 
 

@@ -61,6 +61,20 @@ fn table_one(c: &mut Criterion) {
                 ..Default::default()
             },
         ),
+        (
+            "estimator_music",
+            EstimatorConfig {
+                refinement: Refinement::Music { subarray: 0 },
+                ..Default::default()
+            },
+        ),
+        (
+            "estimator_esprit",
+            EstimatorConfig {
+                refinement: Refinement::Esprit { subarray: 0 },
+                ..Default::default()
+            },
+        ),
     ] {
         let mut est = Estimator::new(&p, cfg).unwrap();
         assert!(!est.process_grid(&g).unwrap().is_empty());
@@ -71,5 +85,64 @@ fn table_one(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, table_one);
+/// The SLAM runs' case: a spectral map (Table I, M = 1, every angle bin evaluated) of 70 point
+/// scatterers along four extended targets' faces (as a hall frame sees them), detected with
+/// paper-5g.toml's estimator settings (25 m window, 10 dB dynamic range), per method. The
+/// synthesis is outside the timed loop.
+fn hall_frame(c: &mut Criterion) {
+    use nrslam_ofdm::{spectral, OfdmParams, Scatterer};
+    use num_complex::Complex64;
+    use rand::{Rng, SeedableRng};
+    let p = OfdmParams {
+        symbols: 1,
+        ..OfdmParams::default()
+    };
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+    // Four faces, each a row of scatterers 0.25 m apart, 4 to 18 m away.
+    let scatterers: Vec<Scatterer> = (0..70)
+        .map(|i| {
+            let face = i / 18;
+            let (x0, y0) = [(4.0, -3.0), (8.0, 2.0), (12.0, -6.0), (16.0, 4.0)][face];
+            let along = (i % 18) as f64 * 0.25;
+            let (x, y): (f64, f64) = (x0 + 0.2 * along, y0 + along);
+            Scatterer {
+                range_m: x.hypot(y),
+                angle_rad: y.atan2(x),
+                radial_velocity_mps: 0.0,
+                amplitude: Complex64::from_polar(1.0, rng.random_range(0.0..std::f64::consts::TAU)),
+            }
+        })
+        .collect();
+    let spectral_config = spectral::SpectralConfig {
+        max_range_m: 25.0,
+        angle_window_cells: Some(16),
+        ..Default::default()
+    };
+    let map = spectral::synthesize(&p, &scatterers, &spectral_config, &mut rng).unwrap();
+    let mut group = c.benchmark_group("hall_frame_spectral");
+    group.sample_size(20);
+    for (name, refinement) in [
+        ("none", Refinement::None),
+        ("interpolation", Refinement::Interpolation),
+        ("music", Refinement::Music { subarray: 0 }),
+        ("esprit", Refinement::Esprit { subarray: 0 }),
+    ] {
+        let config = EstimatorConfig {
+            refinement,
+            max_range_m: Some(25.0),
+            dynamic_range_db: 10.0,
+            ..Default::default()
+        };
+        let mut est = Estimator::new(&p, config).unwrap();
+        let found = est.process_spectrum(&map).unwrap();
+        assert!(!found.is_empty());
+        eprintln!("hall_frame_spectral/{name}: {} detections", found.len());
+        group.bench_function(name, |b| {
+            b.iter(|| black_box(est.process_spectrum(black_box(&map)).unwrap()))
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, table_one, hall_frame);
 criterion_main!(benches);

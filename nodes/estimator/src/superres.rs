@@ -7,15 +7,17 @@
 //!   smoothing over the K − L + 1 subarrays of length L and forward–backward averaging
 //!   (R ← (R + J R* J)/2) restore the rank up to min(L, 2(K − L + 1)); a diagonal loading of
 //!   10⁻⁹ · tr(R)/L keeps noise-free inputs positive definite.
-//! - **Model order** from the detector's false-alarm rule: d = 1, 2, … waves are fitted from the
-//!   d strongest eigenvectors, and the order is the largest d whose every wave's least-squares
-//!   power passes the threshold the DFT path's peaks obey (`threshold_db`, or the CFAR factor of
-//!   `cfar_pfa`, over the frame's noise floor), at most L − 1. MDL was tried first and counted
-//!   L − 1 waves in pure noise: the K − L + 1 overlapping subarrays are far from independent
-//!   snapshots, so its penalty is too small.
+//! - **Model order** in two steps. The signal subspace holds the eigenvalues above the largest
+//!   that noise alone gives (the frame's noise floor is known; `signal_dimension`). Of the waves
+//!   it yields, each must then pass the threshold the DFT path's peaks obey (`threshold_db`, or
+//!   the CFAR factor of `cfar_pfa`, over the floor) on its least-squares power: the stated
+//!   false-alarm probability decides what is published. MDL was tried first and counted L − 1
+//!   waves in pure noise: the K − L + 1 overlapping subarrays are far from independent
+//!   snapshots, so its penalty is too small. Taking the largest order whose waves all pass
+//!   failed on the closest pairs, whose one-wave fit falls between them and cancels.
 //! - **MUSIC**: the noise-subspace projection 1 − ‖E_sᴴ a(ω)‖²/L on a grid of 16 L points (one FFT
-//!   per signal eigenvector), its d deepest local minima refined by golden-section search to
-//!   10⁻¹⁰ rad.
+//!   per signal eigenvector, shared by every order tried), its d deepest local minima placed by a
+//!   parabola while the order is chosen, then by golden-section search on the projection.
 //! - **ESPRIT** (total least squares, Roy and Kailath): the rotation between the signal subspace's
 //!   first and last L − 1 rows, Ψ = −V₁₂ V₂₂⁻¹, whose eigenvalues are e^{jω}.
 //!
@@ -95,16 +97,19 @@ impl CellSolver {
     }
 
     /// The waves of one range cell. `snapshots` holds `snapshots.len() / k` array snapshots of
-    /// `k` elements each (one per symbol); `mean` is their mean. The model order is the largest
-    /// d ≤ L − 1 (tried upwards from 1, stopping at the first failure) whose d fitted waves all
-    /// have |amplitude|² ≥ `min_power` (the detector's threshold, in the snapshot's units). Empty
-    /// when even one wave fails, or the input is degenerate (all zero, or not finite).
+    /// `k` elements each (one per symbol), with noise power `noise_power` per element; `mean` is
+    /// their mean. The order d is the number of the covariance's eigenvalues above the noise's
+    /// (`signal_dimension`), at most L − 1; of the d waves found, those whose least-squares power
+    /// |amplitude|² is under `min_power` (the detector's threshold, in the snapshot's units) are
+    /// dropped and the rest refitted. Empty when the input is degenerate (all zero, or not
+    /// finite) or no wave passes.
     pub fn solve(
         &mut self,
         method: Subspace,
         snapshots: &[Complex64],
         mean: &[Complex64],
         min_power: f64,
+        noise_power: f64,
     ) -> Vec<Wave> {
         let (k, l) = (self.k, self.l);
         if k < 2 || snapshots.len() < k || mean.len() != k {
@@ -125,47 +130,72 @@ impl CellSolver {
         let eig = r.symmetric_eigen();
         let mut order: Vec<usize> = (0..l).collect();
         order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
-        let mut accepted = Vec::new();
-        for d in 1..l {
-            let signal = DMatrix::from_fn(l, d, |row, col| eig.eigenvectors[(row, order[col])]);
-            let omegas = match method {
-                Subspace::Music => self.music(&signal, d),
-                Subspace::Esprit => esprit(&signal),
-            };
-            let mut omegas = distinct(omegas, PI / (64.0 * k as f64));
-            refine_full_aperture(mean, &mut omegas);
-            let omegas = distinct(omegas, PI / (64.0 * k as f64));
-            let Some(amplitudes) = least_squares_amplitudes(mean, &omegas) else {
-                break;
-            };
-            // Fewer distinct waves than d: the subspace has no further wave to give.
-            if omegas.len() < d || amplitudes.iter().any(|a| !(a.norm_sqr() >= min_power)) {
-                break;
+        let values: Vec<f64> = order.iter().map(|&i| eig.eigenvalues[i]).collect();
+        let d = signal_dimension(&values, noise_power, k, l, snapshots.len() / k);
+        let signal = DMatrix::from_fn(l, d, |row, col| eig.eigenvectors[(row, order[col])]);
+        let mut omegas = match method {
+            Subspace::Music => {
+                self.projection.fill(1.0);
+                for col in 0..d {
+                    self.add_to_projection(&signal, col);
+                }
+                let step = 2.0 * PI / self.grid as f64;
+                self.music_minima(d)
+                    .into_iter()
+                    .map(|w| wrap(golden_minimum(|x| projection(&signal, x), w, step)))
+                    .collect()
             }
-            accepted = omegas
-                .into_iter()
-                .zip(amplitudes)
-                .map(|(omega, amplitude)| Wave { omega, amplitude })
-                .collect();
+            Subspace::Esprit => esprit(&signal),
+        };
+        let tolerance = PI / (64.0 * k as f64);
+        // Drop what fails the threshold (weakest first, refitting), refine, drop again.
+        for pass in 0..2 {
+            omegas = distinct(omegas, tolerance);
+            loop {
+                let Some(amplitudes) = least_squares_amplitudes(mean, &omegas) else {
+                    return Vec::new();
+                };
+                let weakest = amplitudes
+                    .iter()
+                    .enumerate()
+                    .min_by(|a, b| a.1.norm_sqr().total_cmp(&b.1.norm_sqr()));
+                match weakest {
+                    Some((i, a)) if !(a.norm_sqr() >= min_power) => {
+                        omegas.remove(i);
+                    }
+                    _ if pass == 1 => {
+                        return omegas
+                            .into_iter()
+                            .zip(amplitudes)
+                            .map(|(omega, amplitude)| Wave { omega, amplitude })
+                            .collect();
+                    }
+                    _ => break,
+                }
+            }
+            refine_full_aperture(mean, &mut omegas);
         }
-        accepted
+        Vec::new()
     }
 
-    /// MUSIC: the `d` deepest local minima of the noise-subspace projection, refined.
-    fn music(&mut self, signal: &DMatrix<Complex64>, d: usize) -> Vec<f64> {
-        let (l, g) = (self.l, self.grid);
-        self.projection.fill(1.0);
-        for col in 0..signal.ncols() {
-            self.buf.fill(ZERO);
-            for row in 0..l {
-                self.buf[row] = signal[(row, col)];
-            }
-            // FFT bin q is Σ e_l e^{−j2π q l/G} = a(ω_q)ᴴ e with ω_q = 2π q/G.
-            self.fft.process(&mut self.buf);
-            for (p, v) in self.projection.iter_mut().zip(&self.buf) {
-                *p -= v.norm_sqr() / l as f64;
-            }
+    /// Takes eigenvector `col` of `vectors` out of the noise-subspace projection
+    /// 1 − Σ |a(ω_q)ᴴ e|² / L on the grid ω_q = 2π q/G (one FFT: bin q is Σ e_l e^{−j2π q l/G}).
+    fn add_to_projection(&mut self, vectors: &DMatrix<Complex64>, col: usize) {
+        let l = self.l;
+        self.buf.fill(ZERO);
+        for row in 0..l {
+            self.buf[row] = vectors[(row, col)];
         }
+        self.fft.process(&mut self.buf);
+        for (p, v) in self.projection.iter_mut().zip(&self.buf) {
+            *p -= v.norm_sqr() / l as f64;
+        }
+    }
+
+    /// MUSIC: the `d` deepest local minima of the projection, each placed by a parabola through
+    /// its grid point and their neighbours (the full-aperture refinement follows).
+    fn music_minima(&self, d: usize) -> Vec<f64> {
+        let g = self.grid;
         let p = &self.projection;
         let mut minima: Vec<(f64, usize)> = (0..g)
             .filter(|&q| p[q] < p[(q + g - 1) % g] && p[q] <= p[(q + 1) % g])
@@ -177,11 +207,42 @@ impl CellSolver {
             .into_iter()
             .take(d)
             .map(|(_, q)| {
-                let omega = golden_minimum(|w| projection(signal, w), q as f64 * step, step);
-                wrap(omega)
+                let (pm, p0, pp) = (p[(q + g - 1) % g], p[q], p[(q + 1) % g]);
+                let den = pm - 2.0 * p0 + pp;
+                let offset = if den > 0.0 {
+                    (0.5 * (pm - pp) / den).clamp(-0.5, 0.5)
+                } else {
+                    0.0
+                };
+                wrap((q as f64 + offset) * step)
             })
             .collect()
     }
+}
+
+/// How many of `values` (the smoothed covariance's eigenvalues, descending) belong to waves:
+/// those above (1 + √(L / S))² · 2 times the element noise `noise_power`, S = (K − L + 1) times
+/// the `snapshots` (the largest eigenvalue noise alone gives, by the Marchenko–Pastur edge for
+/// S subarray snapshots of L elements, with a factor 2 for the overlap of the subarrays), and
+/// above 10⁻⁶ of the largest (what rounding leaves in a noise-free cell); at most L − 1, at
+/// least 1.
+pub(crate) fn signal_dimension(
+    values: &[f64],
+    noise_power: f64,
+    k: usize,
+    l: usize,
+    snapshots: usize,
+) -> usize {
+    let subarrays = ((k + 1).saturating_sub(l).max(1) * snapshots.max(1)) as f64;
+    let edge = (1.0 + (l as f64 / subarrays).sqrt()).powi(2) * 2.0;
+    let largest = values.first().copied().unwrap_or(0.0);
+    let threshold = (edge * noise_power).max(1e-6 * largest);
+    values
+        .iter()
+        .take(l.saturating_sub(1))
+        .filter(|&&v| v > threshold)
+        .count()
+        .max(1)
 }
 
 /// Forward–backward spatially smoothed covariance (L × L) of `snapshots` (each `k` long), with
@@ -262,7 +323,7 @@ pub(crate) fn esprit(signal: &DMatrix<Complex64>) -> Vec<f64> {
     }
 }
 
-/// Two cycles of full-aperture refinement: each wave's ω moved to the maximum of |a(ω)ᴴ r|² within
+/// Full-aperture refinement, cycled until no wave moves by 10⁻⁹ rad: each wave's ω moved to the maximum of |a(ω)ᴴ r|² within
 /// half a DFT bin, r being the mean snapshot less the other waves' least-squares fit. The
 /// subspace estimate uses L of the K elements; this step is the single-tone maximum-likelihood
 /// estimate on all K (Newtonized OMP's cyclic refinement), so an isolated wave reaches the
@@ -271,7 +332,8 @@ fn refine_full_aperture(x: &[Complex64], omegas: &mut [f64]) {
     let k = x.len();
     let half_bin = PI / k as f64;
     let mut residual = vec![ZERO; k];
-    for _ in 0..2 {
+    for _ in 0..REFINE_CYCLES {
+        let before = omegas.to_vec();
         let Some(amplitudes) = least_squares_amplitudes(x, omegas) else {
             return;
         };
@@ -287,8 +349,20 @@ fn refine_full_aperture(x: &[Complex64], omegas: &mut [f64]) {
             let fit = |w: f64| -beam_power(&residual, w);
             omegas[j] = wrap(golden_minimum(fit, omegas[j], half_bin));
         }
+        let moved = before
+            .iter()
+            .zip(omegas.iter())
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        if moved < 1e-9 {
+            return;
+        }
     }
 }
+
+/// Most cycles of [`refine_full_aperture`]: waves closer than a DFT bin are coupled, and each
+/// cycle moves them only part of the way (two waves half a bin apart need about ten).
+const REFINE_CYCLES: usize = 20;
 
 /// |a(ω)ᴴ x|² for the steering vector a(ω)_k = e^{jωk}.
 fn beam_power(x: &[Complex64], omega: f64) -> f64 {
@@ -320,7 +394,7 @@ fn projection(signal: &DMatrix<Complex64>, omega: f64) -> f64 {
 }
 
 /// The minimum of `f` in [x − h, x + h] by golden-section search to 10⁻¹⁰.
-fn golden_minimum(f: impl Fn(f64) -> f64, x: f64, h: f64) -> f64 {
+pub(crate) fn golden_minimum(f: impl Fn(f64) -> f64, x: f64, h: f64) -> f64 {
     let ratio = (5f64.sqrt() - 1.0) / 2.0;
     let (mut a, mut b) = (x - h, x + h);
     let mut c = b - ratio * (b - a);
@@ -436,7 +510,7 @@ mod tests {
         );
         for method in [Subspace::Music, Subspace::Esprit] {
             let mut solver = CellSolver::new(k, default_subarray(k));
-            let waves = solver.solve(method, &x, &x, 0.01);
+            let waves = solver.solve(method, &x, &x, 0.01, 0.0);
             let found = sorted(waves.iter().map(|w| w.omega).collect());
             assert_eq!(found.len(), 2, "{method:?}: {found:?}");
             assert!(
@@ -468,7 +542,13 @@ mod tests {
                     *v += Complex64::new(re, im) * (sigma / 2f64.sqrt());
                 }
                 // The detector's 13 dB over the element noise.
-                let waves = solver.solve(method, &x, &x, sigma * sigma * 20.0 / k as f64);
+                let waves = solver.solve(
+                    method,
+                    &x,
+                    &x,
+                    sigma * sigma * 20.0 / k as f64,
+                    sigma * sigma,
+                );
                 assert_eq!(waves.len(), 1, "{method:?}: {waves:?}");
                 sq += (waves[0].omega - truth).powi(2);
             }
@@ -482,15 +562,34 @@ mod tests {
     }
 
     #[test]
+    fn the_signal_dimension_counts_eigenvalues_above_the_noise_edge() {
+        // K = 32, L = 22: the edge is (1 + √2)² · 2 ≈ 11.7 σ².
+        let values = [500.0, 40.0, 12.5, 11.0, 3.0, 1.0, 0.5];
+        assert_eq!(signal_dimension(&values, 1.0, 32, 22, 1), 3);
+        assert_eq!(signal_dimension(&values, 0.1, 32, 22, 1), 5);
+        // 256 snapshots: the edge falls to (1 + √(22/2816))² · 2 ≈ 2.4 σ².
+        assert_eq!(signal_dimension(&values, 1.0, 32, 22, 256), 5);
+        // Noise-free: what rounding leaves (under 1e-6 of the largest) is no wave.
+        assert_eq!(signal_dimension(&[4.0, 1e-12, 1e-13], 0.0, 32, 22, 1), 1);
+        // At least one, at most L − 1.
+        assert_eq!(signal_dimension(&[1.0, 1.0], 10.0, 4, 2, 1), 1);
+        assert_eq!(signal_dimension(&[9.0; 4], 0.0, 8, 4, 1), 3);
+    }
+
+    #[test]
     fn degenerate_snapshots_give_no_wave() {
         let mut solver = CellSolver::new(8, 6);
         let zero = vec![ZERO; 8];
-        assert!(solver.solve(Subspace::Music, &zero, &zero, 0.0).is_empty());
+        assert!(solver
+            .solve(Subspace::Music, &zero, &zero, 0.0, 0.0)
+            .is_empty());
         let mut nan = vec![Complex64::new(1.0, 0.0); 8];
         nan[3] = Complex64::new(f64::NAN, 0.0);
-        assert!(solver.solve(Subspace::Esprit, &nan, &nan, 0.0).is_empty());
         assert!(solver
-            .solve(Subspace::Esprit, &zero[..4], &zero[..4], 0.0)
+            .solve(Subspace::Esprit, &nan, &nan, 0.0, 0.0)
+            .is_empty());
+        assert!(solver
+            .solve(Subspace::Esprit, &zero[..4], &zero[..4], 0.0, 0.0)
             .is_empty());
     }
 

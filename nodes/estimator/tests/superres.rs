@@ -164,7 +164,8 @@ fn two_and_256_antennas() {
 #[test]
 fn one_and_256_symbols_on_the_grid_path() {
     for m in [1usize, 256] {
-        let p = params(64, 8, m, 0.0);
+        // N = 1024 (1.22 m bins): enough noise cells in 25 m for the median floor.
+        let p = params(1024, 8, m, 0.0);
         for method in METHODS {
             let found = waveform_frame(
                 &p,

@@ -61,10 +61,22 @@ impl Setting {
             format!("symbols:={}", self.symbols),
             format!("antennas:={}", self.antennas),
             format!("refinement:={}", self.refinement),
+            format!("angle_window_cells:={}", self.angle_window_cells()),
             format!("resolution_m:={:?}", self.resolution_m),
             format!("scatterer_spacing_m:={:?}", self.scatterer_spacing_m),
             format!("frames:={frames}"),
         ]
+    }
+
+    /// Half-width in angle of the spectral synthesis: every angle bin (K/2) for a
+    /// super-resolution method, which reads array rows back into the elements' samples; else
+    /// paper-5g.toml's default.
+    pub(super) fn angle_window_cells(&self) -> usize {
+        if matches!(self.refinement, "music" | "esprit") {
+            self.antennas.div_ceil(2)
+        } else {
+            8
+        }
     }
 
     /// What the sensing chain's errors depend on.
@@ -138,9 +150,11 @@ pub(super) fn settings(knob: &str) -> Vec<Setting> {
             .iter()
             .map(|&k| with(format!("K = {k}"), &|s| s.antennas = k))
             .collect(),
-        "refinement" => vec![with("interpolation".into(), &|s| {
-            s.refinement = "interpolation"
-        })],
+        "refinement" => vec![
+            with("interpolation".into(), &|s| s.refinement = "interpolation"),
+            with("MUSIC".into(), &|s| s.refinement = "music"),
+            with("ESPRIT".into(), &|s| s.refinement = "esprit"),
+        ],
         "resolution" => [0.05, 0.2, 0.4]
             .iter()
             .map(|&r| with(format!("grid {r} m"), &|s| s.resolution_m = r))
