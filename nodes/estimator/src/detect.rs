@@ -48,7 +48,7 @@ pub(crate) struct Lobes {
 /// beyond, a side lobe peaks at most at 1/(L sin(π max(u, 1.43)/L))² of the echo's true peak
 /// (−13.3 dB for the first), and the peak bin holds at least the scalloped fraction
 /// (sin(πh)/(L sin(πh/L)))², h = ½/pad, of it.
-fn envelope(dist: usize, pad: f64, len: usize) -> f64 {
+pub(crate) fn envelope(dist: usize, pad: f64, len: usize) -> f64 {
     let u = (dist as f64 - 0.5) / pad;
     if u < 1.0 {
         return 1.0;
@@ -66,7 +66,7 @@ fn envelope(dist: usize, pad: f64, len: usize) -> f64 {
     }
 }
 
-fn circular(a: usize, b: usize, period: usize) -> usize {
+pub(crate) fn circular(a: usize, b: usize, period: usize) -> usize {
     let d = a.abs_diff(b);
     if period > 0 {
         let d = d % period;

@@ -340,16 +340,20 @@ impl Values<'_> {
             Values::Stored { values, cols } => {
                 let line = &values[row * cols..(row + 1) * cols];
                 let a = cols as f64;
-                mean.extend((0..k).map(|kk| {
-                    line.iter()
-                        .enumerate()
-                        .map(|(c, v)| {
-                            let turns = (kk as isize * signed(c)).rem_euclid(cols as isize);
-                            v * Complex64::from_polar(1.0, 2.0 * PI * turns as f64 / a)
-                        })
-                        .sum::<Complex64>()
-                        / a
-                }));
+                // e^{+j2π q/A} for q = 0..A: the inverse array DFT's kernel, by index.
+                let kernel = |q: isize| {
+                    Complex64::from_polar(1.0, 2.0 * PI * q.rem_euclid(cols as isize) as f64 / a)
+                };
+                let steps: Vec<Complex64> = (0..cols).map(|c| kernel(signed(c))).collect();
+                let mut turn: Vec<Complex64> = vec![Complex64::new(1.0, 0.0); cols];
+                for _ in 0..k {
+                    let mut acc = ZERO;
+                    for ((v, t), step) in line.iter().zip(turn.iter_mut()).zip(&steps) {
+                        acc += v * *t;
+                        *t *= step;
+                    }
+                    mean.push(acc / a);
+                }
                 all.extend_from_slice(mean);
             }
         }
@@ -374,6 +378,9 @@ struct Resolve<'a> {
     range_cell_m: f64,
     std_fraction: f64,
     max_detections: usize,
+    /// The transforms' shape and `sidelobe_margin_db`, for blanking range side lobes.
+    lobes: Lobes,
+    sidelobe_margin_db: Option<f64>,
 }
 
 /// Everything refinement needs about one map.
@@ -469,6 +476,8 @@ impl RefineCtx<'_> {
             range_cell_m,
             std_fraction,
             max_detections,
+            lobes,
+            sidelobe_margin_db,
         } = r;
         let mut rows: Vec<usize> = peaks.iter().map(|p| p.row).collect();
         rows.sort_unstable();
@@ -485,11 +494,12 @@ impl RefineCtx<'_> {
             let waves = solver.solve(method, &all, &mean, min_power / kk, snapshot_noise);
             let omegas: Vec<f64> = waves.iter().map(|w| w.omega).collect();
             // Each wave's amplitude in the bins around, for its range offset.
+            let fit = superres::WaveFit::new(k, &omegas);
             let amplitude_in = |other: usize, neighbour: &mut Vec<Complex64>| {
                 let mut scratch = Vec::new();
                 self.values
                     .snapshots(other, k, self.signed, &mut scratch, neighbour);
-                superres::least_squares_amplitudes(neighbour, &omegas)
+                fit.as_ref()?.amplitudes(neighbour)
             };
             let profile: Vec<(isize, Vec<Complex64>)> = (-RANGE_PROFILE_BINS..=RANGE_PROFILE_BINS)
                 .filter(|&o| o != 0)
@@ -557,8 +567,41 @@ impl RefineCtx<'_> {
             }
         }
         out.sort_by(|a, b| b.power_db.total_cmp(&a.power_db));
+        if let Some(margin_db) = sidelobe_margin_db {
+            out = self.blank_range_sidelobes(out, lobes, margin_db);
+        }
         out.truncate(max_detections);
         out
+    }
+
+    /// Drops each wave (strongest first) that a stronger kept one in another range bin can
+    /// explain as its range side lobe: the DFT path's blanking (`DetectScratch::detect`), with
+    /// the angle distance in bins of sin θ. Within one bin the waves are resolved, not lobes.
+    fn blank_range_sidelobes(
+        &self,
+        sorted: Vec<RangeAngleDetection>,
+        lobes: Lobes,
+        margin_db: f64,
+    ) -> Vec<RangeAngleDetection> {
+        let margin = 10f64.powf(margin_db / 10.0);
+        let bins_per_sine = self.cols as f64 * self.spacing_wl;
+        let mut kept: Vec<RangeAngleDetection> = Vec::with_capacity(sorted.len());
+        for q in sorted {
+            let blanked = kept.iter().any(|s| {
+                if s.range_bin == q.range_bin {
+                    return false;
+                }
+                let dr = crate::detect::circular(q.range_bin, s.range_bin, lobes.range_period);
+                let da = ((q.angle_rad.sin() - s.angle_rad.sin()).abs() * bins_per_sine).round();
+                let g = crate::detect::envelope(dr, lobes.range_pad, lobes.range_len)
+                    * crate::detect::envelope(da as usize, lobes.angle_pad, lobes.angle_len);
+                q.power_db <= s.power_db + 10.0 * (g * margin).log10()
+            });
+            if !blanked {
+                kept.push(q);
+            }
+        }
+        kept
     }
 
     fn angle_offset(&self, pk: &Peak) -> f64 {
@@ -997,6 +1040,8 @@ impl Estimator {
                     range_cell_m: spectrum.range_bin_m * range_pad.max(1.0),
                     std_fraction: self.config.interpolated_std_fraction,
                     max_detections: self.config.max_detections,
+                    lobes,
+                    sidelobe_margin_db: self.config.sidelobe_margin_db,
                 };
                 self.detections.extend(ctx.resolved(peaks, resolve));
             }
@@ -1059,6 +1104,8 @@ impl Estimator {
                     range_cell_m: self.range_bin_m * self.config.range_padding() as f64,
                     std_fraction: self.config.interpolated_std_fraction,
                     max_detections: self.config.max_detections,
+                    lobes,
+                    sidelobe_margin_db: self.config.sidelobe_margin_db,
                 };
                 self.detections.extend(ctx.resolved(peaks, resolve));
             }
