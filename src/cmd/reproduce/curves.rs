@@ -2,7 +2,7 @@
 //! against time, one curve per condition, and with `--oracle` the same conditions mapped at the
 //! true poses (dashed) and `oracle.csv`, the final ET-GOPSA of each beside its oracle's.
 
-use super::{oracle_dir, trials_dir, CONDITIONS};
+use super::{oracle_dir, trials_dir, Condition};
 use crate::plot::{canvas, draw_axes, draw_legend, framed, line_key, plot_error};
 use anyhow::{anyhow, bail, Context, Result};
 use plotters::prelude::*;
@@ -23,13 +23,14 @@ pub(super) struct Curve {
 /// `<name>.png`; the curves, for [`oracle_table`].
 pub(super) fn curves(
     out: &Path,
+    conditions: &[Condition],
     column: &str,
     name: &str,
     (y_label, caption): (&str, &str),
     oracle: bool,
 ) -> Result<Vec<Curve>> {
     let mut series = Vec::new();
-    for (index, (condition, _, _, legend)) in CONDITIONS.iter().enumerate() {
+    for (index, (condition, _, _, legend)) in conditions.iter().enumerate() {
         series.push(Curve {
             column: condition.to_string(),
             legend: legend.to_string(),
@@ -145,7 +146,11 @@ impl OracleRow {
 /// `oracle.csv` (condition, final ET-GOPSA of SLAM and of the oracle, their ratio) in `out`,
 /// from the last step of each condition's curve and its oracle's in `fig6` (the curves
 /// [`curves`] drew with the oracles); the rows, for the terminal.
-pub(super) fn oracle_table(out: &Path, fig6: &[Curve]) -> Result<Vec<OracleRow>> {
+pub(super) fn oracle_table(
+    out: &Path,
+    conditions: &[Condition],
+    fig6: &[Curve],
+) -> Result<Vec<OracleRow>> {
     let last = |column: &str| -> Result<f64> {
         let curve = fig6.iter().find(|c| c.column == column);
         match curve.and_then(|c| c.points.last()) {
@@ -154,7 +159,7 @@ pub(super) fn oracle_table(out: &Path, fig6: &[Curve]) -> Result<Vec<OracleRow>>
         }
     };
     let mut rows = Vec::new();
-    for (condition, _, _, _) in CONDITIONS {
+    for &(condition, _, _, _) in conditions {
         rows.push(OracleRow {
             condition,
             slam: last(condition)?,

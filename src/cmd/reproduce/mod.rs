@@ -6,7 +6,8 @@
 //!   far from x1, y2 farther from x2; both metrics for {y1}, {y2}, {y1, y2} (`fig4.csv`, `fig4.png`).
 //! - Figs. 6 and 7: Monte Carlo means over `--trials` of ET-GOPSA and of the AGV position MSE
 //!   against time for 5G and the four ideal conditions (`fig6.csv`/`.png`, `fig7.csv`/`.png`;
-//!   raw trials in `montecarlo/<condition>/`).
+//!   raw trials in `montecarlo/<condition>/`); with `--super-resolution` also 5G with ESPRIT
+//!   (`fig5-esprit/`, `montecarlo/5g_esprit/`).
 //! - With `--oracle`, every condition's trials again at the true AGV poses
 //!   (`launch/true-poses.toml`: the same seeds give the same detections), dashed in Fig. 6, and
 //!   `oracle.csv`: the final ET-GOPSA of each condition, its oracle's and their ratio, i.e. what
@@ -50,6 +51,11 @@ pub struct ReproduceArgs {
     /// matching, no loop search).
     #[arg(long)]
     pub oracle: bool,
+    /// Also run 5G with the ESPRIT super-resolution estimator (refinement:=esprit, every array
+    /// row exact) and draw it in Figs. 6 and 7 beside 5G DFT (docs/superresolution.md). Its
+    /// trials cost several times the DFT's: about 4 ms more per frame at Table I.
+    #[arg(long)]
+    pub super_resolution: bool,
     /// Folder holding paper-ideal.toml and paper-5g.toml (and true-poses.toml for --oracle).
     #[arg(long, default_value = "launch", value_name = "DIR")]
     pub launch_dir: PathBuf,
@@ -93,36 +99,67 @@ impl ReproduceArgs {
     }
 }
 
-/// (name, launch file, arguments, legend)
-const CONDITIONS: [(&str, &str, [&str; 2], &str); 5] = [
+/// One condition: (name, launch file, arguments, legend).
+type Condition = (
+    &'static str,
+    &'static str,
+    &'static [&'static str],
+    &'static str,
+);
+
+/// The super-resolution condition `--super-resolution` adds: 5G with ESPRIT, every array row
+/// exact (docs/superresolution.md).
+const SUPER_RESOLUTION: Condition = (
+    "5g_esprit",
+    "paper-5g.toml",
+    &[
+        "fidelity:=spectral",
+        "snr_db:=10",
+        "refinement:=esprit",
+        "angle_window_cells:=16",
+    ],
+    "5G ESPRIT, SNR 10 dB",
+);
+
+/// The conditions of a run: the paper's five, and with `super_resolution` 5G with ESPRIT.
+fn conditions(super_resolution: bool) -> Vec<Condition> {
+    let mut all = CONDITIONS.to_vec();
+    if super_resolution {
+        all.insert(1, SUPER_RESOLUTION);
+    }
+    all
+}
+
+/// The paper's conditions: (name, launch file, arguments, legend).
+const CONDITIONS: [Condition; 5] = [
     (
         "5g",
         "paper-5g.toml",
-        ["fidelity:=spectral", "snr_db:=10"],
+        &["fidelity:=spectral", "snr_db:=10"],
         "5G, SNR 10 dB",
     ),
     (
         "r0_a1",
         "paper-ideal.toml",
-        ["range_std_m:=0", "angle_std_deg:=1"],
+        &["range_std_m:=0", "angle_std_deg:=1"],
         "ΔR = 0 m, Δθ = 1°",
     ),
     (
         "r0.1_a1",
         "paper-ideal.toml",
-        ["range_std_m:=0.1", "angle_std_deg:=1"],
+        &["range_std_m:=0.1", "angle_std_deg:=1"],
         "ΔR = 0.1 m, Δθ = 1°",
     ),
     (
         "r0_a5",
         "paper-ideal.toml",
-        ["range_std_m:=0", "angle_std_deg:=5"],
+        &["range_std_m:=0", "angle_std_deg:=5"],
         "ΔR = 0 m, Δθ = 5°",
     ),
     (
         "r0.1_a5",
         "paper-ideal.toml",
-        ["range_std_m:=0.1", "angle_std_deg:=5"],
+        &["range_std_m:=0.1", "angle_std_deg:=5"],
         "ΔR = 0.1 m, Δθ = 5°",
     ),
 ];
@@ -134,7 +171,8 @@ pub fn reproduce(args: ReproduceArgs) -> Result<()> {
     let started = std::time::Instant::now();
     let (mut timings, mut oracle_timings) = (serde_json::Map::new(), serde_json::Map::new());
     fig4::fig4(&args.out.dir)?;
-    for (name, file, assignments, legend) in CONDITIONS {
+    let conditions = conditions(args.super_resolution);
+    for &(name, file, assignments, legend) in &conditions {
         let condition_started = std::time::Instant::now();
         eprintln!("{legend}: one run, then {} Monte Carlo trials", args.trials);
         let mut assignments: Vec<String> = assignments.iter().map(|s| s.to_string()).collect();
@@ -143,6 +181,8 @@ pub fn reproduce(args: ReproduceArgs) -> Result<()> {
         assignments.push(format!("loop_closure:={}", args.loop_closure));
         let out = if name == "5g" {
             args.out.join("fig5")
+        } else if name == SUPER_RESOLUTION.0 {
+            args.out.join("fig5-esprit")
         } else {
             args.out.join("fig3").join(name)
         };
@@ -193,16 +233,30 @@ pub fn reproduce(args: ReproduceArgs) -> Result<()> {
         "ET-GOPSA (mean over trials)",
         "Fig. 6: mapping error against time",
     );
-    let fig6 = curves(&args.out.dir, "etgospa_mean", "fig6", fig6, args.oracle)?;
+    let fig6 = curves(
+        &args.out.dir,
+        &conditions,
+        "etgospa_mean",
+        "fig6",
+        fig6,
+        args.oracle,
+    )?;
     // At the true poses the position error is 0 (up to rounding): Fig. 7 has no oracle curves.
     let fig7 = (
         "AGV position MSE (m²)",
         "Fig. 7: MSE of the AGV location against time",
     );
-    curves(&args.out.dir, "position_mse_m2", "fig7", fig7, false)?;
+    curves(
+        &args.out.dir,
+        &conditions,
+        "position_mse_m2",
+        "fig7",
+        fig7,
+        false,
+    )?;
     if args.oracle {
         outln!("final ET-GOPSA (mean over trials): SLAM, at the true poses, ratio");
-        for row in oracle_table(&args.out.dir, &fig6)? {
+        for row in oracle_table(&args.out.dir, &conditions, &fig6)? {
             outln!(
                 "  {:<8} {:>8.2} {:>8.2} {:>6.2}",
                 row.condition,
