@@ -11,7 +11,7 @@
 //! range (0.122 m at Table I).
 
 use crate::args::OutputDirArgs;
-use crate::flags::{self, Whole};
+use crate::flags::{self, Real, Whole};
 use crate::plot::{canvas, draw_axes, draw_legend, framed, line_key, plot_error};
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
@@ -69,6 +69,7 @@ pub struct ResolutionArgs {
     pub out: OutputDirArgs,
 }
 
+const SNR_DB: Real = Real::closed(-50.0, 100.0, "-50 to 100 dB");
 const TRIALS: Whole = Whole::new(1, 100_000, "1 to 100000 trials per separation");
 const POINTS: Whole = Whole::new(2, 200, "2 to 200 separations");
 const SUBCARRIERS: Whole = Whole::new(16, 65_536, "16 to 65536 subcarriers");
@@ -101,12 +102,7 @@ impl ResolutionArgs {
                 self.fidelity
             );
         }
-        if !(self.snr_db.is_finite() && (-50.0..=100.0).contains(&self.snr_db)) {
-            bail!(
-                "--snr-db: {} is out of range (allowed: −50 to 100 dB)",
-                self.snr_db
-            );
-        }
+        flags::check("--snr-db", SNR_DB.check(self.snr_db))?;
         flags::check("--trials", TRIALS.check(self.trials))?;
         flags::check("--points", POINTS.check(self.points))?;
         flags::check("--subcarriers", SUBCARRIERS.check(self.subcarriers as u64))?;
