@@ -9,8 +9,8 @@
 #
 # Defaults: 40 hall seeds, 20 random scenes (`nrslam scene --random --seed K`) × 2 seeds, 2 laps.
 # Conditions: CONDITIONS (default "a1 r01a1 a5 5g 5gi": ΔR 0/Δθ 1°, ΔR 0.1 m/Δθ 1°, ΔR 0/Δθ 5°,
-# 5G spectral without refinement, 5G with interpolation; also 5gm and 5ge: 5G with MUSIC or
-# ESPRIT, docs/superresolution.md). JOBS runs in parallel (default: nproc).
+# 5G spectral without refinement, 5G with interpolation; also 5gm, 5ge and 5gn: 5G with MUSIC,
+# ESPRIT or NOMP, docs/superresolution.md). JOBS runs in parallel (default: nproc).
 # FIRST_HALL_SEED and FIRST_SCENE (default 1) shift the hall seeds and the random scenes, for
 # held-out checks on seeds and scenes no setting was chosen on (e.g. FIRST_HALL_SEED=41
 # FIRST_SCENE=21: hall seeds 41–80, scenes 21–40). Run names keep the true seed and scene.
@@ -52,6 +52,7 @@ args_of() { # condition -> "SLAM_LAUNCH ORACLE_ARGS ... | launch arguments"
     5gi) echo "launch/paper-5g.toml|refinement:=interpolation|fidelity:=spectral refinement:=interpolation" ;;
     5gm) echo "launch/paper-5g.toml|refinement:=music angle_window_cells:=16|fidelity:=spectral refinement:=music angle_window_cells:=16" ;;
     5ge) echo "launch/paper-5g.toml|refinement:=esprit angle_window_cells:=16|fidelity:=spectral refinement:=esprit angle_window_cells:=16" ;;
+    5gn) echo "launch/paper-5g.toml|refinement:=nomp angle_window_cells:=16|fidelity:=spectral refinement:=nomp angle_window_cells:=16" ;;
     *) echo "unknown condition $1" >&2; exit 2 ;;
   esac
 }

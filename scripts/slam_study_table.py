@@ -31,6 +31,7 @@ LABELS = {
     "5gi": "5G with interpolation",
     "5gm": "5G with MUSIC",
     "5ge": "5G with ESPRIT",
+    "5gn": "5G with NOMP",
 }
 
 

@@ -4,7 +4,7 @@ hall and on the random scenes, beside the ideal radars, with paired differences 
 
     python3 scripts/superres_table.py OUT/runs
 
-OUT is a scripts/slam_study.sh folder run with CONDITIONS="5g 5gi 5gm 5ge a1 r01a1".
+OUT is a scripts/slam_study.sh folder run with CONDITIONS="5g 5gi 5gm 5ge 5gn a1 r01a1".
 """
 
 import collections
@@ -14,7 +14,7 @@ import math
 import os
 import sys
 
-ORDER = ["a1", "r01a1", "5g", "5gi", "5gm", "5ge"]
+ORDER = ["a1", "r01a1", "5g", "5gi", "5gm", "5ge", "5gn"]
 LABELS = {
     "a1": "ideal ΔR 0, Δθ 1°",
     "r01a1": "ideal ΔR 0.1 m, Δθ 1°",
@@ -22,6 +22,7 @@ LABELS = {
     "5gi": "5G interpolation",
     "5gm": "5G MUSIC",
     "5ge": "5G ESPRIT",
+    "5gn": "5G NOMP",
 }
 REFERENCE = "r01a1"
 

@@ -55,6 +55,10 @@ pub enum Refinement {
         #[serde(default)]
         subarray: usize,
     },
+    /// Newtonized OMP (`crate::nomp`): gridless atoms jointly in range and angle on the range
+    /// bins around the DFT peaks, added while the strongest residual cell passes the
+    /// detector's threshold.
+    Nomp,
 }
 
 impl Refinement {
@@ -66,6 +70,7 @@ impl Refinement {
             "interpolation" => Some(Self::Interpolation),
             "music" => Some(Self::Music { subarray: 0 }),
             "esprit" => Some(Self::Esprit { subarray: 0 }),
+            "nomp" => Some(Self::Nomp),
             _ => {
                 let factor = name.strip_prefix("zero-padding:")?.parse().ok()?;
                 Some(Self::ZeroPadding { factor })
@@ -77,9 +82,9 @@ impl Refinement {
     pub const NAMES: &'static str =
         "none, interpolation, zero-padding:F (1 ≤ F ≤ 64), music, esprit";
 
-    /// Whether this is a super-resolution method (`music`, `esprit`).
+    /// Whether this is a super-resolution method (`music`, `esprit`, `nomp`).
     pub fn is_super_resolution(&self) -> bool {
-        matches!(self, Self::Music { .. } | Self::Esprit { .. })
+        matches!(self, Self::Music { .. } | Self::Esprit { .. } | Self::Nomp)
     }
 }
 
@@ -210,9 +215,10 @@ impl EstimatorConfig {
     /// (`interpolated_std_fraction` after interpolation, else 1).
     pub fn published_std_fraction(&self) -> f64 {
         match self.refinement {
-            Refinement::Interpolation | Refinement::Music { .. } | Refinement::Esprit { .. } => {
-                self.interpolated_std_fraction
-            }
+            Refinement::Interpolation
+            | Refinement::Music { .. }
+            | Refinement::Esprit { .. }
+            | Refinement::Nomp => self.interpolated_std_fraction,
             Refinement::None | Refinement::ZeroPadding { .. } => 1.0,
         }
     }

@@ -360,6 +360,18 @@ impl Values<'_> {
     }
 }
 
+/// What a super-resolved wave's std is made of.
+struct WaveBounds {
+    /// Elements K and unpadded subcarriers N (the apertures of the bounds).
+    k: usize,
+    n: usize,
+    /// The frame's noise floor (map units).
+    floor: f64,
+    /// Unpadded range bin (m) and the model floor of the std, as a fraction of the cell's.
+    range_cell_m: f64,
+    std_fraction: f64,
+}
+
 /// What the super-resolution path needs beyond a [`RefineCtx`].
 struct Resolve<'a> {
     solver: &'a mut CellSolver,
@@ -486,7 +498,6 @@ impl RefineCtx<'_> {
         let mut neighbour = Vec::new();
         let mut out = Vec::new();
         let sine_per_omega = 1.0 / (2.0 * PI * self.spacing_wl);
-        let sine_cell = 1.0 / (k as f64 * self.spacing_wl);
         let kk = (k as f64).powi(2);
         for row in rows {
             self.values
@@ -538,24 +549,14 @@ impl RefineCtx<'_> {
                     Some(len) => ml_range_offset(&at, start, len),
                     None => start,
                 };
-                let angle_rad = sine.asin();
-                let snr = power / floor;
-                let range_crb = superres::crb_std(snr, n) * n as f64 * range_cell_m / (2.0 * PI);
-                let sine_crb = superres::crb_std(snr, k) * sine_per_omega;
-                let model = std_fraction / 12f64.sqrt();
-                let sine_std = sine_crb.hypot(model * sine_cell);
-                out.push(RangeAngleDetection {
-                    range_m: ((row as f64 + offset) * self.range_bin_m).max(0.0),
-                    angle_rad,
-                    power_db: 10.0 * power.log10(),
-                    range_bin: row,
-                    angle_bin: nearest_shifted_bin(sine, self.cols, self.spacing_wl),
-                    std: Some(DetectionStd {
-                        range_m: range_crb.hypot(model * range_cell_m),
-                        angle_rad: (sine_std / angle_rad.cos().max(0.05))
-                            .min(std::f64::consts::FRAC_PI_2),
-                    }),
-                });
+                let bounds = WaveBounds {
+                    k,
+                    n,
+                    floor,
+                    range_cell_m,
+                    std_fraction,
+                };
+                out.push(self.wave_detection(row as f64 + offset, sine, power, &bounds));
             }
             if out.len() == before {
                 out.extend(
@@ -572,6 +573,82 @@ impl RefineCtx<'_> {
         }
         out.truncate(max_detections);
         out
+    }
+
+    /// A super-resolved wave at fractional range bin `range_bin`, sin θ = `sine` (|sine| ≤ 1) and
+    /// `power` (map units), with its std: the single-tone Cramér–Rao bound at its SNR over the
+    /// floor, in quadrature with the model floor (`std_fraction` of the resolution cell's).
+    fn wave_detection(
+        &self,
+        range_bin: f64,
+        sine: f64,
+        power: f64,
+        b: &WaveBounds,
+    ) -> RangeAngleDetection {
+        let sine_per_omega = 1.0 / (2.0 * PI * self.spacing_wl);
+        let sine_cell = 1.0 / (b.k as f64 * self.spacing_wl);
+        let angle_rad = sine.asin();
+        let snr = power / b.floor;
+        let range_crb = superres::crb_std(snr, b.n) * b.n as f64 * b.range_cell_m / (2.0 * PI);
+        let sine_crb = superres::crb_std(snr, b.k) * sine_per_omega;
+        let model = b.std_fraction / 12f64.sqrt();
+        let sine_std = sine_crb.hypot(model * sine_cell);
+        RangeAngleDetection {
+            range_m: (range_bin * self.range_bin_m).max(0.0),
+            angle_rad,
+            power_db: 10.0 * power.log10(),
+            range_bin: (range_bin.round().max(0.0) as usize).min(self.rows.saturating_sub(1)),
+            angle_bin: nearest_shifted_bin(sine, self.cols, self.spacing_wl),
+            std: Some(DetectionStd {
+                range_m: range_crb.hypot(model * b.range_cell_m),
+                angle_rad: (sine_std / angle_rad.cos().max(0.05)).min(std::f64::consts::FRAC_PI_2),
+            }),
+        }
+    }
+
+    /// NOMP (`crate::nomp`) on the range bins around the peaks: gridless atoms in range and
+    /// angle, strongest first.
+    fn nomp_detections(
+        &self,
+        peaks: &[Peak],
+        min_power: f64,
+        max_detections: usize,
+        b: &WaveBounds,
+    ) -> Vec<RangeAngleDetection> {
+        let mut rows: Vec<usize> = peaks
+            .iter()
+            .flat_map(|p| {
+                p.row.saturating_sub(crate::nomp::PATCH_BINS)
+                    ..=(p.row + crate::nomp::PATCH_BINS).min(self.rows - 1)
+            })
+            .collect();
+        rows.sort_unstable();
+        rows.dedup();
+        let (mut all, mut mean) = (Vec::new(), Vec::new());
+        let mut samples = Vec::with_capacity(rows.len() * b.k);
+        for &row in &rows {
+            self.values
+                .snapshots(row, b.k, self.signed, &mut all, &mut mean);
+            samples.extend_from_slice(&mean);
+        }
+        let patch = crate::nomp::Patch {
+            rows,
+            k: b.k,
+            n: b.n,
+            samples,
+        };
+        let sine_per_omega = 1.0 / (2.0 * PI * self.spacing_wl);
+        let kk = (b.k as f64).powi(2);
+        crate::nomp::nomp(patch, min_power, max_detections)
+            .into_iter()
+            .filter_map(|atom| {
+                let omega = (atom.omega + PI).rem_euclid(2.0 * PI) - PI;
+                let sine = omega * sine_per_omega;
+                (sine.abs() <= 1.0).then(|| {
+                    self.wave_detection(atom.range_bin, sine, atom.amplitude.norm_sqr() * kk, b)
+                })
+            })
+            .collect()
     }
 
     /// Drops each wave (strongest first) that a stronger kept one in another range bin can
@@ -1027,27 +1104,40 @@ impl Estimator {
             shifted: &|c| c,
         };
         self.detections.clear();
-        match self.cells.as_mut().filter(|_| a >= self.k) {
-            Some((solver, method)) => {
-                let resolve = Resolve {
-                    solver,
-                    method: *method,
-                    k: self.k,
-                    n: self.n,
-                    min_power: min_wave_power(&self.config, self.floor, peaks),
-                    floor: self.floor,
-                    snapshot_noise: self.floor / self.k as f64,
-                    range_cell_m: spectrum.range_bin_m * range_pad.max(1.0),
-                    std_fraction: self.config.interpolated_std_fraction,
-                    max_detections: self.config.max_detections,
-                    lobes,
-                    sidelobe_margin_db: self.config.sidelobe_margin_db,
-                };
-                self.detections.extend(ctx.resolved(peaks, resolve));
+        if self.config.refinement == Refinement::Nomp && a >= self.k && self.k >= 2 {
+            let bounds = WaveBounds {
+                k: self.k,
+                n: self.n,
+                floor: self.floor,
+                range_cell_m: spectrum.range_bin_m * range_pad.max(1.0),
+                std_fraction: self.config.interpolated_std_fraction,
+            };
+            let min_power = min_wave_power(&self.config, self.floor, peaks);
+            let found = ctx.nomp_detections(peaks, min_power, self.config.max_detections, &bounds);
+            self.detections.extend(found);
+        } else {
+            match self.cells.as_mut().filter(|_| a >= self.k) {
+                Some((solver, method)) => {
+                    let resolve = Resolve {
+                        solver,
+                        method: *method,
+                        k: self.k,
+                        n: self.n,
+                        min_power: min_wave_power(&self.config, self.floor, peaks),
+                        floor: self.floor,
+                        snapshot_noise: self.floor / self.k as f64,
+                        range_cell_m: spectrum.range_bin_m * range_pad.max(1.0),
+                        std_fraction: self.config.interpolated_std_fraction,
+                        max_detections: self.config.max_detections,
+                        lobes,
+                        sidelobe_margin_db: self.config.sidelobe_margin_db,
+                    };
+                    self.detections.extend(ctx.resolved(peaks, resolve));
+                }
+                None => self
+                    .detections
+                    .extend(peaks.iter().map(|pk| ctx.detection(pk))),
             }
-            None => self
-                .detections
-                .extend(peaks.iter().map(|pk| ctx.detection(pk))),
         }
         if a == self.a {
             self.visible_shifted = visible;
@@ -1090,6 +1180,19 @@ impl Estimator {
             shifted: &|c| (c + a / 2) % a,
         };
         self.detections.clear();
+        if self.config.refinement == Refinement::Nomp && self.k >= 2 {
+            let bounds = WaveBounds {
+                k: self.k,
+                n: self.n,
+                floor: self.floor,
+                range_cell_m: self.range_bin_m * self.config.range_padding() as f64,
+                std_fraction: self.config.interpolated_std_fraction,
+            };
+            let min_power = min_wave_power(&self.config, self.floor, peaks);
+            let found = ctx.nomp_detections(peaks, min_power, self.config.max_detections, &bounds);
+            self.detections.extend(found);
+            return;
+        }
         match self.cells.as_mut() {
             Some((solver, method)) => {
                 let resolve = Resolve {

@@ -52,6 +52,7 @@ mod detect;
 pub mod error;
 mod estimator;
 mod kernels;
+mod nomp;
 pub mod refine;
 mod superres;
 

@@ -403,7 +403,7 @@ fn steer(len: usize, omega: f64) -> Vec<Complex64> {
 /// on its first and second derivatives (NOMP's step), checked to stay in the interval and to
 /// gain; else golden-section search. One vector: the beam's peak; the signal eigenvectors: the
 /// MUSIC projection's minimum.
-fn beam_peak(vectors: &[&[Complex64]], start: f64, half_width: f64) -> f64 {
+pub(crate) fn beam_peak(vectors: &[&[Complex64]], start: f64, half_width: f64) -> f64 {
     let power = |w: f64| vectors.iter().map(|v| beam_power(v, w)).sum::<f64>();
     let mut w = start;
     let mut newton_ok = true;

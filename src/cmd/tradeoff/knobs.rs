@@ -72,7 +72,7 @@ impl Setting {
     /// super-resolution method, which reads array rows back into the elements' samples; else
     /// paper-5g.toml's default.
     pub(super) fn angle_window_cells(&self) -> usize {
-        if matches!(self.refinement, "music" | "esprit") {
+        if matches!(self.refinement, "music" | "esprit" | "nomp") {
             self.antennas.div_ceil(2)
         } else {
             8
@@ -154,6 +154,7 @@ pub(super) fn settings(knob: &str) -> Vec<Setting> {
             with("interpolation".into(), &|s| s.refinement = "interpolation"),
             with("MUSIC".into(), &|s| s.refinement = "music"),
             with("ESPRIT".into(), &|s| s.refinement = "esprit"),
+            with("NOMP".into(), &|s| s.refinement = "nomp"),
         ],
         "resolution" => [0.05, 0.2, 0.4]
             .iter()
