@@ -523,7 +523,7 @@ impl RefineCtx<'_> {
             for (idx, wave) in waves.iter().enumerate() {
                 let power = wave.amplitude.norm_sqr() * kk;
                 let sine = wave.omega * sine_per_omega;
-                if !(power >= min_power) || sine.abs() > 1.0 {
+                if power.is_nan() || power < min_power || sine.abs() > 1.0 {
                     continue;
                 }
                 let at = |o: isize| {

@@ -173,7 +173,7 @@ pub(crate) fn nomp(mut patch: Patch, min_power: f64, max_atoms: usize) -> Vec<At
         let Some((index, omega, power)) = patch.strongest_cell() else {
             break;
         };
-        if !(power >= min_power) {
+        if power.is_nan() || power < min_power {
             break;
         }
         let mut atom = Atom {
@@ -182,7 +182,8 @@ pub(crate) fn nomp(mut patch: Patch, min_power: f64, max_atoms: usize) -> Vec<At
             amplitude: ZERO,
         };
         patch.refine(&mut atom);
-        if !(atom.amplitude.norm_sqr() * kk >= min_power * 0.25) {
+        let kept = atom.amplitude.norm_sqr() * kk;
+        if kept.is_nan() || kept < min_power * 0.25 {
             // The refined fit kept less than a quarter of the cell's power: the cell was a
             // side lobe of what is already taken out, not a new scatterer.
             break;
@@ -191,15 +192,15 @@ pub(crate) fn nomp(mut patch: Patch, min_power: f64, max_atoms: usize) -> Vec<At
         atoms.push(atom);
         for _ in 0..CYCLES {
             let mut moved = 0.0f64;
-            for j in 0..atoms.len() {
-                let mut other = atoms[j];
+            for atom in atoms.iter_mut() {
+                let mut other = *atom;
                 patch.add(&other, 1.0);
                 patch.refine(&mut other);
                 patch.add(&other, -1.0);
                 moved = moved
-                    .max((other.range_bin - atoms[j].range_bin).abs())
-                    .max((other.omega - atoms[j].omega).abs());
-                atoms[j] = other;
+                    .max((other.range_bin - atom.range_bin).abs())
+                    .max((other.omega - atom.omega).abs());
+                *atom = other;
             }
             if moved < 1e-7 {
                 break;

@@ -173,7 +173,7 @@ impl CellSolver {
                     .enumerate()
                     .min_by(|a, b| a.1.norm_sqr().total_cmp(&b.1.norm_sqr()));
                 match weakest {
-                    Some((i, a)) if !(a.norm_sqr() >= min_power) => {
+                    Some((i, a)) if a.norm_sqr().is_nan() || a.norm_sqr() < min_power => {
                         omegas.remove(i);
                     }
                     _ if pass == 1 => {
@@ -556,7 +556,7 @@ impl WaveFit {
 /// so the coherent gain is already in it): √(6 / (snr (len² − 1))). Infinite when snr ≤ 0 or
 /// len < 2.
 pub(crate) fn crb_std(snr: f64, len: usize) -> f64 {
-    if !(snr > 0.0) || len < 2 {
+    if snr.is_nan() || snr <= 0.0 || len < 2 {
         return f64::INFINITY;
     }
     let l = len as f64;
