@@ -84,6 +84,7 @@ fn table_one(c: &mut Criterion) {
             ("paper5g_dft", Refinement::None),
             ("paper5g_music", Refinement::Music { subarray: 0 }),
             ("paper5g_esprit", Refinement::Esprit { subarray: 0 }),
+            ("paper5g_nomp", Refinement::Nomp),
         ]
         .map(|(name, refinement)| {
             (
@@ -147,6 +148,7 @@ fn hall_frame(c: &mut Criterion) {
         ("interpolation", Refinement::Interpolation),
         ("music", Refinement::Music { subarray: 0 }),
         ("esprit", Refinement::Esprit { subarray: 0 }),
+        ("nomp", Refinement::Nomp),
     ] {
         let config = EstimatorConfig {
             refinement,

@@ -21,8 +21,11 @@
 //!    (1 + ln 4) times the DFT detector's.
 //! 3. **Refine the new atom** (t, ω) by alternating Newton steps in ω (`superres::beam_peak`) and
 //!    golden-section search in t, on |⟨r, x(t, ω)⟩|² / ‖x(t, ω)‖².
-//! 4. **Refine every atom cyclically**: add it back to the residual, refine it, take it out
-//!    again; rounds until no atom moves by 10⁻⁷ (at most 30).
+//! 4. **Refine the atoms near it cyclically** (within 2 · `PATCH_BINS` bins): add each back to
+//!    the residual, refine it, take it out again; 3 rounds, and at the end rounds over all atoms
+//!    until none moves by 10⁻⁷ (at most 30).
+//!    An atom is refined on the bins within `PATCH_BINS` + 1 of it, and added to or taken out
+//!    of every bin of the patch.
 //!
 //! The patch is the range bins within ±`PATCH_BINS` of the DFT detector's peaks, so only where
 //! something was detected is searched. An atom is subtracted from every bin of the patch; its
@@ -37,8 +40,11 @@ const ZERO: Complex64 = Complex64 { re: 0.0, im: 0.0 };
 /// Range bins on each side of a DFT peak that the patch holds.
 pub(crate) const PATCH_BINS: usize = 4;
 
-/// Most cyclic refinement rounds after each new atom (until nothing moves by 10⁻⁷): atoms
-/// closer than a cell in both range and angle are coupled, and each round moves them part way.
+/// Cyclic refinement rounds of the atoms near a new one (NOMP's R_c).
+const CYCLES_PER_ATOM: usize = 3;
+
+/// Most rounds of the final refinement of all atoms (until nothing moves by 10⁻⁷): atoms closer
+/// than a cell in both range and angle are coupled, and each round moves them part way.
 const CYCLES: usize = 30;
 
 /// Angle grid of the detection step: this many points per array element.
@@ -70,6 +76,17 @@ impl Patch {
         &self.samples[index * self.k..(index + 1) * self.k]
     }
 
+    /// The indices of the bins within `reach` bins of range bin `t`.
+    fn near(&self, t: f64, reach: usize) -> std::ops::Range<usize> {
+        let lo = self
+            .rows
+            .partition_point(|&r| (r as f64) < t - reach as f64);
+        let hi = self
+            .rows
+            .partition_point(|&r| (r as f64) <= t + reach as f64);
+        lo..hi
+    }
+
     /// Adds `scale` × the atom's contribution to every bin.
     fn add(&mut self, atom: &Atom, scale: f64) {
         let k = self.k;
@@ -86,9 +103,9 @@ impl Patch {
 
     /// ⟨r, x(t, ω)⟩ / ‖x(t, ω)‖² (the least-squares amplitude) and |⟨r, x⟩|² / ‖x‖² (the fit),
     /// from each bin's beam output `beams[i]` = Σ_k r(i, k) e^{−jωk}.
-    fn fit(&self, beams: &[Complex64], t: f64) -> (Complex64, f64) {
+    fn fit(&self, near: std::ops::Range<usize>, beams: &[Complex64], t: f64) -> (Complex64, f64) {
         let (mut dot, mut energy) = (ZERO, 0.0);
-        for (&row, b) in self.rows.iter().zip(beams) {
+        for (&row, b) in self.rows[near].iter().zip(beams) {
             let g = kernel(self.n, row as f64 - t);
             dot += b * g.conj();
             energy += g.norm_sqr();
@@ -101,41 +118,39 @@ impl Patch {
         }
     }
 
-    /// Each bin's beam output at ω.
-    fn beams(&self, omega: f64) -> Vec<Complex64> {
+    /// The beam output at ω of each bin in `near`.
+    fn beams(&self, near: std::ops::Range<usize>, omega: f64) -> Vec<Complex64> {
         let step = Complex64::from_polar(1.0, -omega);
-        (0..self.rows.len())
-            .map(|index| {
-                let mut w = Complex64::new(1.0, 0.0);
-                let mut acc = ZERO;
-                for v in self.row(index) {
-                    acc += v * w;
-                    w *= step;
-                }
-                acc
-            })
-            .collect()
+        near.map(|index| {
+            let mut w = Complex64::new(1.0, 0.0);
+            let mut acc = ZERO;
+            for v in self.row(index) {
+                acc += v * w;
+                w *= step;
+            }
+            acc
+        })
+        .collect()
     }
 
     /// The strongest cell of the residual on the bins × fine angle grid: (bin index, ω, power
     /// |Σ_k r e^{−jωk}|²).
-    fn strongest_cell(&self) -> Option<(usize, f64, f64)> {
-        let grid = ANGLE_OVERSAMPLING * self.k;
+    fn strongest_cell(
+        &self,
+        fft: &dyn rustfft::Fft<f64>,
+        buf: &mut [Complex64],
+    ) -> Option<(usize, f64, f64)> {
+        let grid = buf.len();
         let mut best: Option<(usize, f64, f64)> = None;
         for index in 0..self.rows.len() {
-            let row = self.row(index);
-            for q in 0..grid {
-                let omega = 2.0 * PI * q as f64 / grid as f64;
-                let step = Complex64::from_polar(1.0, -omega);
-                let mut w = Complex64::new(1.0, 0.0);
-                let mut acc = ZERO;
-                for v in row {
-                    acc += v * w;
-                    w *= step;
-                }
-                let p = acc.norm_sqr();
+            buf.fill(ZERO);
+            buf[..self.k].copy_from_slice(self.row(index));
+            // Bin q is Σ_k r e^{−j2π qk/G}: the beam at ω = 2π q/G.
+            fft.process(buf);
+            for (q, v) in buf.iter().enumerate() {
+                let p = v.norm_sqr();
                 if best.is_none_or(|b| p > b.2) {
-                    best = Some((index, omega, p));
+                    best = Some((index, 2.0 * PI * q as f64 / grid as f64, p));
                 }
             }
         }
@@ -144,23 +159,51 @@ impl Patch {
 
     /// Refines `atom` against the residual (which must not hold it): alternating ω (Newton) and
     /// t (golden section within half a bin), then its amplitude.
+    /// Only the bins within `PATCH_BINS` of the atom take part: its kernel beyond holds under
+    /// 1/(π · 4) of its peak.
     fn refine(&self, atom: &mut Atom) {
         let half_bin = PI / self.k as f64;
+        let near = self.near(atom.range_bin, PATCH_BINS + 1);
         for _ in 0..3 {
             // ω: the beam of the range-matched sum Σ_i conj(g(i − t)) r(i, ·).
             let mut matched = vec![ZERO; self.k];
-            for (index, &row) in self.rows.iter().enumerate() {
-                let g = kernel(self.n, row as f64 - atom.range_bin).conj();
+            for index in near.clone() {
+                let g = kernel(self.n, self.rows[index] as f64 - atom.range_bin).conj();
                 for (m, v) in matched.iter_mut().zip(self.row(index)) {
                     *m += g * v;
                 }
             }
             atom.omega = beam_peak(&[&matched], atom.omega, half_bin);
-            let beams = self.beams(atom.omega);
+            let beams = self.beams(near.clone(), atom.omega);
             let t0 = atom.range_bin;
-            atom.range_bin = golden_minimum(|t| -self.fit(&beams, t).1, t0, 0.5);
+            atom.range_bin = golden_minimum(|t| -self.fit(near.clone(), &beams, t).1, t0, 0.5);
         }
-        atom.amplitude = self.fit(&self.beams(atom.omega), atom.range_bin).0;
+        let beams = self.beams(near.clone(), atom.omega);
+        atom.amplitude = self.fit(near, &beams, atom.range_bin).0;
+    }
+}
+
+/// Up to `rounds` rounds of cyclic refinement of the atoms (those within 2 · `PATCH_BINS` bins of
+/// range bin `near`, or all), until none moves by 10⁻⁷.
+fn cycle(patch: &mut Patch, atoms: &mut [Atom], near: Option<f64>, rounds: usize) {
+    for _ in 0..rounds {
+        let mut moved = 0.0f64;
+        for atom in atoms
+            .iter_mut()
+            .filter(|a| near.is_none_or(|t| (a.range_bin - t).abs() <= (2 * PATCH_BINS) as f64))
+        {
+            let mut other = *atom;
+            patch.add(&other, 1.0);
+            patch.refine(&mut other);
+            patch.add(&other, -1.0);
+            moved = moved
+                .max((other.range_bin - atom.range_bin).abs())
+                .max((other.omega - atom.omega).abs());
+            *atom = other;
+        }
+        if moved < 1e-7 {
+            break;
+        }
     }
 }
 
@@ -168,9 +211,12 @@ impl Patch {
 /// with |amplitude|²·K² ≥ `min_power` (map units) when found.
 pub(crate) fn nomp(mut patch: Patch, min_power: f64, max_atoms: usize) -> Vec<Atom> {
     let kk = (patch.k as f64).powi(2);
+    let grid = ANGLE_OVERSAMPLING * patch.k;
+    let fft = rustfft::FftPlanner::<f64>::new().plan_fft_forward(grid);
+    let mut buf = vec![ZERO; grid];
     let mut atoms: Vec<Atom> = Vec::new();
     while atoms.len() < max_atoms {
-        let Some((index, omega, power)) = patch.strongest_cell() else {
+        let Some((index, omega, power)) = patch.strongest_cell(fft.as_ref(), &mut buf) else {
             break;
         };
         if power.is_nan() || power < min_power {
@@ -190,23 +236,10 @@ pub(crate) fn nomp(mut patch: Patch, min_power: f64, max_atoms: usize) -> Vec<At
         }
         patch.add(&atom, -1.0);
         atoms.push(atom);
-        for _ in 0..CYCLES {
-            let mut moved = 0.0f64;
-            for atom in atoms.iter_mut() {
-                let mut other = *atom;
-                patch.add(&other, 1.0);
-                patch.refine(&mut other);
-                patch.add(&other, -1.0);
-                moved = moved
-                    .max((other.range_bin - atom.range_bin).abs())
-                    .max((other.omega - atom.omega).abs());
-                *atom = other;
-            }
-            if moved < 1e-7 {
-                break;
-            }
-        }
+        let newest = atom.range_bin;
+        cycle(&mut patch, &mut atoms, Some(newest), CYCLES_PER_ATOM);
     }
+    cycle(&mut patch, &mut atoms, None, CYCLES);
     atoms.retain(|a| a.amplitude.norm_sqr() * kk >= min_power);
     atoms.sort_by(|a, b| b.amplitude.norm_sqr().total_cmp(&a.amplitude.norm_sqr()));
     atoms
