@@ -87,6 +87,10 @@ fn a_small_sweep_writes_every_column_and_a_consistent_pareto_front() {
             "trials",
             "trials",
             "trials",
+            // interpolation, MUSIC, ESPRIT, NOMP
+            "refinement",
+            "refinement",
+            "refinement",
             "refinement",
             "resolution",
             "resolution",
