@@ -376,19 +376,12 @@ struct WaveBounds {
 struct Resolve<'a> {
     solver: &'a mut CellSolver,
     method: Subspace,
-    /// Elements K and unpadded subcarriers N (the apertures of the bounds).
-    k: usize,
-    n: usize,
+    bounds: WaveBounds,
     /// A wave is published when its power is at least this (map units): the detector's
     /// threshold over the floor, and the dynamic range under the frame's strongest peak.
     min_power: f64,
-    floor: f64,
-    /// Noise power of one element of one snapshot (the map's floor is K times the mean
-    /// snapshot's; a symbol's snapshot carries M times that).
+    /// Noise power of one element of one snapshot.
     snapshot_noise: f64,
-    /// Unpadded range bin (m) and the model floor of the std, as a fraction of the cell's.
-    range_cell_m: f64,
-    std_fraction: f64,
     max_detections: usize,
     /// The transforms' shape and `sidelobe_margin_db`, for blanking range side lobes.
     lobes: Lobes,
@@ -480,17 +473,14 @@ impl RefineCtx<'_> {
         let Resolve {
             solver,
             method,
-            k,
-            n,
+            bounds,
             min_power,
-            floor,
             snapshot_noise,
-            range_cell_m,
-            std_fraction,
             max_detections,
             lobes,
             sidelobe_margin_db,
         } = r;
+        let k = bounds.k;
         let mut rows: Vec<usize> = peaks.iter().map(|p| p.row).collect();
         rows.sort_unstable();
         rows.dedup();
@@ -549,14 +539,7 @@ impl RefineCtx<'_> {
                     Some(len) => ml_range_offset(&at, start, len),
                     None => start,
                 };
-                let bounds = WaveBounds {
-                    k,
-                    n,
-                    floor,
-                    range_cell_m,
-                    std_fraction,
-                };
-                out.push(self.wave_detection(row as f64 + offset, sine, power, &bounds));
+                out.push(self.wave_detection(row, row as f64 + offset, sine, power, &bounds));
             }
             if out.len() == before {
                 out.extend(
@@ -575,11 +558,12 @@ impl RefineCtx<'_> {
         out
     }
 
-    /// A super-resolved wave at fractional range bin `range_bin`, sin θ = `sine` (|sine| ≤ 1) and
-    /// `power` (map units), with its std: the single-tone Cramér–Rao bound at its SNR over the
+    /// A super-resolved wave found in bin `bin`, at fractional range bin `range_bin`, sin θ =
+    /// `sine` (|sine| ≤ 1) and `power` (map units), with its std: the single-tone Cramér–Rao bound at its SNR over the
     /// floor, in quadrature with the model floor (`std_fraction` of the resolution cell's).
     fn wave_detection(
         &self,
+        bin: usize,
         range_bin: f64,
         sine: f64,
         power: f64,
@@ -597,7 +581,7 @@ impl RefineCtx<'_> {
             range_m: (range_bin * self.range_bin_m).max(0.0),
             angle_rad,
             power_db: 10.0 * power.log10(),
-            range_bin: (range_bin.round().max(0.0) as usize).min(self.rows.saturating_sub(1)),
+            range_bin: bin,
             angle_bin: nearest_shifted_bin(sine, self.cols, self.spacing_wl),
             std: Some(DetectionStd {
                 range_m: range_crb.hypot(model * b.range_cell_m),
@@ -645,7 +629,9 @@ impl RefineCtx<'_> {
                 let omega = (atom.omega + PI).rem_euclid(2.0 * PI) - PI;
                 let sine = omega * sine_per_omega;
                 (sine.abs() <= 1.0).then(|| {
-                    self.wave_detection(atom.range_bin, sine, atom.amplitude.norm_sqr() * kk, b)
+                    let bin = (atom.range_bin.round().max(0.0) as usize).min(self.rows - 1);
+                    let power = atom.amplitude.norm_sqr() * kk;
+                    self.wave_detection(bin, atom.range_bin, sine, power, b)
                 })
             })
             .collect()
@@ -709,6 +695,63 @@ impl RefineCtx<'_> {
             angle_bin: (self.shifted)(pk.col),
             std: None,
         }
+    }
+}
+
+/// What the refinements need to know of the frame's map.
+struct Frame {
+    /// Elements K and unpadded subcarriers N.
+    k: usize,
+    n: usize,
+    /// The map's noise floor (map units) and one snapshot element's noise power (the map's
+    /// floor is K times the mean snapshot's; a symbol's snapshot carries M times that).
+    floor: f64,
+    snapshot_noise: f64,
+    /// Unpadded range bin (m).
+    range_cell_m: f64,
+    lobes: Lobes,
+    /// Whether the map's rows give back the K elements' samples (else the DFT peaks stand).
+    resolvable: bool,
+}
+
+/// The detections of `peaks` by the configured refinement, into `out`: NOMP, a subspace method
+/// (`cells`), or the DFT peaks themselves (interpolated or not).
+fn refined_detections(
+    ctx: &RefineCtx<'_>,
+    peaks: &[Peak],
+    config: &EstimatorConfig,
+    cells: Option<&mut (CellSolver, Subspace)>,
+    frame: &Frame,
+    out: &mut Vec<RangeAngleDetection>,
+) {
+    let bounds = WaveBounds {
+        k: frame.k,
+        n: frame.n,
+        floor: frame.floor,
+        range_cell_m: frame.range_cell_m,
+        std_fraction: config.interpolated_std_fraction,
+    };
+    let min_power = min_wave_power(config, frame.floor, peaks);
+    let usable = frame.resolvable && frame.k >= 2;
+    if usable && config.refinement == Refinement::Nomp {
+        out.extend(ctx.nomp_detections(peaks, min_power, config.max_detections, &bounds));
+        return;
+    }
+    match cells.filter(|_| usable) {
+        Some((solver, method)) => {
+            let resolve = Resolve {
+                solver,
+                method: *method,
+                bounds,
+                min_power,
+                snapshot_noise: frame.snapshot_noise,
+                max_detections: config.max_detections,
+                lobes: frame.lobes,
+                sidelobe_margin_db: config.sidelobe_margin_db,
+            };
+            out.extend(ctx.resolved(peaks, resolve));
+        }
+        None => out.extend(peaks.iter().map(|pk| ctx.detection(pk))),
     }
 }
 
@@ -1104,41 +1147,25 @@ impl Estimator {
             shifted: &|c| c,
         };
         self.detections.clear();
-        if self.config.refinement == Refinement::Nomp && a >= self.k && self.k >= 2 {
-            let bounds = WaveBounds {
-                k: self.k,
-                n: self.n,
-                floor: self.floor,
-                range_cell_m: spectrum.range_bin_m * range_pad.max(1.0),
-                std_fraction: self.config.interpolated_std_fraction,
-            };
-            let min_power = min_wave_power(&self.config, self.floor, peaks);
-            let found = ctx.nomp_detections(peaks, min_power, self.config.max_detections, &bounds);
-            self.detections.extend(found);
-        } else {
-            match self.cells.as_mut().filter(|_| a >= self.k) {
-                Some((solver, method)) => {
-                    let resolve = Resolve {
-                        solver,
-                        method: *method,
-                        k: self.k,
-                        n: self.n,
-                        min_power: min_wave_power(&self.config, self.floor, peaks),
-                        floor: self.floor,
-                        snapshot_noise: self.floor / self.k as f64,
-                        range_cell_m: spectrum.range_bin_m * range_pad.max(1.0),
-                        std_fraction: self.config.interpolated_std_fraction,
-                        max_detections: self.config.max_detections,
-                        lobes,
-                        sidelobe_margin_db: self.config.sidelobe_margin_db,
-                    };
-                    self.detections.extend(ctx.resolved(peaks, resolve));
-                }
-                None => self
-                    .detections
-                    .extend(peaks.iter().map(|pk| ctx.detection(pk))),
-            }
-        }
+        let frame = Frame {
+            k: self.k,
+            n: self.n,
+            floor: self.floor,
+            snapshot_noise: self.floor / self.k as f64,
+            range_cell_m: spectrum.range_bin_m * range_pad.max(1.0),
+            lobes,
+            // A row of fewer angle bins than elements cannot give back the K samples.
+            resolvable: a >= self.k,
+        };
+        let cells = self.cells.as_mut();
+        refined_detections(
+            &ctx,
+            peaks,
+            &self.config,
+            cells,
+            &frame,
+            &mut self.detections,
+        );
         if a == self.a {
             self.visible_shifted = visible;
         }
@@ -1180,42 +1207,25 @@ impl Estimator {
             shifted: &|c| (c + a / 2) % a,
         };
         self.detections.clear();
-        if self.config.refinement == Refinement::Nomp && self.k >= 2 {
-            let bounds = WaveBounds {
-                k: self.k,
-                n: self.n,
-                floor: self.floor,
-                range_cell_m: self.range_bin_m * self.config.range_padding() as f64,
-                std_fraction: self.config.interpolated_std_fraction,
-            };
-            let min_power = min_wave_power(&self.config, self.floor, peaks);
-            let found = ctx.nomp_detections(peaks, min_power, self.config.max_detections, &bounds);
-            self.detections.extend(found);
-            return;
-        }
-        match self.cells.as_mut() {
-            Some((solver, method)) => {
-                let resolve = Resolve {
-                    solver,
-                    method: *method,
-                    k: self.k,
-                    n: self.n,
-                    min_power: min_wave_power(&self.config, self.floor, peaks),
-                    floor: self.floor,
-                    snapshot_noise: self.floor * doppler_floor_correction(self.m) * self.m as f64
-                        / self.k as f64,
-                    range_cell_m: self.range_bin_m * self.config.range_padding() as f64,
-                    std_fraction: self.config.interpolated_std_fraction,
-                    max_detections: self.config.max_detections,
-                    lobes,
-                    sidelobe_margin_db: self.config.sidelobe_margin_db,
-                };
-                self.detections.extend(ctx.resolved(peaks, resolve));
-            }
-            None => self
-                .detections
-                .extend(peaks.iter().map(|pk| ctx.detection(pk))),
-        }
+        let frame = Frame {
+            k: self.k,
+            n: self.n,
+            floor: self.floor,
+            snapshot_noise: self.floor * doppler_floor_correction(self.m) * self.m as f64
+                / self.k as f64,
+            range_cell_m: self.range_bin_m * self.config.range_padding() as f64,
+            lobes,
+            resolvable: true,
+        };
+        let cells = self.cells.as_mut();
+        refined_detections(
+            &ctx,
+            peaks,
+            &self.config,
+            cells,
+            &frame,
+            &mut self.detections,
+        );
     }
 
     fn check_grid(&self, grid: &ResourceGrid) -> Result<(), EstimatorError> {
