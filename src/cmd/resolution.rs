@@ -28,7 +28,7 @@ use rayon::prelude::*;
 #[derive(Args, Debug)]
 pub struct ResolutionArgs {
     /// Estimators to compare, comma-separated: none (the DFT grid), interpolation, music, esprit,
-    /// zero-padding:F.
+    /// nomp, zero-padding:F.
     #[arg(
         long,
         default_value = "none,interpolation,music,esprit",

@@ -20,7 +20,8 @@ pub enum Detector {
 /// Sub-bin refinement of a detected peak.
 ///
 /// TOML: `refinement = { kind = "none" }`, `{ kind = "zero_padding", factor = 4 }`,
-/// `{ kind = "interpolation" }`, `{ kind = "music" }`, `{ kind = "esprit", subarray = 20 }`.
+/// `{ kind = "interpolation" }`, `{ kind = "music" }`, `{ kind = "esprit", subarray = 20 }`,
+/// `{ kind = "nomp" }`.
 ///
 /// `music` and `esprit` are super-resolution methods (`crate::superres`): each range bin that
 /// holds a detection is resolved into as many plane waves as MDL finds and the detector's
@@ -62,7 +63,7 @@ pub enum Refinement {
 }
 
 impl Refinement {
-    /// The refinement named `name` (`none`, `interpolation`, `music`, `esprit`, or
+    /// The refinement named `name` (`none`, `interpolation`, `music`, `esprit`, `nomp`, or
     /// `zero-padding:F`), with its parameters at their defaults.
     pub fn from_name(name: &str) -> Option<Self> {
         match name {
@@ -80,7 +81,7 @@ impl Refinement {
 
     /// The names [`Refinement::from_name`] takes, for help texts.
     pub const NAMES: &'static str =
-        "none, interpolation, zero-padding:F (1 ≤ F ≤ 64), music, esprit";
+        "none, interpolation, zero-padding:F (1 ≤ F ≤ 64), music, esprit, nomp";
 
     /// Whether this is a super-resolution method (`music`, `esprit`, `nomp`).
     pub fn is_super_resolution(&self) -> bool {

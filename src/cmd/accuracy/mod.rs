@@ -29,7 +29,7 @@ pub struct AccuracyArgs {
     pub fidelity: String,
     /// Sub-bin refinement: none (the paper), interpolation, zero-padding:F (range IDFT and
     /// array DFT F times longer), or a super-resolution method: music or esprit (angle resolved
-    /// per range bin, docs/superresolution.md).
+    /// per range bin) or nomp (gridless, joint in range and angle); docs/superresolution.md.
     #[arg(long, default_value = "none", value_name = "R")]
     pub refine: String,
     /// Per-element SNR sweep in dB, FROM:TO:STEP.
