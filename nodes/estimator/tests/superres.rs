@@ -292,3 +292,51 @@ fn spectral_and_waveform_agree_on_two_close_scatterers() {
         }
     }
 }
+
+#[test]
+fn the_methods_parse_from_toml_and_bad_subarrays_are_refused_by_name() {
+    let parse = |text: &str| toml::from_str::<EstimatorConfig>(text);
+    assert_eq!(
+        parse("refinement = { kind = \"music\" }")
+            .unwrap()
+            .refinement,
+        Refinement::Music { subarray: 0 }
+    );
+    assert_eq!(
+        parse("refinement = { kind = \"esprit\", subarray = 20 }")
+            .unwrap()
+            .refinement,
+        Refinement::Esprit { subarray: 20 }
+    );
+    assert_eq!(
+        parse("refinement = { kind = \"nomp\" }")
+            .unwrap()
+            .refinement,
+        Refinement::Nomp
+    );
+    assert!(parse("refinement = { kind = \"music\", order = 3 }").is_err());
+    for name in [
+        "none",
+        "interpolation",
+        "music",
+        "esprit",
+        "nomp",
+        "zero-padding:4",
+    ] {
+        assert!(Refinement::from_name(name).is_some(), "{name}");
+    }
+    assert_eq!(Refinement::from_name("musik"), None);
+    let p = params(256, 8, 1, 10.0);
+    for (subarray, field) in [(1usize, "refinement.subarray"), (9, "refinement.subarray")] {
+        let config = config(Refinement::Esprit { subarray });
+        let error = Estimator::new(&p, config).unwrap_err().to_string();
+        assert!(error.contains(field), "L = {subarray}: {error}");
+    }
+    // One element: nothing to resolve, the DFT peaks stand.
+    let single = params(256, 1, 1, 10.0);
+    for method in METHODS {
+        let found = spectral_frame(&single, method, &[scatterer(8.0, 0.0, 0.0)], 1);
+        assert_eq!(found.len(), 1, "{method:?}");
+        assert_eq!(found[0].std, None, "{method:?}");
+    }
+}
