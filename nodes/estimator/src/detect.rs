@@ -76,6 +76,20 @@ pub(crate) fn circular(a: usize, b: usize, period: usize) -> usize {
     }
 }
 
+/// CA-CFAR's threshold factor α = n (Pfa^(−1/n) − 1) for `n_train` training cells: exact for
+/// exponential (noise-only, M = 1) cells.
+pub(crate) fn cfar_factor(n_train: usize, pfa: f64) -> f64 {
+    let n = n_train as f64;
+    n * (pfa.powf(-1.0 / n) - 1.0)
+}
+
+/// Training cells of a full (not clipped by a map edge) CFAR window.
+pub(crate) fn full_training_cells(config: &EstimatorConfig) -> usize {
+    let (gr, ga) = (config.cfar_guard_range, config.cfar_guard_angle);
+    let (hr, ha) = (gr + config.cfar_train_range, ga + config.cfar_train_angle);
+    (2 * hr + 1) * (2 * ha + 1) - (2 * gr + 1) * (2 * ga + 1)
+}
+
 /// Scratch reused from frame to frame.
 #[derive(Debug, Default)]
 pub(crate) struct DetectScratch {
@@ -222,8 +236,7 @@ impl DetectScratch {
             self.alpha.resize(n_train + 1, f64::NAN);
         }
         if self.alpha[n_train].is_nan() {
-            let n = n_train as f64;
-            self.alpha[n_train] = n * (pfa.powf(-1.0 / n) - 1.0);
+            self.alpha[n_train] = cfar_factor(n_train, pfa);
         }
         self.alpha[n_train]
     }
@@ -235,7 +248,7 @@ impl DetectScratch {
     fn cfar(&mut self, v: &MapView, config: &EstimatorConfig, floor: f64) {
         let (gr, ga) = (config.cfar_guard_range, config.cfar_guard_angle);
         let (hr, ha) = (gr + config.cfar_train_range, ga + config.cfar_train_angle);
-        let full = (2 * hr + 1) * (2 * ha + 1) - (2 * gr + 1) * (2 * ga + 1);
+        let full = full_training_cells(config);
         let pre = self.alpha(full, config.cfar_pfa) * floor / 4.0;
         let rows = v.rows as isize;
         let cols = v.cols as isize;

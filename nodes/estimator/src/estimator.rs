@@ -496,17 +496,13 @@ impl RefineCtx<'_> {
             let omegas: Vec<f64> = waves.iter().map(|w| w.omega).collect();
             // Each wave's amplitude in the bins around, for its range offset.
             let fit = superres::WaveFit::new(k, &omegas);
-            let amplitude_in = |other: usize, neighbour: &mut Vec<Complex64>| {
-                let mut scratch = Vec::new();
-                self.values
-                    .snapshots(other, k, self.signed, &mut scratch, neighbour);
-                fit.as_ref()?.amplitudes(neighbour)
-            };
             let profile: Vec<(isize, Vec<Complex64>)> = (-RANGE_PROFILE_BINS..=RANGE_PROFILE_BINS)
                 .filter(|&o| o != 0)
                 .filter_map(|o| {
                     let other = self.row_at(row, o)?;
-                    Some((o, amplitude_in(other, &mut neighbour)?))
+                    self.values
+                        .snapshots(other, k, self.signed, &mut all, &mut neighbour);
+                    Some((o, fit.as_ref()?.amplitudes(&neighbour)?))
                 })
                 .collect();
             let before = out.len();
@@ -559,8 +555,9 @@ impl RefineCtx<'_> {
     }
 
     /// A super-resolved wave found in bin `bin`, at fractional range bin `range_bin`, sin θ =
-    /// `sine` (|sine| ≤ 1) and `power` (map units), with its std: the single-tone Cramér–Rao bound at its SNR over the
-    /// floor, in quadrature with the model floor (`std_fraction` of the resolution cell's).
+    /// `sine` (|sine| ≤ 1) and `power` (map units), with its std: the single-tone Cramér–Rao
+    /// bound at its SNR over the floor, in quadrature with the model floor (`std_fraction` of the
+    /// resolution cell's).
     fn wave_detection(
         &self,
         bin: usize,
@@ -772,14 +769,7 @@ fn min_wave_power(config: &EstimatorConfig, floor: f64, peaks: &[Peak]) -> f64 {
     let threshold = match config.detector {
         crate::Detector::PeakPicking => 10f64.powf(config.threshold_db / 10.0),
         crate::Detector::Cfar => {
-            let (hr, ha) = (
-                config.cfar_guard_range + config.cfar_train_range,
-                config.cfar_guard_angle + config.cfar_train_angle,
-            );
-            let full = ((2 * hr + 1) * (2 * ha + 1)
-                - (2 * config.cfar_guard_range + 1) * (2 * config.cfar_guard_angle + 1))
-                as f64;
-            full * (config.cfar_pfa.powf(-1.0 / full) - 1.0)
+            crate::detect::cfar_factor(crate::detect::full_training_cells(config), config.cfar_pfa)
         }
     };
     let strongest = peaks.first().map_or(0.0, |p| p.power);
