@@ -216,11 +216,14 @@ impl EstimatorConfig {
     /// (`interpolated_std_fraction` after interpolation, else 1).
     pub fn published_std_fraction(&self) -> f64 {
         match self.refinement {
-            Refinement::Interpolation
+            Refinement::Interpolation => self.interpolated_std_fraction,
+            // A super-resolved detection carries its own std; what reaches this is a DFT peak
+            // kept at its bin centre where no wave passed, with its cell's spread.
+            Refinement::None
+            | Refinement::ZeroPadding { .. }
             | Refinement::Music { .. }
             | Refinement::Esprit { .. }
-            | Refinement::Nomp => self.interpolated_std_fraction,
-            Refinement::None | Refinement::ZeroPadding { .. } => 1.0,
+            | Refinement::Nomp => 1.0,
         }
     }
 

@@ -296,5 +296,27 @@ mod tests {
             (refined.range_m, refined.angle_rad),
             (cell.range_m, cell.angle_rad)
         );
+        // A super-resolution method publishes its waves' own std, and a DFT peak it kept (no
+        // wave passed in that bin) with its cell's.
+        for method in [
+            Refinement::Music { subarray: 0 },
+            Refinement::Esprit { subarray: 0 },
+            Refinement::Nomp,
+        ] {
+            assert_eq!(published_detection(&ofdm, &with(method), &found), cell);
+            let own = crate::DetectionStd {
+                range_m: 0.01,
+                angle_rad: 0.002,
+            };
+            let wave = RangeAngleDetection {
+                std: Some(own),
+                ..found
+            };
+            let published = published_detection(&ofdm, &with(method), &wave);
+            assert_eq!(
+                (published.range_std_m, published.angle_std_rad),
+                (own.range_m, own.angle_rad)
+            );
+        }
     }
 }
