@@ -132,12 +132,13 @@ pub struct EstimatorConfig {
     pub zero_padding_angle: usize,
     /// With `refinement` = interpolation, the range and angle std a detection is published with
     /// (`/radar/detections`), as a fraction of its resolution cell's (Δr/√12, Δ(sin θ)/√12),
-    /// 0.01 to 1. With `music` or `esprit`, the model floor added (in quadrature) to each wave's
-    /// Cramér–Rao bound, in the same unit. A lone echo's interpolated peak lies within a thousandth of a bin of it
-    /// (`nrslam accuracy --refine interpolation`), but on extended targets several scatterers
-    /// share a cell and pull the peak. Default 0.3, measured through SLAM on the study's 5G runs
-    /// with interpolation (docs/slam.md): the cell's own std weighed refined detections as if
-    /// they sat on the grid. Without refinement, or with zero padding, the cell's std stands.
+    /// 0.01 to 1. With `music`, `esprit` or `nomp`, the model floor added (in quadrature) to
+    /// each wave's Cramér–Rao bound, in the same unit. A lone echo's interpolated peak lies within
+    /// a thousandth of a bin of it (`nrslam accuracy --refine interpolation`), but on extended
+    /// targets several scatterers share a cell and pull the peak. Default 0.3, measured through
+    /// SLAM on the study's 5G runs with interpolation (docs/slam.md): the cell's own std weighed
+    /// refined detections as if they sat on the grid. Without refinement, or with zero padding,
+    /// the cell's std stands.
     pub interpolated_std_fraction: f64,
 }
 
