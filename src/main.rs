@@ -69,6 +69,8 @@ enum Command {
     Reproduce(reproduce::ReproduceArgs),
     /// Sweep the knobs that trade speed for accuracy: tradeoff.csv and a Pareto plot (pareto.png) in --out.
     Tradeoff(tradeoff::TradeoffArgs),
+    /// The cheapest bandwidth, antennas, SNR and estimator that meet an accuracy requirement: closed-form screen, sequential Monte Carlo, resumable and shardable; frontier.csv, frontier.png and sizing.md in --out.
+    Sizing(cmd::sizing::SizingArgs),
     /// Write a random scene file (irregular rectangles and circles, a randomised loop) for scene:=FILE.
     Scene(scene::SceneArgs),
     /// rosbag2 bags (metadata.yaml + MCAP): record a live graph, print a bag's contents, play it back.
@@ -95,6 +97,7 @@ impl Command {
             Command::Merge(_) => Ok(()),
             Command::Reproduce(args) => args.validate(),
             Command::Tradeoff(args) => args.validate(),
+            Command::Sizing(args) => args.validate(),
             Command::Scene(args) => args.validate(),
             // `nrslam bag` checks its own flags (src/cmd/bag/).
             Command::Bag(_) => Ok(()),
@@ -180,6 +183,7 @@ fn main() -> std::process::ExitCode {
         Command::Merge(args) => montecarlo::merge(args),
         Command::Reproduce(args) => reproduce::reproduce(args),
         Command::Tradeoff(args) => tradeoff::tradeoff(args),
+        Command::Sizing(args) => cmd::sizing::sizing(args),
         Command::Scene(args) => scene::scene(args),
         Command::Bag(args) => bag::bag(args),
         #[cfg(feature = "ros2")]

@@ -6,7 +6,8 @@
 //! - [`montecarlo`]: trials of a launch in parallel, and `merge` of sharded studies.
 //! - [`reproduce`]: the paper's figures; [`tradeoff`]: the speed/accuracy sweep; [`accuracy`]:
 //!   single-scatterer RMSE against the Cramér–Rao bounds; [`resolution`]: two-scatterer
-//!   resolution of each estimator; [`scene`]: random scene files.
+//!   resolution of each estimator; [`scene`]: random scene files; [`sizing`]: the cheapest
+//!   configuration that meets a requirement (screen, sequential Monte Carlo, frontier).
 //! - [`bag`]: rosbag2 record, info and play.
 //! - [`topics`]: the topic catalogue, or what a live graph publishes (zenoh).
 //! - [`echo`]: one live topic's messages as JSON lines (zenoh).
@@ -29,6 +30,7 @@ pub mod ros2;
 pub mod run;
 pub mod scene;
 pub mod segment;
+pub mod sizing;
 pub mod topics;
 pub mod tradeoff;
 
