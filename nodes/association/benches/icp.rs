@@ -4,6 +4,11 @@
 //! Point-to-line (the default: a local line fitted at each matched map point, on first use)
 //! beside point-to-point, its baseline; and building the map (`PointMap::extend`) for each.
 //!
+//! Group `tracking`: what tracking runs on every frame against the keyframe map, on the same
+//! scene and scan: `match_scan` against the map's cell Gaussians (`DistributionMap`, 0.5 m cells,
+//! the 4 nearest within 0.5 m per scan point), building that map, and the association
+//! statistics' nearest-point queries (`PointGrid`, a 0.5 m gate) for every scan point.
+//!
 //! `cargo bench -p nrslam-association --bench icp`
 
 #[path = "common/mod.rs"]
@@ -11,6 +16,7 @@ mod common;
 
 use common::scene;
 use criterion::{criterion_group, criterion_main, Criterion};
+use nrslam_association::scan_matcher::{match_scan, RadarPoint};
 use nrslam_association::{align, IcpMetric, Params, PointMap, Pose2};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -69,6 +75,39 @@ fn bench(c: &mut Criterion) {
             })
         });
     }
+    group.finish();
+
+    let params = Params::default();
+    let mut group = c.benchmark_group("tracking");
+    group.sample_size(20);
+    let radar: Vec<RadarPoint> = scan
+        .iter()
+        .map(|&position_m| RadarPoint {
+            position_m,
+            range_std_m: 0.03,
+            angle_std_rad: 1f64.to_radians(),
+        })
+        .collect();
+    let build_cells = || {
+        let mut cells = params.distribution_map();
+        cells.extend(&map_points);
+        cells
+    };
+    group.bench_function("cells/build_map", |b| b.iter(|| black_box(build_cells())));
+    let cells = build_cells();
+    let settings = params.tracking_settings(0.3);
+    group.bench_function("cells/match_scan", |b| {
+        b.iter(|| match_scan(&cells, black_box(&radar), initial, &settings))
+    });
+    let mut grid = params.statistics_grid();
+    grid.extend(&map_points);
+    group.bench_function("statistics/nearest_within_gate", |b| {
+        b.iter(|| {
+            scan.iter()
+                .filter_map(|p| grid.nearest_within_gate_m2(black_box(p)))
+                .sum::<f64>()
+        })
+    });
     group.finish();
 }
 

@@ -21,8 +21,11 @@
 //! coarse cross-range position moves the pose little, and its fine range much: the radar is
 //! weighted as it measures.
 //!
-//! Deterministic: cells are kept in a `BTreeMap`, so the tree over their means is built in the
-//! same order on every run.
+//! Deterministic: cells are kept in a `BTreeMap`, so the index over their means is built in the
+//! same order on every run. The index is a dense grid of the means ([`MeanGrid`]): a scan point's
+//! nearest cells are read from the few squares its correspondence radius reaches, the cells a
+//! k-d tree over the means returns, in its order (a property test compares the two); a k-d tree
+//! remains for means too sparse for a grid.
 
 use std::collections::BTreeMap;
 use std::num::NonZero;
@@ -42,6 +45,16 @@ struct CellSums {
     sum_sq: [f64; 3],
 }
 
+/// One cell's sums and, once computed, its Gaussian. The Gaussian is a function of the sums
+/// alone, so it is kept until the sums change: a keyframe's exchange recomputes the cells it
+/// touched, not every cell of the map.
+#[derive(Debug, Clone, Copy, Default)]
+struct CellEntry {
+    sums: CellSums,
+    /// `None` while the sums changed since it was computed (or it never was).
+    gaussian: Option<CellGaussian>,
+}
+
 /// One cell's Gaussian.
 #[derive(Debug, Clone, Copy)]
 struct CellGaussian {
@@ -50,15 +63,110 @@ struct CellGaussian {
     cov_m2: Matrix2<f64>,
 }
 
+/// The cell means binned on a dense grid of `cell_m` squares over their bounding box (keys
+/// `floor(mean / cell_m)`), cell by cell in compressed rows: the means within a radius of a
+/// query are those of the squares the radius reaches, found without a tree walk or an
+/// allocation. Built with the Gaussians on each change of the map.
+#[derive(Debug, Clone, Default)]
+struct MeanGrid {
+    /// Key of square (0, 0).
+    min_key: [i64; 2],
+    /// Squares along x and y.
+    size: [usize; 2],
+    /// Per square (row-major, x fastest), where its means start in `order`; one more entry at
+    /// the end.
+    starts: Vec<u32>,
+    /// Indices into the map's `cells`, square by square, ascending within a square.
+    order: Vec<u32>,
+}
+
+/// Squares a [`MeanGrid`] may have: beyond, the means are too sparse for a dense grid and the
+/// k-d tree answers instead.
+fn mean_grid_budget(cells: usize) -> usize {
+    (16 * cells).max(1 << 16)
+}
+
+impl MeanGrid {
+    /// The grid over `cells`' means, or `None` when their bounding box has more squares than
+    /// [`mean_grid_budget`] allows.
+    fn build(cells: &[CellGaussian], cell_m: f64) -> Option<MeanGrid> {
+        let key = |m: &[f64; 2]| {
+            [
+                (m[0] / cell_m).floor() as i64,
+                (m[1] / cell_m).floor() as i64,
+            ]
+        };
+        let mut lo = [i64::MAX; 2];
+        let mut hi = [i64::MIN; 2];
+        for c in cells {
+            let k = key(&c.mean_m);
+            for axis in 0..2 {
+                lo[axis] = lo[axis].min(k[axis]);
+                hi[axis] = hi[axis].max(k[axis]);
+            }
+        }
+        if cells.is_empty() || u32::try_from(cells.len()).is_err() {
+            return None;
+        }
+        // Means are binnable (within ±1e9 m of the origin), so the spans fit easily.
+        let size = [(hi[0] - lo[0] + 1) as usize, (hi[1] - lo[1] + 1) as usize];
+        let squares = size[0].checked_mul(size[1])?;
+        if squares > mean_grid_budget(cells.len()) {
+            return None;
+        }
+        let square = |c: &CellGaussian| {
+            let k = key(&c.mean_m);
+            (k[1] - lo[1]) as usize * size[0] + (k[0] - lo[0]) as usize
+        };
+        let mut starts = vec![0u32; squares + 1];
+        for c in cells {
+            starts[square(c) + 1] += 1;
+        }
+        for i in 0..squares {
+            starts[i + 1] += starts[i];
+        }
+        let mut next = starts.clone();
+        let mut order = vec![0u32; cells.len()];
+        for (index, c) in cells.iter().enumerate() {
+            let s = square(c);
+            order[next[s] as usize] = index as u32;
+            next[s] += 1;
+        }
+        Some(MeanGrid {
+            min_key: lo,
+            size,
+            starts,
+            order,
+        })
+    }
+
+    /// The range of squares along `axis` that holds every mean within `radius_m` of coordinate
+    /// `q` (slightly more: the bounds are widened by a millionth of the radius, far beyond the
+    /// rounding of the division), clamped to the grid; `None` when it misses the grid.
+    fn span(&self, axis: usize, q: f64, radius_m: f64, cell_m: f64) -> Option<(usize, usize)> {
+        let reach = radius_m * (1.0 + 1e-6);
+        let lo = ((q - reach) / cell_m).floor() - self.min_key[axis] as f64;
+        let hi = ((q + reach) / cell_m).floor() - self.min_key[axis] as f64;
+        let last = (self.size[axis] - 1) as f64;
+        // Written so that NaN lands in None.
+        if !(hi >= 0.0 && lo <= last) {
+            return None;
+        }
+        Some((lo.max(0.0) as usize, hi.min(last) as usize))
+    }
+}
+
 /// The map as local Gaussians: points binned into cells of `cell_m`, each cell with at least
-/// `min_points` points summarised by its mean and covariance, and a k-d tree over the means.
+/// `min_points` points summarised by its mean and covariance, and an index over the means (a
+/// dense [`MeanGrid`], or a k-d tree where the means are too sparse for one).
 #[derive(Clone)]
 pub struct DistributionMap {
     cell_m: f64,
     min_points: u32,
     floor_m: f64,
-    sums: BTreeMap<(i64, i64), CellSums>,
+    sums: BTreeMap<(i64, i64), CellEntry>,
     cells: Vec<CellGaussian>,
+    grid: Option<MeanGrid>,
     tree: Option<ImmutableKdTree<f64, 2>>,
     points: usize,
 }
@@ -70,6 +178,29 @@ impl std::fmt::Debug for DistributionMap {
             .field("cells", &self.cells.len())
             .field("points", &self.points)
             .finish()
+    }
+}
+
+/// The `k` nearest cells found so far, nearest first, as (squared distance m², cell index): the
+/// collection kiddo's `nearest_n_within` keeps (a candidate enters while there is room, or
+/// when strictly nearer than the farthest kept, which then leaves).
+struct Nearest<'a> {
+    k: usize,
+    found: &'a mut Vec<(f64, u32)>,
+}
+
+impl Nearest<'_> {
+    fn offer(&mut self, d2: f64, index: u32) {
+        if self.found.len() == self.k {
+            match self.found.last() {
+                Some(&(last, _)) if d2 < last => {
+                    self.found.pop();
+                }
+                _ => return,
+            }
+        }
+        let at = self.found.partition_point(|&(d, _)| d <= d2);
+        self.found.insert(at, (d2, index));
     }
 }
 
@@ -98,6 +229,7 @@ impl DistributionMap {
             },
             sums: BTreeMap::new(),
             cells: Vec::new(),
+            grid: None,
             tree: None,
             points: 0,
         }
@@ -139,15 +271,17 @@ impl DistributionMap {
     pub fn exchange(&mut self, leaving_m: &[[f64; 2]], entering_m: &[[f64; 2]]) {
         let mut changed = false;
         for (p, key) in self.binned(leaving_m) {
-            let Some(sums) = self.sums.get_mut(&key) else {
+            let Some(entry) = self.sums.get_mut(&key) else {
                 continue;
             };
+            let sums = &mut entry.sums;
             sums.count -= 1;
             sums.sum[0] -= p[0];
             sums.sum[1] -= p[1];
             sums.sum_sq[0] -= p[0] * p[0];
             sums.sum_sq[1] -= p[0] * p[1];
             sums.sum_sq[2] -= p[1] * p[1];
+            entry.gaussian = None;
             if sums.count == 0 {
                 self.sums.remove(&key);
             }
@@ -155,13 +289,15 @@ impl DistributionMap {
             changed = true;
         }
         for (p, key) in self.binned(entering_m) {
-            let sums = self.sums.entry(key).or_default();
+            let entry = self.sums.entry(key).or_default();
+            let sums = &mut entry.sums;
             sums.count = sums.count.saturating_add(1);
             sums.sum[0] += p[0];
             sums.sum[1] += p[1];
             sums.sum_sq[0] += p[0] * p[0];
             sums.sum_sq[1] += p[0] * p[1];
             sums.sum_sq[2] += p[1] * p[1];
+            entry.gaussian = None;
             self.points += 1;
             changed = true;
         }
@@ -170,28 +306,44 @@ impl DistributionMap {
         }
     }
 
+    /// The Gaussian of a cell's sums (the cell must hold a point).
+    fn gaussian(s: &CellSums, floor2: f64) -> CellGaussian {
+        let n = f64::from(s.count);
+        let mean = [s.sum[0] / n, s.sum[1] / n];
+        // Centred about the mean; tiny negative variances from rounding clamp to 0.
+        let xx = (s.sum_sq[0] / n - mean[0] * mean[0]).max(0.0);
+        let xy = s.sum_sq[1] / n - mean[0] * mean[1];
+        let yy = (s.sum_sq[2] / n - mean[1] * mean[1]).max(0.0);
+        let cov = Matrix2::new(xx, xy, xy, yy);
+        CellGaussian {
+            mean_m: mean,
+            cov_m2: floor_eigenvalues(cov, floor2),
+        }
+    }
+
+    /// The Gaussians of the cells with at least `min_points` points, in key order (those of
+    /// cells whose sums did not change since the last rebuild are kept), and the index over
+    /// their means.
     fn rebuild(&mut self) {
         let floor2 = self.floor_m * self.floor_m;
-        self.cells = self
-            .sums
-            .values()
-            .filter(|s| s.count >= self.min_points)
-            .map(|s| {
-                let n = f64::from(s.count);
-                let mean = [s.sum[0] / n, s.sum[1] / n];
-                // Centred about the mean; tiny negative variances from rounding clamp to 0.
-                let xx = (s.sum_sq[0] / n - mean[0] * mean[0]).max(0.0);
-                let xy = s.sum_sq[1] / n - mean[0] * mean[1];
-                let yy = (s.sum_sq[2] / n - mean[1] * mean[1]).max(0.0);
-                let cov = Matrix2::new(xx, xy, xy, yy);
-                CellGaussian {
-                    mean_m: mean,
-                    cov_m2: floor_eigenvalues(cov, floor2),
-                }
-            })
-            .collect();
-        let means: Vec<[f64; 2]> = self.cells.iter().map(|c| c.mean_m).collect();
-        self.tree = (!means.is_empty()).then(|| ImmutableKdTree::new_from_slice(&means));
+        let min_points = self.min_points;
+        self.cells.clear();
+        self.cells.extend(
+            self.sums
+                .values_mut()
+                .filter(|e| e.sums.count >= min_points)
+                .map(|e| {
+                    *e.gaussian
+                        .get_or_insert_with(|| Self::gaussian(&e.sums, floor2))
+                }),
+        );
+        self.grid = MeanGrid::build(&self.cells, self.cell_m);
+        self.tree = if self.grid.is_none() && !self.cells.is_empty() {
+            let means: Vec<[f64; 2]> = self.cells.iter().map(|c| c.mean_m).collect();
+            Some(ImmutableKdTree::new_from_slice(&means))
+        } else {
+            None
+        };
     }
 
     /// Points held: added and not retracted.
@@ -214,19 +366,79 @@ impl DistributionMap {
         self.cells.iter().map(|c| c.mean_m)
     }
 
-    /// The `k` nearest cell Gaussians to `query_m` within `max_m`, nearest first.
-    fn nearest(&self, query_m: &[f64; 2], k: usize, max_m: f64) -> Vec<&CellGaussian> {
+    /// The `k` nearest cell Gaussians to `query_m` within `max_m` (squared distance at most
+    /// `max_m`², as kiddo's `nearest_n_within` measures it), nearest first, as indices into
+    /// `cells` in `found` (cleared first). Exactly the cells the k-d tree returns, in its order
+    /// (up to cells at exactly equal distance).
+    fn nearest_into(&self, query_m: &[f64; 2], k: usize, max_m: f64, found: &mut Vec<(f64, u32)>) {
+        found.clear();
+        if k == 0 {
+            return;
+        }
+        let radius2 = max_m * max_m;
+        // kiddo's squared distance: Σ over the axes of (mean − query)², from 0.
+        let distance2 = |c: &CellGaussian| {
+            let dx = c.mean_m[0] - query_m[0];
+            let dy = c.mean_m[1] - query_m[1];
+            0.0 + dx * dx + dy * dy
+        };
+        let mut nearest = Nearest { k, found };
+        if let Some(grid) = &self.grid {
+            let (Some(xs), Some(ys)) = (
+                grid.span(0, query_m[0], max_m, self.cell_m),
+                grid.span(1, query_m[1], max_m, self.cell_m),
+            ) else {
+                return;
+            };
+            if (xs.1 - xs.0 + 1) * (ys.1 - ys.0 + 1) <= self.cells.len() {
+                for row in ys.0..=ys.1 {
+                    let first = row * grid.size[0];
+                    let from = grid.starts[first + xs.0] as usize;
+                    let to = grid.starts[first + xs.1 + 1] as usize;
+                    for &index in &grid.order[from..to] {
+                        let d2 = distance2(&self.cells[index as usize]);
+                        if d2 <= radius2 {
+                            nearest.offer(d2, index);
+                        }
+                    }
+                }
+                return;
+            }
+            // A radius wider than the map: every mean is a candidate.
+            for (index, cell) in self.cells.iter().enumerate() {
+                let d2 = distance2(cell);
+                if d2 <= radius2 {
+                    nearest.offer(d2, index as u32);
+                }
+            }
+            return;
+        }
         let Some(tree) = self.tree.as_ref() else {
-            return Vec::new();
+            return;
         };
         let Some(k) = NonZero::new(k) else {
-            return Vec::new();
+            return;
         };
         // The radius prunes the tree walk: most scan points have few cells within it.
+        for n in tree.nearest_n_within::<SquaredEuclidean>(query_m, radius2, k, true) {
+            if let Ok(index) = u32::try_from(n.item) {
+                nearest.found.push((n.distance, index));
+            }
+        }
+    }
+
+    /// The `k` nearest cell Gaussians to `query_m` within `max_m`, nearest first, by the k-d
+    /// tree over the means (what [`Self::nearest_into`] reproduces; kept for its tests).
+    #[cfg(test)]
+    fn nearest_by_tree(&self, query_m: &[f64; 2], k: usize, max_m: f64) -> Vec<u32> {
+        let means: Vec<[f64; 2]> = self.cells.iter().map(|c| c.mean_m).collect();
+        let (Some(k), false) = (NonZero::new(k), means.is_empty()) else {
+            return Vec::new();
+        };
+        let tree: ImmutableKdTree<f64, 2> = ImmutableKdTree::new_from_slice(&means);
         tree.nearest_n_within::<SquaredEuclidean>(query_m, max_m * max_m, k, true)
             .into_iter()
-            .filter_map(|n| usize::try_from(n.item).ok())
-            .filter_map(|i| self.cells.get(i))
+            .map(|n| n.item as u32)
             .collect()
     }
 }
@@ -344,15 +556,21 @@ fn pair_with_cells(
     let rotation = Matrix2::new(cos, -sin, sin, cos);
     let mut sum_m2 = 0.0;
     let mut paired_points = 0usize;
+    let mut found = Vec::with_capacity(settings.neighbours.min(64));
     for (point, cov) in points {
         let in_map = pose.transform_point(point.position_m);
-        let cells = map.nearest(&in_map, settings.neighbours, settings.max_correspondence_m);
-        if cells.is_empty() {
+        map.nearest_into(
+            &in_map,
+            settings.neighbours,
+            settings.max_correspondence_m,
+            &mut found,
+        );
+        if found.is_empty() {
             continue;
         }
         paired_points += 1;
         let cov_map = rotation * cov * rotation.transpose();
-        for cell in cells {
+        for cell in found.iter().filter_map(|&(_, i)| map.cells.get(i as usize)) {
             let residual = Vector2::new(in_map[0] - cell.mean_m[0], in_map[1] - cell.mean_m[1]);
             let s = cell.cov_m2 + cov_map + Matrix2::identity() * map_var;
             let Some(info) = s.try_inverse() else {
@@ -756,6 +974,38 @@ mod tests {
                     prop_assert!((a.mean_m[axis] - b.mean_m[axis]).abs() < 1e-9);
                 }
                 prop_assert!((a.cov_m2 - b.cov_m2).abs().max() < 1e-6, "{} against {}", a.cov_m2, b.cov_m2);
+            }
+        }
+    }
+
+    proptest! {
+        /// The grid over the means finds the cells the k-d tree finds, in its order, for any
+        /// radius and count, and so does the tree the map keeps for means too sparse for a grid.
+        #[test]
+        fn the_mean_grid_finds_what_the_k_d_tree_finds(
+            points in prop::collection::vec((-12.0f64..12.0, -12.0f64..12.0), 0..400),
+            queries in prop::collection::vec((-14.0f64..14.0, -14.0f64..14.0), 1..40),
+            cell_m in 0.2f64..2.0,
+            max_m in 0.05f64..3.0,
+            k in 1usize..8,
+            far in any::<bool>(),
+        ) {
+            let mut points: Vec<[f64; 2]> = points.into_iter().map(|(x, y)| [x, y]).collect();
+            if far {
+                // Two clusters a million cells apart: too sparse for the grid.
+                points.push([1e6, 1e6]);
+                points.push([1e6 + 0.01, 1e6]);
+            }
+            let mut map = DistributionMap::new(cell_m, 2, 0.05);
+            map.extend(&points);
+            if far && map.cells.len() > 1 {
+                prop_assert!(map.grid.is_none() && map.tree.is_some());
+            }
+            let mut found = Vec::new();
+            for (x, y) in queries {
+                map.nearest_into(&[x, y], k, max_m, &mut found);
+                let grid: Vec<u32> = found.iter().map(|&(_, i)| i).collect();
+                prop_assert_eq!(grid, map.nearest_by_tree(&[x, y], k, max_m));
             }
         }
     }
