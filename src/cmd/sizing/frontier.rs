@@ -232,7 +232,7 @@ pub fn summary(requirement: &Requirement, rows: &[Row]) -> String {
 pub fn describe(c: &Config) -> String {
     format!(
         "{} MHz ({} × {} kHz), {} antennas, {} dB, M = {}, loop closure {}",
-        c.bandwidth_mhz(),
+        c.bandwidth_label(),
         c.subcarriers,
         c.subcarrier_spacing_khz,
         c.antennas,

@@ -120,7 +120,8 @@ pub fn write_png(path: &Path, rows: &[Row]) -> Result<()> {
         for (i, b) in bandwidths.iter().enumerate() {
             let x = x0 + LEFT + i as i32 * CELL_W + CELL_W / 2;
             let y = y0 + TOP + antennas.len() as i32 * CELL_H + 12;
-            root.draw(&Text::new(format!("{b}"), (x, y), text(12).pos(centred)))
+            let label = format!("{}", (b * 10.0).round() / 10.0);
+            root.draw(&Text::new(label, (x, y), text(12).pos(centred)))
                 .map_err(plot_error)?;
         }
         let label_y = y0 + TOP + antennas.len() as i32 * CELL_H + 32;

@@ -128,7 +128,7 @@ pub struct Cost {
     /// Per receive antenna.
     #[serde(default)]
     pub per_antenna: f64,
-    /// Per dB of SNR above 0 dB (transmit power).
+    /// Per dB of SNR above the lowest SNR searched (transmit power).
     #[serde(default)]
     pub per_snr_db: f64,
     /// Per OFDM symbol per frame (sensing airtime).

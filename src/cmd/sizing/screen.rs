@@ -111,8 +111,8 @@ pub fn screen(config: &Config, requirement: &Requirement, fewest_targets: usize)
         {
             drop = Some(format!(
                 "best peak SNR {:.1} dB < detection threshold {DETECTION_THRESHOLD_DB} dB − \
-                 {DETECTION_MARGIN_DB} dB: no echo is detected, so {} ≥ {bound} (half of \
-                 {all_missed}, every target missed) > {}",
+                 {DETECTION_MARGIN_DB} dB: no echo is detected so {} ≥ {bound} (half of \
+                 {all_missed} with every target missed) > {}",
                 bounds.peak_snr_db,
                 r.metric.name(),
                 r.threshold

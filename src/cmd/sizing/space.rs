@@ -38,14 +38,23 @@ impl Config {
         self.subcarriers as f64 * self.subcarrier_spacing_khz / 1e3
     }
 
-    /// A name unique in the study, safe as a file name, e.g. `dft-b1228.8-df120-k32-snr10-m1-lc0`.
+    /// The bandwidth to 0.1 MHz, as people name it: `100` for 833 × 120 kHz, `1228.8` for Table I.
+    pub fn bandwidth_label(&self) -> String {
+        let tenths = (self.bandwidth_mhz() * 10.0).round() / 10.0;
+        format!("{tenths}")
+    }
+
+    /// A name unique in the study, safe as a file name, e.g. `dft-b1228.8-n10240-df120-k32-snr10-m1-lc0`
+    /// (bandwidth to 0.1 MHz: two bandwidths that close are the same subcarrier count or
+    /// nearly).
     pub fn id(&self) -> String {
         let mut id = String::new();
         let _ = write!(
             id,
-            "{}-b{}-df{}-k{}-snr{}-m{}-lc{}",
+            "{}-b{}-n{}-df{}-k{}-snr{}-m{}-lc{}",
             self.estimator,
-            self.bandwidth_mhz(),
+            self.bandwidth_label(),
+            self.subcarriers,
             self.subcarrier_spacing_khz,
             self.antennas,
             self.snr_db,
@@ -60,7 +69,7 @@ impl Config {
         let c = &requirement.cost;
         c.per_mhz * self.bandwidth_mhz()
             + c.per_antenna * self.antennas as f64
-            + c.per_snr_db * self.snr_db.max(0.0)
+            + c.per_snr_db * (self.snr_db - lowest(&requirement.search.snr_db)).max(0.0)
             + c.per_symbol * self.symbols as f64
             + c.per_estimator.get(&self.estimator).copied().unwrap_or(0.0)
             + if self.loop_closure {
@@ -98,6 +107,11 @@ impl Config {
             "viz:=false".to_owned(),
         ]
     }
+}
+
+/// The lowest of `values` (the cost of SNR counts from it).
+fn lowest(values: &[f64]) -> f64 {
+    values.iter().copied().fold(f64::INFINITY, f64::min)
 }
 
 /// Every configuration of the search space in a fixed order (estimator, loop closure, SNR,
@@ -146,7 +160,7 @@ mod tests {
     fn the_paper_is_table_one() {
         let p = paper();
         assert!((p.bandwidth_mhz() - 1228.8).abs() < 1e-9);
-        assert_eq!(p.id(), "dft-b1228.8-df120-k32-snr10-m1-lc0");
+        assert_eq!(p.id(), "dft-b1228.8-n10240-df120-k32-snr10-m1-lc0");
         assert!(p.assignments(0).contains(&"refinement:=none".to_owned()));
     }
 
