@@ -35,9 +35,12 @@ die() {
     exit 1
 }
 
-# Is the process of this pid file alive?
+# Is the process of this pid file alive and the daemon named after the file (slurmd.pid: slurmd)?
+# A pid file left by a machine that restarted may name a pid some other process has now.
 alive() {
-    [[ -s $1 ]] && kill -0 "$(cat "$1")" 2>/dev/null
+    local name
+    name=$(basename "$1" .pid)
+    [[ -s $1 ]] && [[ $(cat "/proc/$(cat "$1")/comm" 2>/dev/null) == "$name" ]]
 }
 
 show_logs() {
