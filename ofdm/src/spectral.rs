@@ -325,6 +325,92 @@ pub fn window_bins(
     (rw, aw)
 }
 
+/// One scatterer's part of [`Responses`]: what it was computed from (the bits of range, angle
+/// and radial velocity), its window bins and its kernel factors there.
+#[derive(Debug, Clone, PartialEq)]
+struct ScattererResponse {
+    geometry: [u64; 3],
+    /// Doppler factor (1/M) D_M(−T 2v f_c/c), without the amplitude.
+    doppler: Complex64,
+    /// Range bins of the window and the range factor at each.
+    range: Vec<(usize, Complex64)>,
+    /// Angle bins of the window and the angle factor at each.
+    angle: Vec<(usize, Complex64)>,
+}
+
+impl ScattererResponse {
+    fn new(params: &OfdmParams, config: &SpectralConfig, s: &Scatterer) -> Self {
+        let (rw, aw) = window_bins(params, config, s);
+        ScattererResponse {
+            geometry: geometry_bits(s),
+            doppler: doppler_response(params, s.radial_velocity_mps),
+            range: rw
+                .into_iter()
+                .map(|i| (i, range_response(params, config, s.range_m, i)))
+                .collect(),
+            angle: aw
+                .into_iter()
+                .map(|j| (j, angle_response(params, config, s.angle_rad, j)))
+                .collect(),
+        }
+    }
+}
+
+/// The bits of what a scatterer's response depends on besides its amplitude.
+fn geometry_bits(s: &Scatterer) -> [u64; 3] {
+    [
+        s.range_m.to_bits(),
+        s.angle_rad.to_bits(),
+        s.radial_velocity_mps.to_bits(),
+    ]
+}
+
+/// The part of [`synthesize`] that neither the scatterers' amplitudes nor the noise change:
+/// each scatterer's window ([`window_bins`]), its range and angle factors there and its Doppler
+/// factor. A function of the parameters, the configuration and each scatterer's range, angle
+/// and radial velocity alone, so a caller that synthesises the same geometry again (the radar
+/// at the same true pose in every Monte Carlo trial) can keep it; [`synthesize_with`] then gives
+/// bit for bit what [`synthesize`] gives, without the trigonometry.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Responses {
+    params: OfdmParams,
+    config: SpectralConfig,
+    scatterers: Vec<ScattererResponse>,
+}
+
+impl Responses {
+    /// The responses of `scatterers` (their amplitudes are not read). Validates as
+    /// [`synthesize`] does.
+    pub fn new(
+        params: &OfdmParams,
+        scatterers: &[Scatterer],
+        config: &SpectralConfig,
+    ) -> Result<Self, OfdmError> {
+        params.validate()?;
+        config.validate()?;
+        validate_scatterers(scatterers)?;
+        Ok(Responses {
+            params: *params,
+            config: *config,
+            scatterers: scatterers
+                .iter()
+                .map(|s| ScattererResponse::new(params, config, s))
+                .collect(),
+        })
+    }
+
+    /// Bytes held, roughly (for a cache's budget).
+    pub fn heap_bytes(&self) -> usize {
+        let per_bin = std::mem::size_of::<(usize, Complex64)>();
+        self.scatterers
+            .iter()
+            .map(|s| {
+                std::mem::size_of::<ScattererResponse>() + per_bin * (s.range.len() + s.angle.len())
+            })
+            .sum()
+    }
+}
+
 /// Synthesises one frame's processed range × angle map: every scatterer's exact response in its
 /// window, summed, plus independent CN(0, [`processed_noise_power`]) in every cell if
 /// `config.add_noise` (drawn in storage order, re then im). Validates params, config and
@@ -335,22 +421,41 @@ pub fn synthesize<R: Rng + ?Sized>(
     config: &SpectralConfig,
     rng: &mut R,
 ) -> Result<RangeAngleSpectrum, OfdmError> {
+    let responses = Responses::new(params, scatterers, config)?;
+    synthesize_with(params, scatterers, config, &responses, rng)
+}
+
+/// [`synthesize`] with the scatterers' [`Responses`] computed before (by [`Responses::new`] for
+/// the same parameters, configuration and scatterer geometry): the same map, bit for bit. A
+/// scatterer whose geometry differs from the one its response was computed for (or any, when
+/// the parameters, configuration or count differ) is evaluated afresh.
+pub fn synthesize_with<R: Rng + ?Sized>(
+    params: &OfdmParams,
+    scatterers: &[Scatterer],
+    config: &SpectralConfig,
+    responses: &Responses,
+    rng: &mut R,
+) -> Result<RangeAngleSpectrum, OfdmError> {
     params.validate()?;
     config.validate()?;
     validate_scatterers(scatterers)?;
     let mut spectrum = empty_spectrum(params, config)?;
     let a = spectrum.angle_bins;
-    for s in scatterers {
-        let (rw, aw) = window_bins(params, config, s);
-        let dop = s.amplitude * doppler_response(params, s.radial_velocity_mps);
-        let ang: Vec<Complex64> = aw
-            .iter()
-            .map(|&j| angle_response(params, config, s.angle_rad, j))
-            .collect();
-        for &i in &rw {
-            let r = dop * range_response(params, config, s.range_m, i);
-            for (&j, &g) in aw.iter().zip(&ang) {
-                spectrum.values[i * a + j] += r * g;
+    let usable = responses.params == *params
+        && responses.config == *config
+        && responses.scatterers.len() == scatterers.len();
+    let mut fresh = None;
+    for (index, s) in scatterers.iter().enumerate() {
+        let response = match responses.scatterers.get(index) {
+            Some(r) if usable && r.geometry == geometry_bits(s) => r,
+            _ => fresh.insert(ScattererResponse::new(params, config, s)),
+        };
+        let dop = s.amplitude * response.doppler;
+        for &(i, range) in &response.range {
+            let r = dop * range;
+            let row = &mut spectrum.values[i * a..(i + 1) * a];
+            for &(j, g) in &response.angle {
+                row[j] += r * g;
             }
         }
     }

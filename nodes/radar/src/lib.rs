@@ -17,6 +17,7 @@
 //! | [`visibility`] | range, field of view, facing and occlusion: which scatterers are seen |
 //! | [`ideal`] | the `ideal` measurement model: true range/angle + N(0, ΔR²), N(0, Δθ²) |
 //! | [`odometry`] | noisy wheel odometry, dead-reckoned |
+//! | [`memo`] | the sightings and OFDM kernel responses of one scene by true pose, kept for the process's other runs of it (Monte Carlo trials) |
 //! | [`sim`] | all of the above per frame for the sensor `sensor` names (an AGV, a station, none), reproducible from a seed |
 //! | [`node`] | the source node publishing `/clock`, `/ground_truth/*`, `/odom`, `/radar/detections` |
 //!
@@ -41,6 +42,7 @@
 pub mod error;
 pub mod geometry;
 pub mod ideal;
+pub mod memo;
 pub mod node;
 pub mod odometry;
 pub mod params;

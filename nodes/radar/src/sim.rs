@@ -11,6 +11,7 @@
 //! produce spectra or echoes instead of detections.
 
 use std::path::Path;
+use std::sync::Arc;
 
 use nrslam_msgs::Detection;
 use rand::SeedableRng;
@@ -19,11 +20,12 @@ use rand_chacha::ChaCha8Rng;
 use crate::error::RadarError;
 use crate::geometry::Pose2;
 use crate::ideal::IdealModel;
+use crate::memo::SceneMemo;
 use crate::odometry::{OdometryReading, WheelOdometry};
 use crate::params::{Fidelity, OdomOrigin, Params, Role};
 use crate::scene::Scene;
 use crate::trajectory::Trajectory;
-use crate::visibility::{observe, Sensor, Sighting};
+use crate::visibility::{Sensor, Sighting};
 use nrslam_ofdm::{OfdmParams, RangeAngleSpectrum, ResourceGrid, Scatterer};
 use nrslam_runtime::InvalidParam;
 use num_complex::Complex64;
@@ -202,6 +204,9 @@ pub struct Simulator {
     /// The frame the sensor is switched on at (`start_frame`): the first this run produces.
     first_frame: usize,
     next_frame: usize,
+    /// Sightings and kernel responses by true pose, shared with the process's other runs of
+    /// this scene and sensor ([`SceneMemo`]).
+    memo: Arc<SceneMemo>,
 }
 
 impl Simulator {
@@ -281,8 +286,10 @@ impl Simulator {
             }
             Role::NoSensor => (scene.trajectory.clone(), scene.sensor, Platform::NoSensor),
         };
+        let memo = SceneMemo::open(&scene.targets, &sensor);
         Ok(Self {
             fidelity: params.fidelity,
+            memo,
             scene,
             role,
             trajectory,
@@ -370,17 +377,23 @@ impl Simulator {
                 echo: None,
             }));
         }
-        let sightings = observe(&self.scene.targets, &self.sensor, true_pose);
+        let sightings = self.memo.observe(true_pose);
         let boresight_rad = self.sensor.boresight_rad;
         let (mut detections, mut spectrum, mut echo) = (Vec::new(), None, None);
         match &mut self.model {
             Model::Ideal(model) => detections = model.measure(&sightings),
             Model::Spectral { ofdm, config, rng } => {
                 let scatterers = scatterers(&sightings, speed_mps, boresight_rad, rng);
-                spectrum = Some(nrslam_ofdm::spectral::synthesize(
+                let responses = self.memo.responses(
+                    true_pose,
+                    (ofdm, config, speed_mps, boresight_rad),
+                    &scatterers,
+                )?;
+                spectrum = Some(nrslam_ofdm::spectral::synthesize_with(
                     ofdm,
                     &scatterers,
                     config,
+                    &responses,
                     rng,
                 )?);
             }
