@@ -160,10 +160,12 @@ pub struct OccupancyMap {
     /// Per cell, the last update that touched it: `3·update + 1` in the hit set, `+ 2` in the free
     /// set, `+ 3` hit and already applied. Membership tests for the per-keyframe sets in O(1),
     /// without sorting or a hash set; the stride of 3 keeps one update's marks apart from the
-    /// next's. u32 halves the memory the beam walks touch against u64; before the marks would
-    /// wrap (after about 1.4 billion updates) they are cleared and counting restarts.
-    set_mark: Vec<u32>,
-    updates: u32,
+    /// next's. A byte per cell: the beam walks read a mark at every cell they cross, and bytes
+    /// keep the marks of a 300,000-cell grid in the core's cache (u32 marks took 4 × the memory
+    /// and a cache miss per crossed cell); before the marks would wrap (after 84 updates) they
+    /// are cleared and counting restarts.
+    set_mark: Vec<u8>,
+    updates: u8,
     out_of_grid_total: u64,
     /// Scratch: the keyframe's hit cells, reused between keyframes.
     hit_scratch: Vec<(usize, [f64; 2], [i64; 2])>,
@@ -371,7 +373,7 @@ impl OccupancyMap {
             });
         }
 
-        if self.updates >= u32::MAX / 3 - 1 {
+        if self.updates >= u8::MAX / 3 - 1 {
             self.set_mark.fill(0);
             self.updates = 0;
         }

@@ -62,7 +62,6 @@ pub(crate) fn walk_cells(
     mut visit: impl FnMut(i64, i64),
 ) {
     let delta = [end[0] - start[0], end[1] - start[1]];
-    let mut cell = start_cell;
     let mut step = [0i64; 2];
     // Parameter t (0 at start, 1 at end) at which the beam crosses the next cell boundary on each
     // axis, and the t needed to cross one whole cell.
@@ -81,18 +80,21 @@ pub(crate) fn walk_cells(
         }
     }
     let steps = (end_cell[0] - start_cell[0]).abs() + (end_cell[1] - start_cell[1]).abs();
+    // The state in locals rather than indexed by axis, so that it stays in registers.
+    let [mut column, mut row] = start_cell;
+    let [mut t_next_x, mut t_next_y] = t_next;
     for _ in 0..steps {
-        visit(cell[0], cell[1]);
+        visit(column, row);
         // Step the axis whose boundary comes first, unless that axis is already done.
-        let x_done = cell[0] == end_cell[0];
-        let y_done = cell[1] == end_cell[1];
-        let axis = if !x_done && (y_done || t_next[0] <= t_next[1]) {
-            0
+        let x_done = column == end_cell[0];
+        let y_done = row == end_cell[1];
+        if !x_done && (y_done || t_next_x <= t_next_y) {
+            column += step[0];
+            t_next_x += t_delta[0];
         } else {
-            1
-        };
-        cell[axis] += step[axis];
-        t_next[axis] += t_delta[axis];
+            row += step[1];
+            t_next_y += t_delta[1];
+        }
     }
 }
 
