@@ -10,7 +10,6 @@
 use crate::cmd::launch::build_all;
 use crate::flags;
 use crate::flags::Whole;
-use crate::report::Reporter;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -102,15 +101,11 @@ fn parse_shard(text: &str) -> Result<(u64, u64)> {
 
 pub(crate) fn run_trial(launch: &Launch, seed: u64) -> Result<TrialRows> {
     let nodes = build_all(launch, seed)?.nodes;
-    let mut reporter = Reporter::default();
+    // Only the metrics are kept: a whole run's reporter would copy every map and segmentation.
+    let mut rows = TrialRows::new();
     Graph::new(nodes).run(&mut |topic: &'static str, message: &nrslam_msgs::Message| {
-        reporter.take(topic, message)
-    })?;
-    Ok(reporter
-        .metrics
-        .iter()
-        .map(|m| {
-            (
+        if let (nrslam_msgs::topics::METRICS, nrslam_msgs::Message::Metrics(m)) = (topic, message) {
+            rows.push((
                 m.header.stamp.as_seconds(),
                 [
                     m.etgospa,
@@ -118,9 +113,10 @@ pub(crate) fn run_trial(launch: &Launch, seed: u64) -> Result<TrialRows> {
                     m.position_error_m,
                     m.estimated_targets as f64,
                 ],
-            )
-        })
-        .collect())
+            ));
+        }
+    })?;
+    Ok(rows)
 }
 
 /// `nrslam montecarlo`.
