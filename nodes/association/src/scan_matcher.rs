@@ -34,6 +34,7 @@ use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
 
 use crate::icp::{IcpResult, IcpStatus};
+use crate::point_grid::floor_i64;
 use crate::pose::{wrap_angle_rad, Pose2};
 
 /// Running sums of the points that fell in one cell.
@@ -90,12 +91,7 @@ impl MeanGrid {
     /// The grid over `cells`' means, or `None` when their bounding box has more squares than
     /// [`mean_grid_budget`] allows.
     fn build(cells: &[CellGaussian], cell_m: f64) -> Option<MeanGrid> {
-        let key = |m: &[f64; 2]| {
-            [
-                (m[0] / cell_m).floor() as i64,
-                (m[1] / cell_m).floor() as i64,
-            ]
-        };
+        let key = |m: &[f64; 2]| [floor_i64(m[0] / cell_m), floor_i64(m[1] / cell_m)];
         let mut lo = [i64::MAX; 2];
         let mut hi = [i64::MIN; 2];
         for c in cells {
@@ -144,15 +140,17 @@ impl MeanGrid {
     /// `q` (slightly more: the bounds are widened by a millionth of the radius, far beyond the
     /// rounding of the division), clamped to the grid; `None` when it misses the grid.
     fn span(&self, axis: usize, q: f64, radius_m: f64, cell_m: f64) -> Option<(usize, usize)> {
-        let reach = radius_m * (1.0 + 1e-6);
-        let lo = ((q - reach) / cell_m).floor() - self.min_key[axis] as f64;
-        let hi = ((q + reach) / cell_m).floor() - self.min_key[axis] as f64;
-        let last = (self.size[axis] - 1) as f64;
-        // Written so that NaN lands in None.
-        if !(hi >= 0.0 && lo <= last) {
+        if !q.is_finite() {
             return None;
         }
-        Some((lo.max(0.0) as usize, hi.min(last) as usize))
+        let reach = radius_m * (1.0 + 1e-6);
+        let lo = floor_i64((q - reach) / cell_m).saturating_sub(self.min_key[axis]);
+        let hi = floor_i64((q + reach) / cell_m).saturating_sub(self.min_key[axis]);
+        let last = self.size[axis] as i64 - 1;
+        if hi < 0 || lo > last {
+            return None;
+        }
+        Some((lo.max(0) as usize, hi.min(last) as usize))
     }
 }
 
@@ -242,10 +240,7 @@ impl DistributionMap {
     ) -> impl Iterator<Item = (&'a [f64; 2], (i64, i64))> + use<'a> {
         let cell_m = self.cell_m;
         points_m.iter().filter(|p| binnable(p)).map(move |p| {
-            let key = (
-                (p[0] / cell_m).floor() as i64,
-                (p[1] / cell_m).floor() as i64,
-            );
+            let key = (floor_i64(p[0] / cell_m), floor_i64(p[1] / cell_m));
             (p, key)
         })
     }
@@ -992,9 +987,10 @@ mod tests {
         ) {
             let mut points: Vec<[f64; 2]> = points.into_iter().map(|(x, y)| [x, y]).collect();
             if far {
-                // Two clusters a million cells apart: too sparse for the grid.
+                // A cell a million metres away (two points, so that it has a Gaussian): too
+                // sparse for the grid.
                 points.push([1e6, 1e6]);
-                points.push([1e6 + 0.01, 1e6]);
+                points.push([1e6, 1e6]);
             }
             let mut map = DistributionMap::new(cell_m, 2, 0.05);
             map.extend(&points);

@@ -46,14 +46,28 @@ impl CellIndex {
     pub(crate) fn new(points: &[[f64; 2]], eps_m: f64) -> Self {
         let keys = cell_keys(points, eps_m);
         // Sorting (key, index) pairs directly is several times faster than sorting indices by a
-        // looked-up key; the index breaks ties, so the order is the same either way.
-        let mut pairs: Vec<(u64, u32)> = keys
-            .iter()
-            .enumerate()
-            .map(|(i, &(kx, ky))| ((u64::from(kx) << 32) | u64::from(ky), i as u32))
-            .collect();
-        pairs.sort_unstable();
-        let order: Vec<u32> = pairs.iter().map(|&(_, i)| i).collect();
+        // looked-up key; the index breaks ties, so the order is the same either way. When both
+        // cell coordinates fit in 16 bits (a map up to 65,536 ε wide), key and index are packed
+        // into one u64, whose order is the pairs' order, and sorted a third faster still.
+        let order: Vec<u32> = if keys.iter().all(|&(kx, ky)| kx <= 0xffff && ky <= 0xffff) {
+            let mut packed: Vec<u64> = keys
+                .iter()
+                .enumerate()
+                .map(|(i, &(kx, ky))| {
+                    (u64::from(kx) << 48) | (u64::from(ky) << 32) | u64::from(i as u32)
+                })
+                .collect();
+            packed.sort_unstable();
+            packed.iter().map(|&k| k as u32).collect()
+        } else {
+            let mut pairs: Vec<(u64, u32)> = keys
+                .iter()
+                .enumerate()
+                .map(|(i, &(kx, ky))| ((u64::from(kx) << 32) | u64::from(ky), i as u32))
+                .collect();
+            pairs.sort_unstable();
+            pairs.iter().map(|&(_, i)| i).collect()
+        };
 
         let mut cell_start = Vec::new();
         let mut cell_keys_sorted = Vec::new();
@@ -296,7 +310,9 @@ fn cell_keys(points: &[[f64; 2]], eps_m: f64) -> Vec<(u32, u32)> {
         // identical with ε = 0 (one cell holds them all).
         return vec![(0, 0); points.len()];
     }
-    let coordinate = |value: f64, axis: usize| ((value - low[axis]) / side).floor() as u32;
+    // value ≥ low, so the quotient is ≥ 0 and truncation is its floor (a library call without
+    // SSE4.1); the cast saturates as floor's would.
+    let coordinate = |value: f64, axis: usize| ((value - low[axis]) / side) as u32;
     points
         .iter()
         .map(|p| (coordinate(p[0], 0), coordinate(p[1], 1)))
