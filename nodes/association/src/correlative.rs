@@ -1237,9 +1237,17 @@ impl Lattice {
     /// its bound from `level` (which must be that depth's); `None` when no leaf of the block is
     /// in the window's disc, or all are excluded.
     fn node(&self, level: &Level, rotation: usize, x0: i64, y0: i64, depth: u32) -> Option<Node> {
+        let nearest2 = self.admit(x0, y0, depth)?;
+        let sum = self.sum_at(level, depth, rotation, x0, y0);
+        Some(self.scored_node(rotation, x0, y0, depth, nearest2, sum))
+    }
+
+    /// Whether some leaf of the block of 2^`depth` translations starting at (x0, y0) is in the
+    /// window's disc and not excluded: the squared distance (m²) of the block's offset nearest
+    /// the initial pose, where the disc and the prior are judged, or `None`.
+    fn admit(&self, x0: i64, y0: i64, depth: u32) -> Option<f64> {
         let x1 = (x0 + (1 << depth) - 1).min(self.linear_steps);
         let y1 = (y0 + (1 << depth) - 1).min(self.linear_steps);
-        // The block's offset nearest the initial pose: the disc and the prior are judged there.
         let nearest = |a: i64, b: i64| if b < 0 { b } else { a.max(0) };
         let (nx, ny) = (nearest(x0, x1), nearest(y0, y1));
         let nearest2 = (nx * nx + ny * ny) as f64 * self.cell_m * self.cell_m;
@@ -1261,18 +1269,98 @@ impl Lattice {
                 return None;
             }
         }
-        let mean_value = self.sum_at(level, depth, rotation, x0, y0) as f64 * self.mean_scale;
+        Some(nearest2)
+    }
+
+    /// The node of an admitted block (`nearest2` from [`Self::admit`]) whose cells' values sum
+    /// to `sum`.
+    fn scored_node(
+        &self,
+        rotation: usize,
+        x0: i64,
+        y0: i64,
+        depth: u32,
+        nearest2: f64,
+        sum: u64,
+    ) -> Node {
+        let mean_value = sum as f64 * self.mean_scale;
         let prior = self
             .prior_inverse_two_sigma2
             .map_or(1.0, |k| (-nearest2 * k).exp());
-        Some(Node {
+        Node {
             rotation,
             x0,
             y0,
             depth,
             bound: mean_value * prior,
             mean_value,
-        })
+        }
+    }
+
+    /// The nodes of `rotation` over the blocks of 2^`depth` translations starting at `starts`
+    /// that [`Self::admit`] admits, in that order, into `out`: [`Self::node`] of each, with the
+    /// sums of up to four blocks taken in one pass over the scan's cells. Four gathers per cell
+    /// index instead of one keep more loads in flight, and a node's four children read
+    /// neighbouring cells, mostly on the same cache lines.
+    fn nodes_at(
+        &self,
+        level: &Level,
+        rotation: usize,
+        depth: u32,
+        starts: impl IntoIterator<Item = (i64, i64)>,
+        out: &mut Vec<Node>,
+    ) {
+        let mut batch: [(i64, i64, f64); 4] = [(0, 0, 0.0); 4];
+        let mut count = 0;
+        let flush = |batch: &[(i64, i64, f64)], out: &mut Vec<Node>| {
+            let sums = self.sums_at(level, depth, rotation, batch);
+            for (&(x0, y0, nearest2), &sum) in batch.iter().zip(&sums) {
+                out.push(self.scored_node(rotation, x0, y0, depth, nearest2, sum));
+            }
+        };
+        for (x0, y0) in starts {
+            if let Some(nearest2) = self.admit(x0, y0, depth) {
+                batch[count] = (x0, y0, nearest2);
+                count += 1;
+                if count == batch.len() {
+                    flush(&batch, out);
+                    count = 0;
+                }
+            }
+        }
+        if count > 0 {
+            flush(&batch[..count], out);
+        }
+    }
+
+    /// [`Self::sum_at`] of up to four blocks `at` (x0, y0, ·) of one rotation and depth, in one
+    /// pass over the inner cells; integer sums, so the same whatever the order.
+    fn sums_at(
+        &self,
+        level: &Level,
+        depth: u32,
+        rotation: usize,
+        at: &[(i64, i64, f64)],
+    ) -> [u64; 4] {
+        let cells = &self.rotated[rotation];
+        let width = level.width as i64;
+        // Fewer than four blocks repeat the last one; its extra sums are not returned.
+        let shift = |k: usize| {
+            let (x0, y0, _) = at[k.min(at.len() - 1)];
+            y0 * width + x0
+        };
+        let shifts = [shift(0), shift(1), shift(2), shift(3)];
+        let mut sums = [0u64; 4];
+        for &index in &self.inner_indices[depth as usize][cells.inner.clone()] {
+            let index = i64::from(index);
+            for (sum, shift) in sums.iter_mut().zip(shifts) {
+                *sum += u64::from(level.values[(index + shift) as usize]);
+            }
+        }
+        for (sum, &(x0, y0, _)) in sums.iter_mut().zip(at) {
+            *sum += level.sum_at(&self.rim[cells.rim.clone()], x0, y0);
+        }
+        sums
     }
 
     /// The sum of `level`'s values (depth `depth`) at the scan's cells at `rotation`, translated
@@ -1306,12 +1394,11 @@ impl Lattice {
         let level = grids.level(depth);
         let mut roots = Vec::new();
         for rotation in 0..self.rotations() {
-            for i in 0..per_axis {
-                for j in 0..per_axis {
-                    let (x0, y0) = (-self.linear_steps + i * size, -self.linear_steps + j * size);
-                    roots.extend(self.node(level, rotation, x0, y0, depth));
-                }
-            }
+            let starts = (0..per_axis).flat_map(|i| {
+                (0..per_axis)
+                    .map(move |j| (-self.linear_steps + i * size, -self.linear_steps + j * size))
+            });
+            self.nodes_at(level, rotation, depth, starts, &mut roots);
         }
         let mut scored = roots.len() as u64;
         let mut best = None;
@@ -1347,12 +1434,11 @@ impl Lattice {
             let half = 1i64 << depth;
             let level = grids.level(depth);
             let mut children = Vec::with_capacity(4);
-            for (dx, dy) in [(0, 0), (0, half), (half, 0), (half, half)] {
-                let (x0, y0) = (node.x0 + dx, node.y0 + dy);
-                if x0 <= self.linear_steps && y0 <= self.linear_steps {
-                    children.extend(self.node(level, node.rotation, x0, y0, depth));
-                }
-            }
+            let starts = [(0, 0), (0, half), (half, 0), (half, half)]
+                .into_iter()
+                .map(|(dx, dy)| (node.x0 + dx, node.y0 + dy))
+                .filter(|&(x0, y0)| x0 <= self.linear_steps && y0 <= self.linear_steps);
+            self.nodes_at(level, node.rotation, depth, starts, &mut children);
             *scored += children.len() as u64;
             if self.descend(grids, children, best, scored, enough) {
                 return true;
