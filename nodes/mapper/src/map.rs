@@ -121,6 +121,44 @@ pub fn occupancy_percent_from(thresholds: &[f64; 100], log_odds: f64) -> i8 {
     thresholds.partition_point(|&t| t <= log_odds) as i8
 }
 
+/// Slots of a [`PercentCache`].
+const PERCENT_CACHE_SLOTS: usize = 1024;
+
+/// [`occupancy_percent_from`] of recently converted log-odds, by their bits (direct-mapped):
+/// the updates from 0 by the same hit and miss steps between the same clamps reach the same
+/// few hundred values over and over, and a hit here costs a multiply and a load against the
+/// seven dependent steps of the thresholds' binary search.
+#[derive(Debug, Clone)]
+struct PercentCache {
+    /// The log-odds' bits per slot; initially a NaN's, whose percentage (0) `values` holds,
+    /// so an empty slot answers correctly too.
+    keys: Box<[u64; PERCENT_CACHE_SLOTS]>,
+    values: Box<[i8; PERCENT_CACHE_SLOTS]>,
+}
+
+impl PercentCache {
+    const EMPTY: u64 = u64::MAX;
+
+    fn new(thresholds: &[f64; 100]) -> Self {
+        let empty = occupancy_percent_from(thresholds, f64::from_bits(Self::EMPTY));
+        PercentCache {
+            keys: Box::new([Self::EMPTY; PERCENT_CACHE_SLOTS]),
+            values: Box::new([empty; PERCENT_CACHE_SLOTS]),
+        }
+    }
+
+    #[inline]
+    fn percent(&mut self, thresholds: &[f64; 100], log_odds: f64) -> i8 {
+        let bits = log_odds.to_bits();
+        let slot = (bits.wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 54) as usize;
+        if self.keys[slot] != bits {
+            self.keys[slot] = bits;
+            self.values[slot] = occupancy_percent_from(thresholds, log_odds);
+        }
+        self.values[slot]
+    }
+}
+
 fn logit(p: f64) -> f64 {
     (p / (1.0 - p)).ln()
 }
@@ -157,6 +195,8 @@ pub struct OccupancyMap {
     /// True while [`Self::integrate_keyframes`] defers the conversion to its end.
     deferring: bool,
     thresholds: &'static [f64; 100],
+    /// Recent conversions of log-odds to percentages.
+    percent_cache: PercentCache,
     /// Per cell, the last update that touched it: `3·update + 1` in the hit set, `+ 2` in the free
     /// set, `+ 3` hit and already applied. Membership tests for the per-keyframe sets in O(1),
     /// without sorting or a hash set; the stride of 3 keeps one update's marks apart from the
@@ -198,6 +238,7 @@ impl OccupancyMap {
             stale: Vec::new(),
             deferring: false,
             thresholds: percent_thresholds(),
+            percent_cache: PercentCache::new(percent_thresholds()),
             set_mark: vec![0; cells],
             updates: 0,
             out_of_grid_total: 0,
@@ -489,7 +530,9 @@ impl OccupancyMap {
 
     fn convert_stale(&mut self) {
         for &index in &self.stale {
-            self.percent[index] = occupancy_percent_from(self.thresholds, self.log_odds[index]);
+            self.percent[index] = self
+                .percent_cache
+                .percent(self.thresholds, self.log_odds[index]);
         }
         self.stale.clear();
     }
@@ -564,6 +607,23 @@ mod tests {
         assert_eq!(occupancy_percent_from(thresholds, 0.0), 50);
         assert_eq!(occupancy_percent_from(thresholds, -50.0), 0);
         assert_eq!(occupancy_percent_from(thresholds, 50.0), 100);
+    }
+
+    #[test]
+    fn the_percent_cache_answers_as_the_thresholds_do() {
+        let thresholds = percent_thresholds();
+        let mut cache = PercentCache::new(thresholds);
+        // Many values per slot (2000 values, 1024 slots), each asked twice, NaN and the
+        // empty slots' key among them.
+        let values: Vec<f64> = (0..2000)
+            .map(|i| -8.0 + 0.008 * f64::from(i))
+            .chain([f64::NAN, f64::from_bits(PercentCache::EMPTY), 0.0, -0.0])
+            .collect();
+        for _ in 0..2 {
+            for &l in &values {
+                assert_eq!(cache.percent(thresholds, l), occupancy_percent(l), "{l}");
+            }
+        }
     }
 
     proptest! {
