@@ -197,8 +197,14 @@ impl Nearest<'_> {
                 _ => return,
             }
         }
-        let at = self.found.partition_point(|&(d, _)| d <= d2);
-        self.found.insert(at, (d2, index));
+        // Insertion by swaps from the end (a handful of entries): `Vec::insert` would call
+        // memmove for every kept candidate.
+        self.found.push((d2, index));
+        let mut at = self.found.len() - 1;
+        while at > 0 && self.found[at - 1].0 > d2 {
+            self.found.swap(at - 1, at);
+            at -= 1;
+        }
     }
 }
 

@@ -90,12 +90,48 @@ pub(crate) fn full_training_cells(config: &EstimatorConfig) -> usize {
     (2 * hr + 1) * (2 * ha + 1) - (2 * gr + 1) * (2 * ga + 1)
 }
 
+/// [`envelope`] by distance for one (pad, len), filled as distances are asked for: the
+/// side-lobe blanking compares every candidate with every kept peak, three sines each, at
+/// integer distances that repeat from pair to pair and frame to frame.
+#[derive(Debug, Default)]
+struct EnvelopeMemo {
+    /// The pad's bits and the length the values are for.
+    key: Option<(u64, usize)>,
+    /// By distance; NaN where not computed yet ([`envelope`] is never NaN).
+    values: Vec<f64>,
+}
+
+impl EnvelopeMemo {
+    /// Distances kept; beyond, the envelope is computed every time.
+    const MAX_DISTANCE: usize = 1 << 16;
+
+    fn envelope(&mut self, dist: usize, pad: f64, len: usize) -> f64 {
+        let key = (pad.to_bits(), len);
+        if self.key != Some(key) {
+            self.key = Some(key);
+            self.values.clear();
+        }
+        if dist >= Self::MAX_DISTANCE {
+            return envelope(dist, pad, len);
+        }
+        if dist >= self.values.len() {
+            self.values.resize(dist + 1, f64::NAN);
+        }
+        if self.values[dist].is_nan() {
+            self.values[dist] = envelope(dist, pad, len);
+        }
+        self.values[dist]
+    }
+}
+
 /// Scratch reused from frame to frame.
 #[derive(Debug, Default)]
 pub(crate) struct DetectScratch {
     sample: Vec<f64>,
     peaks: Vec<Peak>,
     alpha: Vec<f64>,
+    /// The range and the angle side-lobe envelopes.
+    envelopes: [EnvelopeMemo; 2],
 }
 
 /// Cells sampled for the median noise floor.
@@ -208,6 +244,7 @@ impl DetectScratch {
             Some(margin) => {
                 let margin = 10f64.powf(margin / 10.0);
                 let mut kept = 0;
+                let [range_envelope, angle_envelope] = &mut self.envelopes;
                 for idx in 0..self.peaks.len() {
                     if kept == max {
                         break;
@@ -216,8 +253,8 @@ impl DetectScratch {
                     let blanked = self.peaks[..kept].iter().any(|s| {
                         let dr = circular(q.row, s.row, lobes.range_period);
                         let da = circular(q.col, s.col, v.cols);
-                        let g = envelope(dr, lobes.range_pad, lobes.range_len)
-                            * envelope(da, lobes.angle_pad, lobes.angle_len);
+                        let g = range_envelope.envelope(dr, lobes.range_pad, lobes.range_len)
+                            * angle_envelope.envelope(da, lobes.angle_pad, lobes.angle_len);
                         q.power <= s.power * g * margin
                     });
                     if !blanked {
@@ -289,6 +326,27 @@ impl DetectScratch {
                 if p > self.alpha(n, config.cfar_pfa) * sum / n as f64 {
                     self.peaks.push(Peak { row, col, power: p });
                 }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_envelope_memo_answers_as_the_envelope() {
+        let mut memo = EnvelopeMemo::default();
+        // Two shapes in turn (the memo starts over for each), distances in any order, some
+        // beyond what it keeps.
+        for (pad, len) in [(1.0, 10240), (4.0, 32), (1.0, 10240)] {
+            for dist in [0, 1, 2, 7, 3, 2, 500, 5119, 1, EnvelopeMemo::MAX_DISTANCE + 3] {
+                assert_eq!(
+                    memo.envelope(dist, pad, len).to_bits(),
+                    envelope(dist, pad, len).to_bits(),
+                    "dist {dist}, pad {pad}, len {len}"
+                );
             }
         }
     }
