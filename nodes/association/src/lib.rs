@@ -68,7 +68,7 @@ pub mod slam;
 pub use correlative::{CorrelativeError, MultiResolutionGrid, ProbabilityGrid, SearchWindow};
 pub use icp::{align, IcpResult, IcpStatus, LineFit, PointMap};
 pub use keyframe::KeyframeSelector;
-pub use loop_closure::{match_loop, LoopMatch, LoopRejection};
+pub use loop_closure::{match_loop, match_loop_with, LoopCache, LoopMatch, LoopRejection};
 pub use node::{build, AssociationNode};
 pub use params::{IcpMetric, LoopClosureParams, Params};
 pub use pose::{wrap_angle_rad, Pose2};

@@ -206,6 +206,8 @@ pub struct Association {
     uncertainty_information: Vec<nalgebra::Matrix3<f64>>,
     /// The truth of the next scan, for oracle verification (`loop_closure.oracle_max_error_m`).
     next_true_pose: Option<Pose2>,
+    /// The loop searches' maps and grids of recent submaps.
+    loop_cache: crate::loop_closure::LoopCache,
 }
 
 impl Association {
@@ -241,6 +243,7 @@ impl Association {
             unverified_closures: Vec::new(),
             uncertainty_information: Vec::new(),
             next_true_pose: None,
+            loop_cache: crate::loop_closure::LoopCache::default(),
         })
     }
 

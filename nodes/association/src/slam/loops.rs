@@ -14,7 +14,7 @@
 
 use super::{planar_rotation, Association};
 use crate::loop_closure::{
-    match_loop, symmetric_eigen_2x2, translation_marginal, weakest_translation_information,
+    match_loop_with, symmetric_eigen_2x2, translation_marginal, weakest_translation_information,
     LoopMatch,
 };
 use crate::params::{LoopClosureParams, Params};
@@ -200,7 +200,16 @@ impl Association {
             );
             let submap = self.cloud(j.saturating_sub(w)..=last_old.max(j), j);
             let predicted = self.records[j].pose.between(&anchor_pose);
-            match match_loop(&query, &submap, predicted, radius_m, &lc, &refine_params) {
+            let found = match_loop_with(
+                &query,
+                &submap,
+                predicted,
+                radius_m,
+                &lc,
+                &refine_params,
+                &mut self.loop_cache,
+            );
+            match found {
                 Ok(found) => {
                     let found = LoopMatch {
                         candidate: j,
