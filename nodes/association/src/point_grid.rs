@@ -184,6 +184,37 @@ impl PointGrid {
         (best <= gate2).then_some(best)
     }
 
+    /// Whether some map point lies within the gate of `query_m`:
+    /// `nearest_within_gate_m2(query_m).is_some()`, stopping at the first such point.
+    pub fn any_within_gate(&self, query_m: &[f64; 2]) -> bool {
+        if !(self.usable_gate() && query_m[0].is_finite() && query_m[1].is_finite()) {
+            return false;
+        }
+        let (cx, cy) = self.cell_of(query_m);
+        let gate2 = self.gate_m * self.gate_m;
+        // The own cell first: the likeliest to hold one.
+        [
+            (0, 0),
+            (-1, 0),
+            (1, 0),
+            (0, -1),
+            (0, 1),
+            (-1, -1),
+            (1, -1),
+            (-1, 1),
+            (1, 1),
+        ]
+        .iter()
+        .any(|&(dx, dy): &(i64, i64)| {
+            let cell = (cx.saturating_add(dx), cy.saturating_add(dy));
+            self.cells.get(&cell).is_some_and(|points| {
+                points
+                    .iter()
+                    .any(|p| squared_distance_m2(query_m, p) <= gate2)
+            })
+        })
+    }
+
     /// Number of (finite) points held: added and not retracted.
     pub fn len(&self) -> usize {
         self.len
@@ -221,6 +252,7 @@ mod tests {
                     .filter(|&d2| d2 <= gate_m * gate_m);
                 let found = grid.nearest_within_gate_m2(&[x, y]);
                 prop_assert_eq!(found.is_some(), reference.is_some());
+                prop_assert_eq!(grid.any_within_gate(&[x, y]), found.is_some());
                 if let (Some(a), Some(b)) = (found, reference) {
                     prop_assert!((a - b).abs() <= 1e-12 * (1.0 + b), "{a} against {b}");
                 }

@@ -456,11 +456,7 @@ impl Association {
                     stats.inliers += 1;
                 }
             }
-            if self
-                .last_keyframe_map
-                .nearest_within_gate_m2(&in_map)
-                .is_some()
-            {
+            if self.last_keyframe_map.any_within_gate(&in_map) {
                 overlapping += 1;
             }
         }
