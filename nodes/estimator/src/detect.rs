@@ -341,7 +341,18 @@ mod tests {
         // Two shapes in turn (the memo starts over for each), distances in any order, some
         // beyond what it keeps.
         for (pad, len) in [(1.0, 10240), (4.0, 32), (1.0, 10240)] {
-            for dist in [0, 1, 2, 7, 3, 2, 500, 5119, 1, EnvelopeMemo::MAX_DISTANCE + 3] {
+            for dist in [
+                0,
+                1,
+                2,
+                7,
+                3,
+                2,
+                500,
+                5119,
+                1,
+                EnvelopeMemo::MAX_DISTANCE + 3,
+            ] {
                 assert_eq!(
                     memo.envelope(dist, pad, len).to_bits(),
                     envelope(dist, pad, len).to_bits(),
