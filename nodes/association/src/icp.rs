@@ -245,6 +245,22 @@ impl PointMap {
         Some((index, squared_distance_m2(point, query_m)))
     }
 
+    /// [`Self::nearest_index`], with the distance (m) from `query_m` to the nearest *other* map
+    /// point (infinite when there is none): what [`NearestKept`] needs to answer later queries
+    /// near this one without the tree.
+    fn nearest_index_and_runner_up(&self, query_m: &[f64; 2]) -> Option<(usize, f64, f64)> {
+        let tree = self.tree.as_ref()?;
+        let two = tree.nearest_n::<SquaredEuclidean>(query_m, NonZero::new(2)?);
+        let first = two.first()?;
+        let index = usize::try_from(first.item).ok()?;
+        let point = self.points_m.get(index)?;
+        let runner_up_m = two
+            .get(1)
+            .and_then(|n| self.points_m.get(usize::try_from(n.item).ok()?))
+            .map_or(f64::INFINITY, |q| squared_distance_m2(q, query_m).sqrt());
+        Some((index, squared_distance_m2(point, query_m), runner_up_m))
+    }
+
     /// The nearest map point to `query_m` and its squared distance, m²; `None` for an empty map.
     pub fn nearest(&self, query_m: &[f64; 2]) -> Option<([f64; 2], f64)> {
         self.nearest_index(query_m)
@@ -429,6 +445,33 @@ impl IcpResult {
     }
 }
 
+/// A scan point's nearest map point as a tree query at `anchor` found it, with the distance
+/// from `anchor` to the next nearest map point: for a later query q, every other map point
+/// lies at least `runner_up_m` − |q − anchor| from q, so while the kept point is nearer than
+/// that (by a slack far beyond rounding) it is still the nearest, and the ICP's next iterations,
+/// which move the scan by centimetres and then millimetres, need no tree query for it.
+#[derive(Debug, Clone, Copy)]
+struct NearestKept {
+    anchor: [f64; 2],
+    index: usize,
+    runner_up_m: f64,
+}
+
+/// Slack of [`NearestKept`]'s test, metres.
+const NEAREST_KEPT_SLACK_M: f64 = 1e-9;
+
+impl NearestKept {
+    /// The kept point's index and squared distance to `query_m` (as
+    /// [`PointMap::nearest_index`] gives them) when it is provably still the nearest.
+    #[inline]
+    fn nearest(&self, map: &PointMap, query_m: &[f64; 2]) -> Option<(usize, f64)> {
+        let point = map.points_m.get(self.index)?;
+        let d2 = squared_distance_m2(point, query_m);
+        let moved_m = squared_distance_m2(&self.anchor, query_m).sqrt();
+        (d2.sqrt() + moved_m + NEAREST_KEPT_SLACK_M < self.runner_up_m).then_some((self.index, d2))
+    }
+}
+
 /// The thresholds of [`align`], squared once.
 struct Limits {
     max_distance_m2: f64,
@@ -566,6 +609,7 @@ pub fn align(
     let mut weights = Vec::with_capacity(scan.len());
     let mut residuals_m2 = Vec::with_capacity(scan.len());
     let mut result = IcpResult::unchanged(initial, IcpStatus::MaxIterations);
+    let mut kept: Vec<Option<NearestKept>> = vec![None; scan.len()];
 
     for iteration in 1..=params.max_iterations {
         sources.clear();
@@ -573,9 +617,22 @@ pub fn align(
         weights.clear();
         let mut sum_m2 = 0.0;
         residuals_m2.clear();
-        for &point in &scan {
+        for (&point, kept) in scan.iter().zip(&mut kept) {
             let in_map = pose.transform_point(point);
-            let Some((index, distance_m2)) = map.nearest_index(&in_map) else {
+            let found = match kept.and_then(|k| k.nearest(map, &in_map)) {
+                Some(found) => Some(found),
+                None => map
+                    .nearest_index_and_runner_up(&in_map)
+                    .map(|(index, d2, runner_up_m)| {
+                        *kept = Some(NearestKept {
+                            anchor: in_map,
+                            index,
+                            runner_up_m,
+                        });
+                        (index, d2)
+                    }),
+            };
+            let Some((index, distance_m2)) = found else {
                 continue;
             };
             if distance_m2 > max_distance_m2 {
@@ -651,6 +708,52 @@ mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
+
+    proptest::proptest! {
+        /// A kept nearest point that passes its test is the tree's nearest point of the new
+        /// query (or one at its place), at the same squared distance.
+        #[test]
+        fn a_kept_nearest_point_is_the_nearest(
+            step_m in 0.03f64..0.4,
+            anchors in proptest::collection::vec((-2.0f64..8.0, -2.0f64..6.0), 1..40),
+            moves in proptest::collection::vec((-0.05f64..0.05, -0.05f64..0.05), 1..8),
+        ) {
+            let mut map = PointMap::new();
+            map.extend(&l_and_box_every(step_m));
+            for (x, y) in anchors {
+                let anchor = [x, y];
+                let (index, _, runner_up_m) = map.nearest_index_and_runner_up(&anchor).unwrap();
+                let kept = NearestKept { anchor, index, runner_up_m };
+                for &(dx, dy) in &moves {
+                    let query = [x + dx, y + dy];
+                    if let Some(found) = kept.nearest(&map, &query) {
+                        let reference = map.nearest_index(&query).unwrap();
+                        proptest::prop_assert_eq!(found.1, reference.1);
+                        proptest::prop_assert_eq!(map.points_m[found.0], map.points_m[reference.0]);
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_kept_nearest_point_passes_near_its_anchor_and_fails_far_from_it() {
+        let mut map = PointMap::new();
+        map.extend(&l_and_box_every(0.1));
+        let anchor = [2.04, 0.3];
+        let (index, _, runner_up_m) = map.nearest_index_and_runner_up(&anchor).unwrap();
+        let kept = NearestKept {
+            anchor,
+            index,
+            runner_up_m,
+        };
+        assert_eq!(
+            kept.nearest(&map, &[2.041, 0.299]),
+            map.nearest_index(&[2.041, 0.299])
+        );
+        assert!(kept.nearest(&map, &[2.041, 0.299]).is_some());
+        assert_eq!(kept.nearest(&map, &[2.5, 0.3]), None);
+    }
 
     /// Points every `step_m` along the segment from `a` to `b` (end excluded).
     fn segment(a: [f64; 2], b: [f64; 2], step_m: f64) -> Vec<[f64; 2]> {
