@@ -25,8 +25,10 @@ const SCENES: usize = 4;
 /// Poses whose sightings one scene keeps (a hall lap is 294 frames).
 const MAX_POSES: usize = 100_000;
 /// Bytes of kernel responses one scene keeps over all its OFDM settings (a hall lap at
-/// paper-5g's settings is about 20 MB).
-const MAX_RESPONSE_BYTES: usize = 512 << 20;
+/// paper-5g's settings is about 20 MB): 512 MB for the [`SCENES`] in all, so that a sizing
+/// study (hundreds of settings, and random scene families) stays within a cluster's usual
+/// 1 GB per CPU; a setting past the budget computes its responses, with the same values.
+const MAX_RESPONSE_BYTES: usize = (512 << 20) / SCENES;
 
 /// The exact bits of a pose: the lookup key.
 type PoseKey = [u64; 3];
