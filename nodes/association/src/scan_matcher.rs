@@ -553,6 +553,7 @@ fn pair_with_cells(
 ) -> (f64, usize) {
     pairs.clear();
     let map_var = settings.map_std_m * settings.map_std_m;
+    let map_var_i = Matrix2::identity() * map_var;
     let (sin, cos) = pose.yaw_rad.sin_cos();
     let rotation = Matrix2::new(cos, -sin, sin, cos);
     let mut sum_m2 = 0.0;
@@ -573,7 +574,7 @@ fn pair_with_cells(
         let cov_map = rotation * cov * rotation.transpose();
         for cell in found.iter().filter_map(|&(_, i)| map.cells.get(i as usize)) {
             let residual = Vector2::new(in_map[0] - cell.mean_m[0], in_map[1] - cell.mean_m[1]);
-            let s = cell.cov_m2 + cov_map + Matrix2::identity() * map_var;
+            let s = cell.cov_m2 + cov_map + map_var_i;
             let Some(info) = s.try_inverse() else {
                 continue;
             };
@@ -678,8 +679,10 @@ pub fn match_scan(
         let mut g = prior_info * offset * prior_weight;
         for pair in &pairs {
             let (j, w_info) = pair.weighted(robust2);
-            h += j.transpose() * w_info * j;
-            g += j.transpose() * w_info * pair.residual;
+            // Jᵀ W once for both products (the same operations as forming it twice).
+            let jt_w = j.transpose() * w_info;
+            h += jt_w * j;
+            g += jt_w * pair.residual;
         }
         let Some(step) = h.cholesky().map(|c| c.solve(&(-g))) else {
             return IcpResult {
