@@ -371,11 +371,103 @@ impl DistributionMap {
     /// `max_m`², as kiddo's `nearest_n_within` measures it), nearest first, as indices into
     /// `cells` in `found` (cleared first). Exactly the cells the k-d tree returns, in its order
     /// (up to cells at exactly equal distance).
+    #[cfg(test)]
     fn nearest_into(&self, query_m: &[f64; 2], k: usize, max_m: f64, found: &mut Vec<(f64, u32)>) {
+        self.nearest_from_index(query_m, k, max_m, found);
+    }
+
+    /// [`Self::nearest_into`], reading the candidates from `kept` when `query_m` is near enough
+    /// its anchor, else from the grid, and then keeping the new candidates in `kept` (where the
+    /// grid answers and they are few enough).
+    fn nearest_kept(
+        &self,
+        query_m: &[f64; 2],
+        k: usize,
+        max_m: f64,
+        found: &mut Vec<(f64, u32)>,
+        kept: &mut Option<KeptCells>,
+    ) {
         found.clear();
         if k == 0 {
             return;
         }
+        let radius2 = max_m * max_m;
+        // kiddo's squared distance: Σ over the axes of (mean − query)², from 0.
+        let distance2 = |c: &CellGaussian| {
+            let dx = c.mean_m[0] - query_m[0];
+            let dy = c.mean_m[1] - query_m[1];
+            0.0 + dx * dx + dy * dy
+        };
+        let mut nearest = Nearest { k, found };
+        if let Some(cells) = kept {
+            let dx = query_m[0] - cells.anchor[0];
+            let dy = query_m[1] - cells.anchor[1];
+            if (dx * dx + dy * dy).sqrt() + 1e-9 < KEPT_REACH_M {
+                for &index in &cells.cells[..cells.len] {
+                    let d2 = distance2(&self.cells[index as usize]);
+                    if d2 <= radius2 {
+                        nearest.offer(d2, index);
+                    }
+                }
+                return;
+            }
+        }
+        *kept = None;
+        if let Some(grid) = &self.grid {
+            // The squares of the radius plus the reach: the candidates to keep, and (in the same
+            // order) those within the radius now.
+            let reach_m = max_m + KEPT_REACH_M + 1e-9;
+            let reach2 = reach_m * reach_m;
+            if let (Some(xs), Some(ys)) = (
+                grid.span(0, query_m[0], reach_m, self.cell_m),
+                grid.span(1, query_m[1], reach_m, self.cell_m),
+            ) {
+                if (xs.1 - xs.0 + 1) * (ys.1 - ys.0 + 1) <= self.cells.len() {
+                    let mut keep = KeptCells {
+                        anchor: *query_m,
+                        len: 0,
+                        cells: [0; KEPT_CELLS],
+                    };
+                    let mut fits = true;
+                    for row in ys.0..=ys.1 {
+                        let first = row * grid.size[0];
+                        let from = grid.starts[first + xs.0] as usize;
+                        let to = grid.starts[first + xs.1 + 1] as usize;
+                        for &index in &grid.order[from..to] {
+                            let d2 = distance2(&self.cells[index as usize]);
+                            if d2 <= radius2 {
+                                nearest.offer(d2, index);
+                            }
+                            if d2 <= reach2 {
+                                if keep.len < KEPT_CELLS {
+                                    keep.cells[keep.len] = index;
+                                    keep.len += 1;
+                                } else {
+                                    fits = false;
+                                }
+                            }
+                        }
+                    }
+                    if fits {
+                        *kept = Some(keep);
+                    }
+                    return;
+                }
+            }
+            nearest.found.clear();
+        }
+        self.nearest_from_index(query_m, k, max_m, nearest.found);
+    }
+
+    /// The k nearest from the grid (or the tree where there is none), as [`Self::nearest_into`].
+    fn nearest_from_index(
+        &self,
+        query_m: &[f64; 2],
+        k: usize,
+        max_m: f64,
+        found: &mut Vec<(f64, u32)>,
+    ) {
+        found.clear();
         let radius2 = max_m * max_m;
         // kiddo's squared distance: Σ over the axes of (mean − query)², from 0.
         let distance2 = |c: &CellGaussian| {
@@ -442,6 +534,25 @@ impl DistributionMap {
             .map(|n| n.item as u32)
             .collect()
     }
+}
+
+/// How far a scan point may move from where its candidate cells were gathered before they are
+/// gathered again, metres: the Gauss–Newton iterations after the first move the scan by
+/// centimetres and less.
+const KEPT_REACH_M: f64 = 0.1;
+/// Candidates a [`KeptCells`] holds at most (a point with more is looked up every time).
+const KEPT_CELLS: usize = 16;
+
+/// A scan point's candidate cells between Gauss–Newton iterations: every cell whose mean lies
+/// within the correspondence radius plus [`KEPT_REACH_M`] of `anchor` (by a nanometre more),
+/// in the order the grid's squares list them. While the point stays within [`KEPT_REACH_M`] of
+/// `anchor`, every cell within the radius of it is among these, and scoring them in this order
+/// gives the k nearest exactly as a lookup in the grid does.
+#[derive(Debug, Clone, Copy)]
+struct KeptCells {
+    anchor: [f64; 2],
+    len: usize,
+    cells: [u32; KEPT_CELLS],
 }
 
 /// `cov` with its eigenvalues raised to at least `floor2`. (Raising a line-like cell's
@@ -550,6 +661,7 @@ fn pair_with_cells(
     pose: Pose2,
     settings: &MatchSettings,
     pairs: &mut Vec<Pair>,
+    kept: &mut [Option<KeptCells>],
 ) -> (f64, usize) {
     pairs.clear();
     let map_var = settings.map_std_m * settings.map_std_m;
@@ -559,13 +671,15 @@ fn pair_with_cells(
     let mut sum_m2 = 0.0;
     let mut paired_points = 0usize;
     let mut found = Vec::with_capacity(settings.neighbours.min(64));
-    for (point, cov) in points {
+    for (index, (point, cov)) in points.iter().enumerate() {
         let in_map = pose.transform_point(point.position_m);
-        map.nearest_into(
+        let mut no_kept = None;
+        map.nearest_kept(
             &in_map,
             settings.neighbours,
             settings.max_correspondence_m,
             &mut found,
+            kept.get_mut(index).unwrap_or(&mut no_kept),
         );
         if found.is_empty() {
             continue;
@@ -601,7 +715,7 @@ pub fn scan_information(
 ) -> Matrix3<f64> {
     let points = usable_points(scan);
     let mut pairs = Vec::new();
-    pair_with_cells(map, &points, pose, settings, &mut pairs);
+    pair_with_cells(map, &points, pose, settings, &mut pairs, &mut []);
     let robust2 = settings.robust_sigma * settings.robust_sigma;
     let h: Matrix3<f64> = pairs
         .iter()
@@ -651,8 +765,10 @@ pub fn match_scan(
     let mut pose = initial;
     let mut result = unchanged(IcpStatus::MaxIterations);
     let mut pairs: Vec<Pair> = Vec::with_capacity(points.len() * settings.neighbours);
+    let mut kept: Vec<Option<KeptCells>> = vec![None; points.len()];
     for iteration in 1..=settings.max_iterations {
-        let (sum_m2, paired_points) = pair_with_cells(map, &points, pose, settings, &mut pairs);
+        let (sum_m2, paired_points) =
+            pair_with_cells(map, &points, pose, settings, &mut pairs, &mut kept);
         result.iterations = iteration;
         result.correspondences = paired_points;
         if paired_points < settings.min_correspondences {
@@ -1011,6 +1127,31 @@ mod tests {
                 map.nearest_into(&[x, y], k, max_m, &mut found);
                 let grid: Vec<u32> = found.iter().map(|&(_, i)| i).collect();
                 prop_assert_eq!(grid, map.nearest_by_tree(&[x, y], k, max_m));
+            }
+        }
+    }
+
+    proptest! {
+        /// Candidates kept between lookups give what a lookup in the grid gives, for a point
+        /// walking in steps of up to 7 cm (so that it leaves its anchor's reach now and then).
+        #[test]
+        fn kept_candidates_find_what_the_grid_finds(
+            points in prop::collection::vec((-12.0f64..12.0, -12.0f64..12.0), 0..400),
+            start in (-12.0f64..12.0, -12.0f64..12.0),
+            steps in prop::collection::vec((-0.07f64..0.07, -0.07f64..0.07), 1..40),
+            k in 1usize..6,
+        ) {
+            let mut points: Vec<[f64; 2]> = points.into_iter().map(|(x, y)| [x, y]).collect();
+            points.extend(outlines());
+            let mut map = DistributionMap::new(0.5, 2, 0.02);
+            map.extend(&points);
+            let (mut kept, mut found, mut reference) = (None, Vec::new(), Vec::new());
+            let mut query = [start.0, start.1];
+            for (dx, dy) in steps {
+                query = [query[0] + dx, query[1] + dy];
+                map.nearest_kept(&query, k, 0.5, &mut found, &mut kept);
+                map.nearest_into(&query, k, 0.5, &mut reference);
+                prop_assert_eq!(&found, &reference);
             }
         }
     }
