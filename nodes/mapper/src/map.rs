@@ -467,24 +467,30 @@ impl OccupancyMap {
                     (start[0].floor() as i64).clamp(0, self.width_cells as i64 - 1),
                     (start[1].floor() as i64).clamp(0, self.height_cells as i64 - 1),
                 ];
+                // The closure owns copies of the scalars and the slices themselves (not
+                // references to them, which the compiler reloaded at every cell, unable to tell
+                // them from the cells being written).
                 let width_cells = self.width_cells;
                 let (set_mark, log_odds, percent, stale) = (
-                    &mut self.set_mark,
-                    &mut self.log_odds,
-                    &mut self.percent,
+                    &mut self.set_mark[..],
+                    &mut self.log_odds[..],
+                    &mut self.percent[..],
                     &mut self.stale,
                 );
                 let (miss, floor) = (self.miss_log_odds, self.min_log_odds);
-                walk_cells(start, end, start_cell, end_cell, |column, row| {
+                let mut free_cells = 0;
+                let counted = &mut free_cells;
+                walk_cells(start, end, start_cell, end_cell, move |column, row| {
                     // The walk stays within the box spanned by two in-grid cells.
                     let index = row as usize * width_cells + column as usize;
                     if set_mark[index] != hit_mark && set_mark[index] != free_mark {
                         set_mark[index] = free_mark;
                         log_odds[index] = (log_odds[index] + miss).max(floor);
                         mark_stale(percent, stale, index);
-                        report.free_cells += 1;
+                        *counted += 1;
                     }
                 });
+                report.free_cells += free_cells;
             }
         }
 
