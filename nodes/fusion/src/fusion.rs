@@ -29,6 +29,10 @@ use nrslam_association::{match_loop, Edge, EdgeKind, OptimiserSettings, Pose2, P
 
 use crate::params::Params;
 
+/// A query of an agent's newest keyframes: (anchor keyframe index, points in its frame, and for
+/// each point the position of the sensor that saw it, in the same frame).
+type Query = (usize, Vec<[f64; 2]>, Vec<[f64; 2]>);
+
 /// What kind of sensing point an agent is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum AgentKind {
@@ -95,6 +99,13 @@ struct Agent {
     loops: Vec<(u32, u32, Pose2)>,
     /// Keyframes added since the last query.
     since_query: u32,
+    /// Merged by place recognition (not aligned from the start): its merge is re-checked.
+    merged_by_search: bool,
+    /// Keyframes added since its merge was last re-checked.
+    since_verify: u32,
+    /// Re-check matches that put the agent elsewhere than the graph holds it, waiting for
+    /// others to agree.
+    rechecks: Vec<Candidate>,
     /// Station frames since the last station keyframe.
     station_frames: u32,
 }
@@ -114,6 +125,11 @@ pub struct FusionStats {
     pub merges: u64,
     /// Merges refused because the agent's detections fell on floor the map saw free.
     pub refused_merges: u64,
+    /// Whole-map searches of merged agents, re-checking their merge.
+    pub verify_searches: u64,
+    /// Merges undone and made again elsewhere: confirmed matches put the agent somewhere its
+    /// detections contradict the map less.
+    pub remerges: u64,
     /// Verified matches refused because they paired detections seen from opposite sides.
     pub opposite_views: u64,
     /// Inter-agent (and station) edges in the graph.
@@ -188,6 +204,9 @@ impl Fusion {
                 pending_local: None,
                 loops: Vec::new(),
                 since_query: 0,
+                merged_by_search: false,
+                since_verify: 0,
+                rechecks: Vec::new(),
                 station_frames: 0,
             })
             .collect();
@@ -324,6 +343,16 @@ impl Fusion {
                 self.match_unaligned(agent, &mut update);
             }
         }
+        let verify_every = self.params.verify_every_keyframes;
+        let query_keyframes = self.params.query_keyframes as usize;
+        let a = &mut self.agents[agent];
+        if self.params.matching && verify_every > 0 && a.merged_by_search {
+            a.since_verify += 1;
+            if a.since_verify >= verify_every && a.keyframes.len() >= query_keyframes {
+                a.since_verify = 0;
+                self.verify_merge(agent, &mut update);
+            }
+        }
         Ok(update)
     }
 
@@ -445,7 +474,7 @@ impl Fusion {
 
     /// The query of `agent`'s newest keyframes: (anchor keyframe index, points in its frame,
     /// and for each point the position of the sensor that saw it, in the same frame).
-    fn query(&self, agent: usize) -> (usize, Vec<[f64; 2]>, Vec<[f64; 2]>) {
+    fn query(&self, agent: usize) -> Query {
         let a = &self.agents[agent];
         let last = a.keyframes.len() - 1;
         let first = (last + 1).saturating_sub(self.params.query_keyframes as usize);
@@ -631,25 +660,73 @@ impl Fusion {
                 *done += 1;
             }
         }
-        let threshold = i8::try_from(self.params.occupied_percent).unwrap_or(i8::MAX);
-        let data = map.occupancy_data();
-        let width = map.width_cells();
-        data.iter()
-            .enumerate()
-            .filter(|(_, &percent)| percent >= threshold)
-            .map(|(cell, _)| map.cell_centre(cell % width, cell / width))
-            .collect()
+        occupied_cells(map, self.params.occupied_percent)
     }
 
-    /// Of `agent`'s detections placed with map-from-agent `frame`: (within `conflict_distance_m`
-    /// of an occupied cell of the whole-map search's grid, on a cell the aligned agents saw free
-    /// with no occupied cell that near). A 5G detection is blurred across its beam by a metre,
-    /// so only a detection far from every outline the map holds contradicts it; cells nobody
-    /// observed count neither way.
-    fn free_space_check(&self, agent: usize, frame: &Pose2) -> (usize, usize) {
-        let Some((map, _)) = self.occupied.as_ref() else {
-            return (0, 0);
+    /// An occupancy grid of every aligned keyframe but `agent`'s, at their fused poses: what the
+    /// others saw, against which `agent`'s merge is re-checked.
+    fn occupancy_without(&self, agent: usize) -> Option<nrslam_mapper::OccupancyMap> {
+        let keyframes = self
+            .agents
+            .iter()
+            .enumerate()
+            .filter(|(i, a)| *i != agent && a.frame.is_some())
+            .flat_map(|(_, a)| a.keyframes.iter())
+            .filter_map(|k| Some((k.fused?, &k.points_body_m[..])));
+        self.occupancy(keyframes)
+    }
+
+    /// An occupancy grid of `keyframes` (pose in the map frame, detections in the body frame).
+    fn occupancy<'k>(
+        &self,
+        keyframes: impl Iterator<Item = (Pose2, &'k [[f64; 2]])>,
+    ) -> Option<nrslam_mapper::OccupancyMap> {
+        let mut map = nrslam_mapper::OccupancyMap::new(&self.params.map).ok()?;
+        for (pose, body) in keyframes {
+            let points: Vec<[f64; 2]> = body.iter().map(|p| pose.transform_point(*p)).collect();
+            // Inputs were checked finite; a point that overflows is left out of the map.
+            let _ = map.integrate_points([pose.x_m, pose.y_m], &points);
+        }
+        Some(map)
+    }
+
+    /// How well `agent` placed by `place` fits what the others saw (`others`, their grid), both
+    /// ways: (support, conflict) of its detections in the others' grid plus those of the
+    /// others' occupied cells in a grid of its own keyframes so placed. The second way catches
+    /// what the first cannot: a look-alike place where the others saw a target the agent, so
+    /// placed, looked straight through.
+    fn fit_both_ways(
+        &self,
+        others: &nrslam_mapper::OccupancyMap,
+        agent: usize,
+        place: impl Fn(&AgentKeyframe) -> Option<Pose2>,
+    ) -> (usize, usize) {
+        let keyframes = &self.agents[agent].keyframes;
+        let placed = || {
+            keyframes
+                .iter()
+                .filter_map(|k| Some((place(k)?, &k.points_body_m[..])))
         };
+        let detections =
+            placed().flat_map(|(pose, body)| body.iter().map(move |p| pose.transform_point(*p)));
+        let forward = self.free_space_check(others, detections);
+        let Some(own) = self.occupancy(placed()) else {
+            return forward;
+        };
+        let cells = occupied_cells(others, self.params.occupied_percent);
+        let reverse = self.free_space_check(&own, cells.into_iter());
+        (forward.0 + reverse.0, forward.1 + reverse.1)
+    }
+
+    /// Of `points` (map frame) in `map`: (within `conflict_distance_m` of an occupied cell, on a
+    /// cell seen free with no occupied cell that near). A 5G detection is blurred across its
+    /// beam by a metre, so only a detection far from every outline the map holds contradicts
+    /// it; cells nobody observed count neither way.
+    fn free_space_check(
+        &self,
+        map: &nrslam_mapper::OccupancyMap,
+        points: impl Iterator<Item = [f64; 2]>,
+    ) -> (usize, usize) {
         let data = map.occupancy_data();
         let width = map.width_cells();
         let height = map.height_cells();
@@ -668,22 +745,18 @@ impl Fusion {
             })
         };
         let (mut support, mut conflict) = (0, 0);
-        for k in &self.agents[agent].keyframes {
-            let pose = frame.compose(&k.local_pose);
-            for p in &k.points_body_m {
-                let [x, y] = pose.transform_point(*p);
-                let Some((column, row)) = map.cell_of(x, y) else {
-                    continue;
-                };
-                let percent = data[row * width + column];
-                if percent < 0 {
-                    continue;
-                }
-                if near_occupied(column, row) {
-                    support += 1;
-                } else if percent <= free {
-                    conflict += 1;
-                }
+        for [x, y] in points {
+            let Some((column, row)) = map.cell_of(x, y) else {
+                continue;
+            };
+            let percent = data[row * width + column];
+            if percent < 0 {
+                continue;
+            }
+            if near_occupied(column, row) {
+                support += 1;
+            } else if percent <= free {
+                conflict += 1;
             }
         }
         (support, conflict)
@@ -700,14 +773,12 @@ impl Fusion {
         self.nearest_keyframe(candidates, pose)
     }
 
-    /// An unaligned agent searches the whole aligned map for its newest place.
-    fn match_unaligned(&mut self, agent: usize, update: &mut Update) {
-        let points = self.aligned_occupied();
-        if points.is_empty() {
-            return;
-        }
+    /// Searches all of `points` (map frame: every heading, the map's extent) for `agent`'s
+    /// newest place: (its query, where the match put the query's anchor), or `None` when no
+    /// match is verified.
+    fn search_whole_map(&mut self, agent: usize, points: &[[f64; 2]]) -> Option<(Query, Pose2)> {
         let (anchor, query, sensors) = self.query(agent);
-        let (lo, hi) = bounds(&points);
+        let (lo, hi) = bounds(points);
         let centre = Pose2::new(0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.0);
         let half_diagonal_m = 0.5 * ((hi[0] - lo[0]).hypot(hi[1] - lo[1]));
         let radius_m = (half_diagonal_m + self.params.submap_range_m)
@@ -718,23 +789,75 @@ impl Fusion {
             search_step_deg: self.params.global_step_deg,
             ..self.params.matcher.clone()
         };
-        self.stats.global_searches += 1;
         self.stats.query_points_scored += query.len() as u64;
-        let found = match match_loop(
+        match match_loop(
             &query,
-            &points,
+            points,
             centre,
             radius_m,
             &matcher,
             &self.matcher_scan_params(),
         ) {
-            Ok(found) => found,
+            Ok(found) => Some(((anchor, query, sensors), found.relative)),
             Err(reason) => {
-                tracing::debug!(agent, anchor, ?reason, "global match rejected");
-                return;
+                tracing::debug!(agent, anchor, ?reason, "whole-map match rejected");
+                None
             }
+        }
+    }
+
+    /// The candidate frame of `agent` a match placing its keyframe `anchor` at `found` (map
+    /// frame) implies, its edge hung on the nearest keyframe of the other agents.
+    fn candidate(&self, agent: usize, anchor: usize, found: &Pose2) -> Option<Candidate> {
+        let owner = self.nearest_aligned(agent, found)?;
+        let owner_fused = self.agents[owner.0].keyframes[owner.1].fused?;
+        let frame = found.compose(&self.agents[agent].keyframes[anchor].local_pose.inverse());
+        Some(Candidate {
+            frame,
+            edge: InterEdge {
+                from: owner,
+                to: (agent, anchor),
+                relative: owner_fused.between(found),
+            },
+        })
+    }
+
+    /// Of `earlier` candidates of `agent`'s frame, those that confirm `candidate`: the same
+    /// frame (within `agree_m`, `agree_deg`) from a place at least `confirm_separation_m` away
+    /// along its path. Two queries that share keyframes, or see one corner of the hall, fail
+    /// together where the hall repeats itself.
+    fn confirming(
+        &self,
+        agent: usize,
+        earlier: &[Candidate],
+        candidate: &Candidate,
+    ) -> Vec<Candidate> {
+        let a = &self.agents[agent];
+        let travelled = |index: usize| a.keyframes[index].travelled_m;
+        let (agree_m, agree_rad) = (self.params.agree_m, self.params.agree_deg.to_radians());
+        earlier
+            .iter()
+            .filter(|c| {
+                (travelled(candidate.edge.to.1) - travelled(c.edge.to.1)).abs()
+                    >= self.params.confirm_separation_m
+                    && c.frame.distance_m(&candidate.frame) <= agree_m
+                    && c.frame.rotation_to_rad(&candidate.frame) <= agree_rad
+            })
+            .copied()
+            .collect()
+    }
+
+    /// An unaligned agent searches the whole aligned map for its newest place.
+    fn match_unaligned(&mut self, agent: usize, update: &mut Update) {
+        let points = self.aligned_occupied();
+        if points.is_empty() {
+            return;
+        }
+        self.stats.global_searches += 1;
+        let Some(((anchor, query, sensors), found)) = self.search_whole_map(agent, &points) else {
+            return;
         };
-        let Some(owner) = self.nearest_aligned(agent, &found.relative) else {
+        let Some(candidate) = self.candidate(agent, anchor, &found) else {
             return;
         };
         if self.params.max_opposite_ratio < 1.0 {
@@ -743,53 +866,35 @@ impl Fusion {
                 agent,
                 anchor,
                 (&query, &sensors),
-                &found.relative,
+                &found,
                 (&points, &owners),
             ) {
                 return;
             }
         }
-        let a = &self.agents[agent];
-        let frame = found
-            .relative
-            .compose(&a.keyframes[anchor].local_pose.inverse());
-        let owner_fused = self.agents[owner.0].keyframes[owner.1]
-            .fused
-            .expect("owners are fused");
-        let candidate = Candidate {
-            frame,
-            edge: InterEdge {
-                from: owner,
-                to: (agent, anchor),
-                relative: owner_fused.between(&found.relative),
-            },
-        };
+        let frame = candidate.frame;
         self.stats.candidates += 1;
         tracing::debug!(agent, anchor, ?frame, ?found, "frame candidate");
-        let (agree_m, agree_rad) = (self.params.agree_m, self.params.agree_deg.to_radians());
-        let separation_m = self.params.confirm_separation_m;
-        let a = &mut self.agents[agent];
-        let travelled = |index: usize| a.keyframes[index].travelled_m;
-        // Only matches of other places confirm: two queries that share keyframes, or see one
-        // corner of the hall, fail together where the hall repeats itself.
-        let agreeing: Vec<Candidate> = a
-            .candidates
-            .iter()
-            .filter(|c| {
-                (travelled(anchor) - travelled(c.edge.to.1)).abs() >= separation_m
-                    && c.frame.distance_m(&frame) <= agree_m
-                    && c.frame.rotation_to_rad(&frame) <= agree_rad
-            })
-            .copied()
-            .collect();
-        a.candidates.push(candidate);
+        let agreeing = self.confirming(agent, &self.agents[agent].candidates, &candidate);
+        self.agents[agent].candidates.push(candidate);
         if agreeing.len() + 1 < self.params.confirmations as usize {
             return;
         }
         // Where a hall repeats itself, every match of one group of targets can agree on the
         // other group's place. What tells them apart is everything else the agent has seen: at
         // the wrong place its detections fall where the aligned agents saw free floor.
-        let (support, conflict) = self.free_space_check(agent, &frame);
+        let (support, conflict) = match self.occupied.as_ref() {
+            Some((map, _)) => {
+                let detections = self.agents[agent].keyframes.iter().flat_map(|k| {
+                    let pose = frame.compose(&k.local_pose);
+                    k.points_body_m
+                        .iter()
+                        .map(move |p| pose.transform_point(*p))
+                });
+                self.free_space_check(map, detections)
+            }
+            None => (0, 0),
+        };
         let conflict_ratio = conflict as f64 / (support + conflict).max(1) as f64;
         tracing::debug!(
             agent,
@@ -813,6 +918,8 @@ impl Fusion {
         let a = &mut self.agents[agent];
         a.frame = Some(frame);
         a.candidates.clear();
+        a.merged_by_search = true;
+        a.since_verify = 0;
         self.stats.merges += 1;
         for c in agreeing.iter().chain(std::iter::once(&candidate)) {
             self.edges.push(c.edge);
@@ -823,6 +930,98 @@ impl Fusion {
         }
         update.corrected = self.optimise();
         tracing::info!(agent, ?frame, "agent merged into the map frame");
+    }
+
+    /// A merged agent's merge re-checked: its newest place searched for over the others' map
+    /// alone, as before its merge. Where a hall repeats itself the first matches of an agent can
+    /// all agree on a twin of its place; later ones, where it sees what tells the twins apart,
+    /// put it elsewhere. A frame elsewhere, confirmed as a merge is (`confirmations` matches
+    /// `confirm_separation_m` apart), under which the agent's detections land on floor the
+    /// others saw free less often than where the graph holds them (and at most
+    /// `max_conflict_ratio`), takes the merge's place: the agent's inter-agent edges, made at
+    /// the old place, are dropped for the new matches.
+    fn verify_merge(&mut self, agent: usize, update: &mut Update) {
+        let Some(map) = self.occupancy_without(agent) else {
+            return;
+        };
+        let points = occupied_cells(&map, self.params.occupied_percent);
+        if points.is_empty() {
+            return;
+        }
+        self.stats.verify_searches += 1;
+        let Some(((anchor, _, _), found)) = self.search_whole_map(agent, &points) else {
+            return;
+        };
+        let Some(held) = self.agents[agent].keyframes[anchor].fused else {
+            return;
+        };
+        let correction = held.between(&found);
+        if correction.x_m.hypot(correction.y_m) <= self.params.agree_m
+            && correction.yaw_rad.abs() <= self.params.agree_deg.to_radians()
+        {
+            return;
+        }
+        let Some(candidate) = self.candidate(agent, anchor, &found) else {
+            return;
+        };
+        tracing::debug!(
+            agent,
+            anchor,
+            ?correction,
+            "merge re-check found another place"
+        );
+        let agreeing = self.confirming(agent, &self.agents[agent].rechecks, &candidate);
+        self.agents[agent].rechecks.push(candidate);
+        if agreeing.len() + 1 < self.params.confirmations as usize {
+            return;
+        }
+        let now = self.fit_both_ways(&map, agent, |k| k.fused);
+        let frame = candidate.frame;
+        let there = self.fit_both_ways(&map, agent, |k| Some(frame.compose(&k.local_pose)));
+        // Both places explain part of what the agent saw (a twin is a twin); what tells them
+        // apart is what contradicts them. The other place must contradict the map less, and
+        // no more than a merge may.
+        let conflict_ratio = there.1 as f64 / (there.0 + there.1).max(1) as f64;
+        if !(there.1 < now.1 && conflict_ratio <= self.params.max_conflict_ratio) {
+            tracing::debug!(
+                agent,
+                ?now,
+                ?there,
+                "merge kept: (support, conflict) both ways"
+            );
+            return;
+        }
+        tracing::info!(
+            agent,
+            ?frame,
+            ?now,
+            ?there,
+            "merge moved: the agent was placed at a look-alike ((support, conflict) both ways)"
+        );
+        self.agents[agent].rechecks.clear();
+        self.stats.remerges += 1;
+        let dropped = self.edges.len();
+        self.edges.retain(|e| e.from.0 != agent && e.to.0 != agent);
+        tracing::debug!(
+            agent,
+            dropped = dropped - self.edges.len(),
+            "inter-agent edges dropped"
+        );
+        for c in agreeing.iter().chain(std::iter::once(&candidate)) {
+            self.edges.push(c.edge);
+            self.stats.inter_edges += 1;
+        }
+        let a = &mut self.agents[agent];
+        a.frame = Some(frame);
+        a.pending_local = None;
+        for k in &mut a.keyframes {
+            k.fused = Some(frame.compose(&k.local_pose));
+        }
+        self.occupied = None;
+        for k in self.agents.iter_mut().flat_map(|a| a.keyframes.iter_mut()) {
+            k.in_occupancy = None;
+        }
+        update.corrected = self.optimise();
     }
 
     /// An aligned agent matches its newest place against the other agents' points near it.
@@ -1051,6 +1250,18 @@ impl Fusion {
         }
         false
     }
+}
+
+/// Centres of the cells of `map` occupied at `occupied_percent` and above, map frame.
+fn occupied_cells(map: &nrslam_mapper::OccupancyMap, occupied_percent: u8) -> Vec<[f64; 2]> {
+    let threshold = i8::try_from(occupied_percent).unwrap_or(i8::MAX);
+    let data = map.occupancy_data();
+    let width = map.width_cells();
+    data.iter()
+        .enumerate()
+        .filter(|(_, &percent)| percent >= threshold)
+        .map(|(cell, _)| map.cell_centre(cell % width, cell / width))
+        .collect()
 }
 
 fn check_input(pose: &Pose2, points: &[[f64; 2]]) -> Result<(), FusionError> {

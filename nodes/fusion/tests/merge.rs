@@ -205,3 +205,91 @@ fn agents_that_see_opposite_faces_of_a_row_are_not_matched_face_to_face() {
     assert_eq!(checked, 0, "with it no face-to-face edge is accepted");
     assert!(refused > 0);
 }
+
+#[test]
+fn an_agv_merged_at_a_look_alike_is_moved_to_its_place_once_it_sees_the_difference() {
+    // Two copies of one layout 40 m apart (west, east), a box in the middle both AGVs see, and
+    // a box beside the west copy only, where agv2 looks through the east copy's free floor. agv1 loops round the west copy and the middle, its start
+    // known; agv2 round the east copy and the middle, its start unknown, starting on its east
+    // side: what it sees first is the east copy, the twin of what agv1 mapped.
+    let mut scene = scene(0.0);
+    scene.extend(common::scene(40.0));
+    scene.extend(common::box_outline(40.5, 15.5, 2.0, 3.0, 0.25));
+    scene.extend(common::box_outline(34.0, 9.0, 1.0, 1.5, 0.25));
+    let first = lap(5.0, 4.0, 44.0, 27.0, 1.0);
+    let east = lap(37.0, 4.0, 76.0, 27.0, 1.0);
+    let start = east
+        .iter()
+        .position(|p| p.x_m >= 76.0)
+        .expect("an east side");
+    let second: Vec<Pose2> = east[start..]
+        .iter()
+        .chain(&east[..start])
+        .copied()
+        .collect();
+    let truth = second[0];
+    let twin = Pose2::new(truth.x_m - 40.0, truth.y_m, truth.yaw_rad);
+    let run_with = |verify_every_keyframes: u32| {
+        let mut fusion = Fusion::new(Params {
+            verify_every_keyframes,
+            ..two_agvs()
+        });
+        // agv1's lap first: agv2's first matches are against the whole west copy.
+        for (k, pose) in first.iter().enumerate() {
+            fusion
+                .add_keyframe(0, k as u32, *pose, first_returns(&scene, pose))
+                .unwrap();
+        }
+        let to_local = truth.inverse();
+        for (k, pose) in second.iter().enumerate() {
+            let local = to_local.compose(pose);
+            fusion
+                .add_keyframe(1, k as u32, local, first_returns(&scene, pose))
+                .unwrap();
+        }
+        fusion
+    };
+    let near = |frame: Pose2, to: &Pose2| frame.distance_m(to) < 1.0;
+    // NRSLAM_LOG=nrslam_fusion=debug shows the matches and the re-checks' verdicts.
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(tracing_subscriber::EnvFilter::from_env("NRSLAM_LOG"))
+        .with_test_writer()
+        .try_init();
+    let unchecked = run_with(0);
+    let frame = unchecked.frame_of(1).expect("merged");
+    assert!(
+        near(frame, &twin),
+        "without re-checks agv2 stays where its first matches put it, the twin: {frame:?}"
+    );
+    let checked = run_with(Params::default().verify_every_keyframes);
+    let frame = checked.frame_of(1).expect("merged");
+    assert!(
+        near(frame, &truth),
+        "re-checked, agv2 ends at its true frame {truth:?}: {frame:?} ({:?})",
+        checked.stats()
+    );
+    assert_eq!(checked.stats().remerges, 1);
+    // Every inter-agent edge left is a true one.
+    for e in checked.inter_edges() {
+        let (from, to) = (first.get(e.from.1), second.get(e.to.1));
+        if let (Some(from), Some(to)) = (from, to) {
+            let error = from.compose(&e.relative).distance_m(to);
+            assert!(error < 0.5, "edge {e:?} is {error} m off");
+        }
+    }
+}
+
+/// What an AGV at `pose` sees of `scene` when a target hides what is behind it: of the points
+/// [`observe`] keeps, the nearest in each 1° of bearing (body frame).
+fn first_returns(scene: &[[f64; 2]], pose: &Pose2) -> Vec<[f64; 2]> {
+    let mut nearest: std::collections::BTreeMap<i64, [f64; 2]> = Default::default();
+    for p in observe(scene, pose) {
+        let bin = p[1].atan2(p[0]).to_degrees().floor() as i64;
+        let range = p[0].hypot(p[1]);
+        let kept = nearest.entry(bin).or_insert(p);
+        if range < kept[0].hypot(kept[1]) {
+            *kept = p;
+        }
+    }
+    nearest.into_values().collect()
+}
