@@ -53,6 +53,18 @@ def agvs_of(summary):
     return {k: v for k, v in summary.get("agents", {}).items() if k.startswith("agv")}
 
 
+def pose_gains(runs):
+    """Of a condition's SLAM runs, each merged AGV's pose RMSE with fusion − without, by AGV."""
+    per = collections.defaultdict(list)
+    for (kind, _seed), summary in runs.items():
+        if kind != "slam":
+            continue
+        for name, v in agvs_of(summary).items():
+            if v["fused_pose_rmse_m"] is not None and v["own_pose_rmse_fused_frames_m"] is not None:
+                per[name].append(v["fused_pose_rmse_m"] - v["own_pose_rmse_fused_frames_m"])
+    return per
+
+
 def mean_or_none(values):
     values = [v for v in values if v is not None]
     return sum(values) / len(values) if values else None
@@ -118,15 +130,25 @@ def main():
                 cond = f"hall_a{a}_m{m}"
                 if cond not in by:
                     continue
-                diffs = []
-                for (kind, seed), s in by[cond].items():
-                    if kind != "slam":
-                        continue
-                    for v in agvs_of(s).values():
-                        if v["fused_pose_rmse_m"] is not None and v["own_pose_rmse_fused_frames_m"] is not None:
-                            diffs.append(v["fused_pose_rmse_m"] - v["own_pose_rmse_fused_frames_m"])
+                diffs = [d for per in pose_gains(by[cond]).values() for d in per]
                 worse = sum(1 for d in diffs if d > 0)
                 lines.append(f"- {a} AGVs, {m} stations: {fmt(ci(diffs), 3)} ({worse} of {len(diffs)} AGV runs worse with fusion)")
+        lines.append("")
+        # The same by AGV: which of them fusion helps and which it does not.
+        lines.append("The same by AGV (mean ± 95 % CI over the runs it merged in; runs worse with fusion):\n")
+        lines.append("| AGVs | stations | agv1 | agv2 | agv3 | agv4 |")
+        lines.append("|---|---|---|---|---|---|")
+        for a in (2, 3, 4):
+            for m in (0, 2, 4):
+                cond = f"hall_a{a}_m{m}"
+                if cond not in by:
+                    continue
+                per = pose_gains(by[cond])
+                cells = []
+                for name in ("agv1", "agv2", "agv3", "agv4"):
+                    d = per.get(name, [])
+                    cells.append(f"{fmt(ci(d), 3)} ({sum(1 for x in d if x > 0)} of {len(d)})" if d else "")
+                lines.append(f"| {a} | {m} | " + " | ".join(cells) + " |")
         lines.append("")
         try:
             import matplotlib

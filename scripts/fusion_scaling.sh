@@ -22,10 +22,10 @@ for agents, (keyframes, s) in sorted(stats.items()):
     est = json.load(open(f"target/criterion/fusion_lap/{agents}/new/estimates.json"))
     lap_s = est["mean"]["point_estimate"] * 1e-9
     rows.append((agents, keyframes, lap_s, lap_s / keyframes * 1e3, s))
-print("| AGVs | keyframes | CPU per lap (s) | per keyframe (ms) | whole-map searches | local searches | query points scored | merges |")
-print("|---|---|---|---|---|---|---|---|")
+print("| AGVs | keyframes | CPU per lap (s) | per keyframe (ms) | whole-map searches | re-check searches | local searches | query points scored | merges | merges moved |")
+print("|---|---|---|---|---|---|---|---|---|---|")
 for a, k, lap, per, s in rows:
-    print(f"| {a} | {k} | {lap:.3f} | {per:.2f} | {s['global_searches']} | {s['local_searches']} | {s['query_points_scored']} | {s['merges']} |")
+    print(f"| {a} | {k} | {lap:.3f} | {per:.2f} | {s['global_searches']} | {s['verify_searches']} | {s['local_searches']} | {s['query_points_scored']} | {s['merges']} | {s['remerges']} |")
 import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt

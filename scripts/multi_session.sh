@@ -26,6 +26,9 @@
 #                     number of session 2's frames with a fused pose (0: never merged);
 #   later             the same with session 2 shifted to start 10 s after session 1 ends
 #                     (second_offset_s), as a session recorded on a later day;
+#   o1, o2, o fused   the oracle: both sessions recorded again at their true poses
+#                     (launch/true-poses.toml: the same detections, no SLAM error), each alone and
+#                     both fused with both starts known and no matching (what fusion could reach);
 # then means with 95 % confidence intervals and the paired differences fused - best single.
 set -uo pipefail
 cd "$(dirname "$0")/.."
@@ -59,6 +62,13 @@ for s in $(seq 1 "$seeds"); do
     run "$d/s1fus.log" launch launch/multi-session.toml sessions:=1 first:="$d/bag1" --out "$d/s1-fusion"
     run "$d/s2fus.log" launch launch/multi-session.toml sessions:=1 first:="$d/bag2map" --out "$d/s2-fusion"
     run "$d/fused.log" launch launch/multi-session.toml first:="$d/bag1" second:="$d/bag2" --out "$d/fused"
+    run "$d/o1.log" launch launch/true-poses.toml fidelity:="$fidelity" frames:="$frames" viz:=false \
+        --seed "$s" --record "$d/obag1" --record-topics "${topics[@]}" --out "$d/o1"
+    run "$d/o2.log" launch launch/true-poses.toml fidelity:="$fidelity" frames:="$frames" viz:=false \
+        "${second[@]}" radar.odom_origin:=map --seed $((s + 100)) \
+        --record "$d/obag2" --record-topics "${topics[@]}" --out "$d/o2"
+    run "$d/ofused.log" launch launch/multi-session.toml first:="$d/obag1" second:="$d/obag2" \
+        fusion.known_starts:=2 fusion.matching:=false --out "$d/ofused"
     offset=$(python3 - "$nrslam" "$d/bag1" "$d/bag2" <<'EOF'
 import json, subprocess, sys
 info = lambda bag: json.loads(subprocess.run([sys.argv[1], "bag", "info", bag, "--json"],
@@ -89,7 +99,8 @@ def final_map(s):
     return s["shapes"]["etgospa_box_corners"]
 rows = []
 for p in range(1, seeds + 1):
-    r = {k: load(p, k) for k in ["s1", "s2", "s1-fusion", "s2-fusion", "fused", "later"]}
+    r = {k: load(p, k)
+         for k in ["s1", "s2", "s1-fusion", "s2-fusion", "fused", "later", "o1", "o2", "ofused"]}
     rows.append({k: final_map(v) for k, v in r.items()} | {
         "fused_frames": r["fused"]["agents"]["agv2"]["fused_frames"],
         "later_frames": r["later"]["agents"]["agv2"]["fused_frames"],
@@ -112,9 +123,15 @@ print("|---|---|")
 for k, name in [("s1", "session 1 alone"), ("s2", "session 2 alone"),
                 ("s1-fusion", "session 1 alone through fusion"),
                 ("s2-fusion", "session 2 alone through fusion"),
-                ("fused", "fused, side by side"), ("later", "fused, session 2 later")]:
+                ("fused", "fused, side by side"), ("later", "fused, session 2 later"),
+                ("o1", "oracle: session 1 alone"), ("o2", "oracle: session 2 alone"),
+                ("ofused", "oracle: both fused")]:
     print(f"| {name} | {ci(col(k))} |")
 print(f"| best single | {ci(best)} |")
+obest = [min(r["o1"], r["o2"]) for r in rows]
+od = [r["ofused"] - b for r, b in zip(rows, obest)]
+print(f"| oracle: fused − best single (paired) | {ci(od)} |")
+print(f"| oracle: pairs fused ≤ best single | {sum(1 for x in od if x <= 0)}/{seeds} |")
 for k, name in [("fused", "side by side"), ("later", "session 2 later")]:
     d = [f - b for f, b in zip(col(k), best)]
     dfus = [f - b for f, b in zip(col(k), best_fus)]

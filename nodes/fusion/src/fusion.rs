@@ -876,7 +876,7 @@ impl Fusion {
         self.stats.candidates += 1;
         tracing::debug!(agent, anchor, ?frame, ?found, "frame candidate");
         let agreeing = self.confirming(agent, &self.agents[agent].candidates, &candidate);
-        self.agents[agent].candidates.push(candidate);
+        push_bounded(&mut self.agents[agent].candidates, candidate);
         if agreeing.len() + 1 < self.params.confirmations as usize {
             return;
         }
@@ -971,7 +971,7 @@ impl Fusion {
             "merge re-check found another place"
         );
         let agreeing = self.confirming(agent, &self.agents[agent].rechecks, &candidate);
-        self.agents[agent].rechecks.push(candidate);
+        push_bounded(&mut self.agents[agent].rechecks, candidate);
         if agreeing.len() + 1 < self.params.confirmations as usize {
             return;
         }
@@ -1250,6 +1250,18 @@ impl Fusion {
         }
         false
     }
+}
+
+/// Most matches waiting for confirmation an agent keeps: over a long run (hours) they would
+/// otherwise grow without bound, and each new match is compared with every one kept.
+const MAX_WAITING_MATCHES: usize = 64;
+
+/// Appends `candidate`, dropping the oldest beyond [`MAX_WAITING_MATCHES`].
+fn push_bounded(waiting: &mut Vec<Candidate>, candidate: Candidate) {
+    if waiting.len() >= MAX_WAITING_MATCHES {
+        waiting.remove(0);
+    }
+    waiting.push(candidate);
 }
 
 /// Centres of the cells of `map` occupied at `occupied_percent` and above, map frame.
