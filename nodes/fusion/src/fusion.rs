@@ -823,25 +823,25 @@ impl Fusion {
     }
 
     /// Of `earlier` candidates of `agent`'s frame, those that confirm `candidate`: the same
-    /// frame (within `agree_m`, `agree_deg`) from a place at least `confirm_separation_m` away
-    /// along its path. Two queries that share keyframes, or see one corner of the hall, fail
-    /// together where the hall repeats itself.
+    /// frame, within `agree` (m, rad), from a place at least `confirm_separation_m` away along
+    /// its path. Two queries that share keyframes, or see one corner of the hall, fail together
+    /// where the hall repeats itself.
     fn confirming(
         &self,
         agent: usize,
         earlier: &[Candidate],
         candidate: &Candidate,
+        agree: (f64, f64),
     ) -> Vec<Candidate> {
         let a = &self.agents[agent];
         let travelled = |index: usize| a.keyframes[index].travelled_m;
-        let (agree_m, agree_rad) = (self.params.agree_m, self.params.agree_deg.to_radians());
         earlier
             .iter()
             .filter(|c| {
                 (travelled(candidate.edge.to.1) - travelled(c.edge.to.1)).abs()
                     >= self.params.confirm_separation_m
-                    && c.frame.distance_m(&candidate.frame) <= agree_m
-                    && c.frame.rotation_to_rad(&candidate.frame) <= agree_rad
+                    && c.frame.distance_m(&candidate.frame) <= agree.0
+                    && c.frame.rotation_to_rad(&candidate.frame) <= agree.1
             })
             .copied()
             .collect()
@@ -875,7 +875,8 @@ impl Fusion {
         let frame = candidate.frame;
         self.stats.candidates += 1;
         tracing::debug!(agent, anchor, ?frame, ?found, "frame candidate");
-        let agreeing = self.confirming(agent, &self.agents[agent].candidates, &candidate);
+        let agree = (self.params.agree_m, self.params.agree_deg.to_radians());
+        let agreeing = self.confirming(agent, &self.agents[agent].candidates, &candidate, agree);
         push_bounded(&mut self.agents[agent].candidates, candidate);
         if agreeing.len() + 1 < self.params.confirmations as usize {
             return;
@@ -970,7 +971,14 @@ impl Fusion {
             ?correction,
             "merge re-check found another place"
         );
-        let agreeing = self.confirming(agent, &self.agents[agent].rechecks, &candidate);
+        // Looser than a merge's agreement: the verdict is the fit below, and the matches only
+        // have to name the same other place (a shared stretch with few targets places each
+        // match a metre or two apart); the newest match's frame is the one taken.
+        let agree = (
+            self.params.recheck_agree_m,
+            self.params.recheck_agree_deg.to_radians(),
+        );
+        let agreeing = self.confirming(agent, &self.agents[agent].rechecks, &candidate, agree);
         push_bounded(&mut self.agents[agent].rechecks, candidate);
         if agreeing.len() + 1 < self.params.confirmations as usize {
             return;

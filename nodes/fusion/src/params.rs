@@ -73,6 +73,15 @@ pub struct Params {
     /// on the hall 4 and 8 gave the same result for every seed, on the repeated structure 4
     /// moved more wrong merges.
     pub verify_every_keyframes: u32,
+    /// Re-check matches of a merged AGV name the same other place when their frames differ by
+    /// at most this (m, > 0; default 2) …
+    pub recheck_agree_m: f64,
+    /// … and this (degrees, > 0; default 8). Looser than a merge's `agree_m`, `agree_deg`: the
+    /// move is decided by how both places fit the others' map, and a shared stretch with few
+    /// targets places each match a metre or two apart. On the repeated-structure scene
+    /// (20 seeds) 2 m and 8° moved 16 of the 17 twin merges, 0.5 m and 2° 10; on the hall and on
+    /// 10 random scenes no run changed (docs/cooperative.md, "No false merges").
+    pub recheck_agree_deg: f64,
     /// A re-solved graph starts a new revision (subscribers rebuild their maps) only when it
     /// moved a published keyframe by more than this (m, ≥ 0; default 0.1, the cooperative
     /// map's cell) …
@@ -159,6 +168,8 @@ impl Default for Params {
             global_every_keyframes: 4,
             global_step_deg: 1.0,
             verify_every_keyframes: 4,
+            recheck_agree_m: 2.0,
+            recheck_agree_deg: 8.0,
             query_keyframes: 5,
             max_global_radius_m: 40.0,
             local_radius_m: 2.0,
@@ -255,6 +266,8 @@ impl Params {
         for (field, value) in [
             ("agree_m", self.agree_m),
             ("agree_deg", self.agree_deg),
+            ("recheck_agree_m", self.recheck_agree_m),
+            ("recheck_agree_deg", self.recheck_agree_deg),
             ("inter_std_m", self.inter_std_m),
             ("inter_std_deg", self.inter_std_deg),
             ("chain_std_per_m", self.chain_std_per_m),
@@ -332,6 +345,8 @@ mod tests {
             republish_m: [-0.1, f64::NAN],
             republish_deg: [181.0],
             agree_deg: [-1.0],
+            recheck_agree_m: [0.0, f64::NAN],
+            recheck_agree_deg: [-2.0],
             inter_std_m: [f64::NAN],
             inter_std_deg: [0.0],
             chain_std_per_m: [0.0],
