@@ -15,6 +15,12 @@
 //!   aligned map at once (every rotation, the map's extent): one search per query, however many
 //!   agents and keyframes the map holds. An aligned AGV searches only other agents' points near
 //!   its fused pose, within `local_radius_m`: these matches become inter-agent edges.
+//! - **Re-checked merges.** A merged AGV searches the other agents' map for its newest place
+//!   again every `verify_every_keyframes` keyframes. Where a hall repeats itself its first
+//!   matches can all agree on a twin of its place; when later matches agree on another place
+//!   where the AGV contradicts the others' map less (both ways: its detections on their free
+//!   floor, their targets on its free floor), it is moved there and its inter-agent edges made
+//!   at the twin are dropped.
 //! - **Pose graph.** One graph over every aligned keyframe of every agent: each AGV's consecutive
 //!   keyframes joined by the motion its own SLAM estimated (its intra-agent loops are already in
 //!   that estimate, and are added as edges too), inter-agent and station edges from the matches,
