@@ -285,6 +285,15 @@ fn an_agent_switched_on_late_is_merged_once_it_overlaps() {
     assert!(error < 0.5, "agv2's fused pose RMSE {error} m");
     assert_eq!(s["inter_agent_edges"]["wrong"], 0);
     assert_eq!(agent_u64(&s, "agv1", "fused_frames"), 120);
+    // The fusion node's counters in summary.json: one merge, at the true place, never moved;
+    // its merge re-checked on the way.
+    let counters = &s["counters"]["fusion"];
+    assert_eq!(counters["merges"], 1, "{counters:#}");
+    assert_eq!(counters["remerges"], 0, "{counters:#}");
+    assert!(
+        counters["verify_searches"].as_u64() > Some(0),
+        "{counters:#}"
+    );
 
     // Switched on late is not the same run as from the start: agv2's first 60 frames are gone.
     let early = cooperative(dir.path(), "early", &args);

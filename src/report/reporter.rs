@@ -58,6 +58,9 @@ pub struct Reporter {
     pub agents: BTreeMap<String, super::AgentTrack>,
     /// Latest `/fusion/edges`: the fusion node's inter-agent edges.
     pub fusion_edges: Option<nrslam_msgs::MarkerArray>,
+    /// Counters a node reports at its end as `/diagnostics` component
+    /// `nrslam/<node>/counters` (the fusion node's merges, moves and searches), by node.
+    pub counters: BTreeMap<String, BTreeMap<String, u64>>,
 }
 
 impl Reporter {
@@ -111,6 +114,21 @@ impl Reporter {
             (topics::DIAGNOSTICS, Message::DiagnosticArray(report)) => {
                 for (component, drops) in nrslam_runtime::receive::drops_in(report) {
                     self.note_drops(&component, &drops);
+                }
+                for status in &report.status {
+                    let node = status
+                        .name
+                        .strip_prefix("nrslam/")
+                        .and_then(|rest| rest.strip_suffix("/counters"));
+                    if let Some(node) = node {
+                        // A value that is not a count is another program's: left out.
+                        let counts = status
+                            .values
+                            .iter()
+                            .filter_map(|v| Some((v.key.clone(), v.value.parse::<u64>().ok()?)))
+                            .collect();
+                        self.counters.insert(node.to_owned(), counts);
+                    }
                 }
             }
             (topics::SLAM_POSE, Message::PoseStamped(p)) => {

@@ -78,6 +78,7 @@ impl Reporter {
                 .fusion_edges
                 .as_ref()
                 .map(|m| super::agents::score_edges(&self.agents, m)),
+            counters: self.counters.clone(),
         }
     }
 }
@@ -163,6 +164,11 @@ pub struct Summary {
     /// The fusion node's inter-agent edges against the truth (absent without a fusion node).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub inter_agent_edges: Option<super::InterAgentEdges>,
+    /// What nodes counted, by node (`/diagnostics` components `nrslam/<node>/counters`): the
+    /// fusion node's searches, merges, moved merges (`remerges`) and edges. Absent when no node
+    /// reports any.
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub counters: BTreeMap<String, BTreeMap<String, u64>>,
 }
 
 fn toml_to_json(value: &toml::Value) -> serde_json::Value {

@@ -144,6 +144,25 @@ pub struct FusionStats {
     pub optimisations: u64,
 }
 
+impl FusionStats {
+    /// Every counter by name (the names of the fields), for reports.
+    pub fn counters(&self) -> [(&'static str, u64); 11] {
+        [
+            ("global_searches", self.global_searches),
+            ("local_searches", self.local_searches),
+            ("query_points_scored", self.query_points_scored),
+            ("candidates", self.candidates),
+            ("merges", self.merges),
+            ("refused_merges", self.refused_merges),
+            ("verify_searches", self.verify_searches),
+            ("remerges", self.remerges),
+            ("opposite_views", self.opposite_views),
+            ("inter_edges", self.inter_edges),
+            ("optimisations", self.optimisations),
+        ]
+    }
+}
+
 /// What one input changed, for the node to publish.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Update {

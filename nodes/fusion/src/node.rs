@@ -191,6 +191,31 @@ impl FusionNode {
         }
     }
 
+    /// What fusion did, as component `nrslam/<node name>/counters` (summary.json's `fusion`):
+    /// one value per counter, keyed by its name.
+    fn counters(&self, stats: &crate::FusionStats) -> DiagnosticArray {
+        DiagnosticArray {
+            header: Header::new(self.last_stamp, ""),
+            status: vec![DiagnosticStatus {
+                level: DiagnosticStatus::OK,
+                name: self.component.replace("/inputs", "/counters"),
+                message: format!(
+                    "{} merges, {} moved, {} inter-agent edges",
+                    stats.merges, stats.remerges, stats.inter_edges
+                ),
+                hardware_id: String::new(),
+                values: stats
+                    .counters()
+                    .iter()
+                    .map(|(key, n)| KeyValue {
+                        key: (*key).to_owned(),
+                        value: n.to_string(),
+                    })
+                    .collect(),
+            }],
+        }
+    }
+
     fn drop_refused(&mut self, topic: &str, error: FusionError) {
         let reason = match error {
             FusionError::UnknownAgent(_) => "unknown_agent",
@@ -531,6 +556,7 @@ impl Node for FusionNode {
             outbox.publish(FUSION_EDGES, self.edge_markers(stamp));
         }
         let stats = self.fusion.stats();
+        outbox.publish(DIAGNOSTICS, self.counters(&stats));
         let unmerged: Vec<usize> = (0..self.fusion.agent_count())
             .filter(|&a| !self.fusion.is_aligned(a))
             .map(|a| a + 1)
