@@ -152,6 +152,17 @@ impl MeanGrid {
         }
         Some((lo.max(0) as usize, hi.min(last) as usize))
     }
+
+    /// The indices of the means in squares `xs` × `ys` (inclusive spans from [`Self::span`]),
+    /// row by row and in `order` within a row.
+    fn means_in(&self, xs: (usize, usize), ys: (usize, usize)) -> impl Iterator<Item = u32> + '_ {
+        (ys.0..=ys.1).flat_map(move |row| {
+            let first = row * self.size[0];
+            let from = self.starts[first + xs.0] as usize;
+            let to = self.starts[first + xs.1 + 1] as usize;
+            self.order[from..to].iter().copied()
+        })
+    }
 }
 
 /// The map as local Gaussians: points binned into cells of `cell_m`, each cell with at least
@@ -429,22 +440,17 @@ impl DistributionMap {
                         cells: [0; KEPT_CELLS],
                     };
                     let mut fits = true;
-                    for row in ys.0..=ys.1 {
-                        let first = row * grid.size[0];
-                        let from = grid.starts[first + xs.0] as usize;
-                        let to = grid.starts[first + xs.1 + 1] as usize;
-                        for &index in &grid.order[from..to] {
-                            let d2 = distance2(&self.cells[index as usize]);
-                            if d2 <= radius2 {
-                                nearest.offer(d2, index);
-                            }
-                            if d2 <= reach2 {
-                                if keep.len < KEPT_CELLS {
-                                    keep.cells[keep.len] = index;
-                                    keep.len += 1;
-                                } else {
-                                    fits = false;
-                                }
+                    for index in grid.means_in(xs, ys) {
+                        let d2 = distance2(&self.cells[index as usize]);
+                        if d2 <= radius2 {
+                            nearest.offer(d2, index);
+                        }
+                        if d2 <= reach2 {
+                            if keep.len < KEPT_CELLS {
+                                keep.cells[keep.len] = index;
+                                keep.len += 1;
+                            } else {
+                                fits = false;
                             }
                         }
                     }
@@ -484,15 +490,10 @@ impl DistributionMap {
                 return;
             };
             if (xs.1 - xs.0 + 1) * (ys.1 - ys.0 + 1) <= self.cells.len() {
-                for row in ys.0..=ys.1 {
-                    let first = row * grid.size[0];
-                    let from = grid.starts[first + xs.0] as usize;
-                    let to = grid.starts[first + xs.1 + 1] as usize;
-                    for &index in &grid.order[from..to] {
-                        let d2 = distance2(&self.cells[index as usize]);
-                        if d2 <= radius2 {
-                            nearest.offer(d2, index);
-                        }
+                for index in grid.means_in(xs, ys) {
+                    let d2 = distance2(&self.cells[index as usize]);
+                    if d2 <= radius2 {
+                        nearest.offer(d2, index);
                     }
                 }
                 return;
