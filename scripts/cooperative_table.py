@@ -124,31 +124,24 @@ def main():
                 lines.append(f"- fused oracle of {a} AGVs − single-AGV oracle: {fmt(paired(f'hall_a{a}_m0', 'hall_a1_m0', 'oracle'))}")
         lines.append("")
         # Each AGV's pose RMSE with fusion minus without, over every merged AGV of every run.
+        gains = {(a, m): pose_gains(by[f"hall_a{a}_m{m}"])
+                 for a in (2, 3, 4) for m in (0, 2, 4) if f"hall_a{a}_m{m}" in by}
         lines.append("Each merged AGV's pose RMSE with fusion − without (its own SLAM over the same frames), m:\n")
-        for a in (2, 3, 4):
-            for m in (0, 2, 4):
-                cond = f"hall_a{a}_m{m}"
-                if cond not in by:
-                    continue
-                diffs = [d for per in pose_gains(by[cond]).values() for d in per]
-                worse = sum(1 for d in diffs if d > 0)
-                lines.append(f"- {a} AGVs, {m} stations: {fmt(ci(diffs), 3)} ({worse} of {len(diffs)} AGV runs worse with fusion)")
+        for (a, m), per in gains.items():
+            diffs = [d for agv in per.values() for d in agv]
+            worse = sum(1 for d in diffs if d > 0)
+            lines.append(f"- {a} AGVs, {m} stations: {fmt(ci(diffs), 3)} ({worse} of {len(diffs)} AGV runs worse with fusion)")
         lines.append("")
         # The same by AGV: which of them fusion helps and which it does not.
         lines.append("The same by AGV (mean ± 95 % CI over the runs it merged in; runs worse with fusion):\n")
         lines.append("| AGVs | stations | agv1 | agv2 | agv3 | agv4 |")
         lines.append("|---|---|---|---|---|---|")
-        for a in (2, 3, 4):
-            for m in (0, 2, 4):
-                cond = f"hall_a{a}_m{m}"
-                if cond not in by:
-                    continue
-                per = pose_gains(by[cond])
-                cells = []
-                for name in ("agv1", "agv2", "agv3", "agv4"):
-                    d = per.get(name, [])
-                    cells.append(f"{fmt(ci(d), 3)} ({sum(1 for x in d if x > 0)} of {len(d)})" if d else "")
-                lines.append(f"| {a} | {m} | " + " | ".join(cells) + " |")
+        for (a, m), per in gains.items():
+            cells = []
+            for name in ("agv1", "agv2", "agv3", "agv4"):
+                d = per.get(name, [])
+                cells.append(f"{fmt(ci(d), 3)} ({sum(1 for x in d if x > 0)} of {len(d)})" if d else "")
+            lines.append(f"| {a} | {m} | " + " | ".join(cells) + " |")
         lines.append("")
         try:
             import matplotlib

@@ -675,13 +675,7 @@ impl Fusion {
             for k in &mut a.keyframes[*done..] {
                 let Some(fused) = k.fused else { break };
                 k.in_occupancy = Some(fused);
-                let points: Vec<[f64; 2]> = k
-                    .points_body_m
-                    .iter()
-                    .map(|p| fused.transform_point(*p))
-                    .collect();
-                // Inputs were checked finite; a point that overflows is left out of the map.
-                let _ = map.integrate_points([fused.x_m, fused.y_m], &points);
+                integrate_keyframe(map, &fused, &k.points_body_m);
                 *done += 1;
             }
         }
@@ -708,38 +702,51 @@ impl Fusion {
     ) -> Option<nrslam_mapper::OccupancyMap> {
         let mut map = nrslam_mapper::OccupancyMap::new(&self.params.map).ok()?;
         for (pose, body) in keyframes {
-            let points: Vec<[f64; 2]> = body.iter().map(|p| pose.transform_point(*p)).collect();
-            // Inputs were checked finite; a point that overflows is left out of the map.
-            let _ = map.integrate_points([pose.x_m, pose.y_m], &points);
+            integrate_keyframe(&mut map, &pose, body);
         }
         Some(map)
     }
 
-    /// How well `agent` placed by `place` fits what the others saw (`others`, their grid), both
-    /// ways: (support, conflict) of its detections in the others' grid plus those of the
-    /// others' occupied cells in a grid of its own keyframes so placed. The second way catches
-    /// what the first cannot: a look-alike place where the others saw a target the agent, so
-    /// placed, looked straight through.
+    /// `agent`'s keyframes placed by `place` (map frame), with their detections (body frame);
+    /// those `place` leaves out are skipped.
+    fn placed<'a>(
+        &'a self,
+        agent: usize,
+        place: impl Fn(&AgentKeyframe) -> Option<Pose2> + 'a,
+    ) -> impl Iterator<Item = (Pose2, &'a [[f64; 2]])> + 'a {
+        self.agents[agent]
+            .keyframes
+            .iter()
+            .filter_map(move |k| Some((place(k)?, &k.points_body_m[..])))
+    }
+
+    /// `agent`'s detections placed by `place`, map frame.
+    fn placed_detections<'a>(
+        &'a self,
+        agent: usize,
+        place: impl Fn(&AgentKeyframe) -> Option<Pose2> + 'a,
+    ) -> impl Iterator<Item = [f64; 2]> + 'a {
+        self.placed(agent, place)
+            .flat_map(|(pose, body)| body.iter().map(move |p| pose.transform_point(*p)))
+    }
+
+    /// How well `agent` placed by `place` fits what the others saw (`others`, their grid, and
+    /// `others_occupied`, its occupied cells), both ways: (support, conflict) of its detections
+    /// in the others' grid plus those of the others' occupied cells in a grid of its own
+    /// keyframes so placed. The second way catches what the first cannot: a look-alike place
+    /// where the others saw a target the agent, so placed, looked straight through.
     fn fit_both_ways(
         &self,
         others: &nrslam_mapper::OccupancyMap,
+        others_occupied: &[[f64; 2]],
         agent: usize,
-        place: impl Fn(&AgentKeyframe) -> Option<Pose2>,
+        place: impl Fn(&AgentKeyframe) -> Option<Pose2> + Copy,
     ) -> (usize, usize) {
-        let keyframes = &self.agents[agent].keyframes;
-        let placed = || {
-            keyframes
-                .iter()
-                .filter_map(|k| Some((place(k)?, &k.points_body_m[..])))
-        };
-        let detections =
-            placed().flat_map(|(pose, body)| body.iter().map(move |p| pose.transform_point(*p)));
-        let forward = self.free_space_check(others, detections);
-        let Some(own) = self.occupancy(placed()) else {
+        let forward = self.free_space_check(others, self.placed_detections(agent, place));
+        let Some(own) = self.occupancy(self.placed(agent, place)) else {
             return forward;
         };
-        let cells = occupied_cells(others, self.params.occupied_percent);
-        let reverse = self.free_space_check(&own, cells.into_iter());
+        let reverse = self.free_space_check(&own, others_occupied.iter().copied());
         (forward.0 + reverse.0, forward.1 + reverse.1)
     }
 
@@ -911,12 +918,8 @@ impl Fusion {
         // the wrong place its detections fall where the aligned agents saw free floor.
         let (support, conflict) = match self.occupied.as_ref() {
             Some((map, _)) => {
-                let detections = self.agents[agent].keyframes.iter().flat_map(|k| {
-                    let pose = frame.compose(&k.local_pose);
-                    k.points_body_m
-                        .iter()
-                        .map(move |p| pose.transform_point(*p))
-                });
+                let detections =
+                    self.placed_detections(agent, move |k| Some(frame.compose(&k.local_pose)));
                 self.free_space_check(map, detections)
             }
             None => (0, 0),
@@ -1008,9 +1011,11 @@ impl Fusion {
         if agreeing.len() + 1 < self.params.confirmations as usize {
             return;
         }
-        let now = self.fit_both_ways(&map, agent, |k| k.fused);
+        let now = self.fit_both_ways(&map, &points, agent, |k| k.fused);
         let frame = candidate.frame;
-        let there = self.fit_both_ways(&map, agent, |k| Some(frame.compose(&k.local_pose)));
+        let there = self.fit_both_ways(&map, &points, agent, move |k| {
+            Some(frame.compose(&k.local_pose))
+        });
         // Both places explain part of what the agent saw (a twin is a twin); what tells them
         // apart is what contradicts them. The other place must contradict the map less, and
         // no more than a merge may.
@@ -1295,6 +1300,13 @@ fn push_bounded(waiting: &mut Vec<Candidate>, candidate: Candidate) {
         waiting.remove(0);
     }
     waiting.push(candidate);
+}
+
+/// Integrates one keyframe's detections (`body`, body frame) seen from `pose` into `map`.
+fn integrate_keyframe(map: &mut nrslam_mapper::OccupancyMap, pose: &Pose2, body: &[[f64; 2]]) {
+    let points: Vec<[f64; 2]> = body.iter().map(|p| pose.transform_point(*p)).collect();
+    // Inputs were checked finite; a point that overflows is left out of the map.
+    let _ = map.integrate_points([pose.x_m, pose.y_m], &points);
 }
 
 /// Centres of the cells of `map` occupied at `occupied_percent` and above, map frame.
