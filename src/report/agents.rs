@@ -99,16 +99,11 @@ fn seconds(stamp: StampKey) -> f64 {
 impl AgentTrack {
     /// The agent's summary.
     pub fn summary(&self) -> AgentSummary {
-        // Its own frame on the truth's, by the first frame that has both.
-        let first = self
-            .own
-            .iter()
-            .find_map(|(stamp, own)| Some((*own, *self.truth.get(stamp)?)));
-        let to_truth = first.map(|(own, truth)| truth.compose(&own.inverse()));
+        let own_in_true_frame = self.own_in_true_frame();
         let own_error = |stamp: &StampKey| {
-            let own = *self.own.get(stamp)?;
+            let own = own_in_true_frame.get(stamp)?;
             let truth = self.truth.get(stamp)?;
-            Some(squared_distance_m2(&to_truth?.compose(&own), truth))
+            Some(squared_distance_m2(own, truth))
         };
         let own_all: Vec<f64> = self.own.keys().filter_map(own_error).collect();
         let own_fused: Vec<f64> = self.fused.keys().filter_map(own_error).collect();
@@ -132,6 +127,74 @@ impl AgentTrack {
             fused_pose_rmse_m: rms(&fused),
         }
     }
+}
+
+impl AgentTrack {
+    /// Its own SLAM pose put into the truth's frame by the first frame that has both (the
+    /// alignment `own_pose_rmse_m` uses), by stamp.
+    fn own_in_true_frame(&self) -> BTreeMap<StampKey, Pose2> {
+        let first = self
+            .own
+            .iter()
+            .find_map(|(stamp, own)| Some((*own, *self.truth.get(stamp)?)));
+        let Some(to_truth) = first.map(|(own, truth)| truth.compose(&own.inverse())) else {
+            return BTreeMap::new();
+        };
+        self.own
+            .iter()
+            .map(|(stamp, own)| (*stamp, to_truth.compose(own)))
+            .collect()
+    }
+}
+
+/// Writes `agents.csv`: one row per agent and stamp with its true pose, its own SLAM pose (its
+/// frame put on the truth's by its first pose, as `own_pose_rmse_m` is scored) and its fused
+/// pose, metres and radians, map frame; a pose the agent did not publish is left empty.
+pub fn write_agents_csv(
+    agents: &BTreeMap<String, AgentTrack>,
+    path: &std::path::Path,
+) -> anyhow::Result<()> {
+    use anyhow::Context;
+    let mut writer =
+        csv::Writer::from_path(path).with_context(|| format!("cannot write {}", path.display()))?;
+    writer.write_record([
+        "agent",
+        "time_s",
+        "true_x_m",
+        "true_y_m",
+        "true_yaw_rad",
+        "own_x_m",
+        "own_y_m",
+        "own_yaw_rad",
+        "fused_x_m",
+        "fused_y_m",
+        "fused_yaw_rad",
+    ])?;
+    let cells = |pose: Option<&Pose2>| -> [String; 3] {
+        match pose {
+            Some(p) => [p.x_m.to_string(), p.y_m.to_string(), p.yaw_rad.to_string()],
+            None => Default::default(),
+        }
+    };
+    for (name, track) in agents {
+        let own = track.own_in_true_frame();
+        let stamps: std::collections::BTreeSet<StampKey> = track
+            .truth
+            .keys()
+            .chain(own.keys())
+            .chain(track.fused.keys())
+            .copied()
+            .collect();
+        for stamp in stamps {
+            let mut row = vec![name.clone(), seconds(stamp).to_string()];
+            row.extend(cells(track.truth.get(&stamp)));
+            row.extend(cells(own.get(&stamp)));
+            row.extend(cells(track.fused.get(&stamp)));
+            writer.write_record(&row)?;
+        }
+    }
+    writer.flush()?;
+    Ok(())
 }
 
 /// An inter-agent edge is wrong beyond this position error (m) …
@@ -277,6 +340,42 @@ mod tests {
         assert!((s.own_pose_rmse_m.unwrap() - 0.5).abs() < 1e-9, "{s:?}");
         assert!((s.own_pose_rmse_fused_frames_m.unwrap() - 0.5f64.sqrt()).abs() < 1e-9);
         assert!(s.fused_pose_rmse_m.unwrap() < 1e-9);
+    }
+
+    #[test]
+    fn agents_csv_holds_each_pose_with_the_own_frame_put_on_the_truth() {
+        let mut agents = BTreeMap::new();
+        for k in 0..3 {
+            let t = f64::from(k);
+            take(
+                &mut agents,
+                "/agv2/ground_truth/pose",
+                &pose(t, 10.0 + t, 5.0, 0.0),
+            );
+            take(&mut agents, "/agv2/slam/pose", &pose(t, t, 0.0, 0.0));
+            if k == 2 {
+                take(&mut agents, "/agv2/fusion/pose", &pose(t, 12.5, 5.0, 0.0));
+            }
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("agents.csv");
+        write_agents_csv(&agents, &path).unwrap();
+        let mut reader = csv::Reader::from_path(&path).unwrap();
+        let headers = reader.headers().unwrap().clone();
+        let rows: Vec<csv::StringRecord> = reader.records().map(Result::unwrap).collect();
+        assert_eq!(rows.len(), 3);
+        let cell = |row: usize, column: &str| {
+            let index = headers.iter().position(|h| h == column);
+            rows[row][index.unwrap()].to_owned()
+        };
+        assert_eq!(cell(1, "agent"), "agv2");
+        assert_eq!(cell(1, "time_s"), "1");
+        // Its own frame starts at the origin; put on the truth's it starts at (10, 5).
+        assert_eq!(cell(1, "own_x_m").parse::<f64>().unwrap(), 11.0);
+        assert_eq!(cell(1, "own_y_m").parse::<f64>().unwrap(), 5.0);
+        // No fused pose before the merge: empty cells, not zeros.
+        assert_eq!(cell(1, "fused_x_m"), "");
+        assert_eq!(cell(2, "fused_x_m").parse::<f64>().unwrap(), 12.5);
     }
 
     #[test]

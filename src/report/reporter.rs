@@ -182,6 +182,9 @@ impl Reporter {
             .with_context(|| format!("cannot write {}", dir.join("summary.json").display()))?;
         self.write_metrics_csv(&dir.join("metrics.csv"))?;
         self.write_loops_csv(&dir.join("loops.csv"))?;
+        if !self.agents.is_empty() {
+            super::agents::write_agents_csv(&self.agents, &dir.join("agents.csv"))?;
+        }
         crate::plot::map_png(&dir.join("map.png"), self)?;
         crate::plot::segments_png(&dir.join("segments.png"), self)?;
         if self.map_targets.is_some() {

@@ -136,6 +136,9 @@ pub struct FusionStats {
     /// Merges undone and made again elsewhere: confirmed matches put the agent somewhere its
     /// detections contradict the map less.
     pub remerges: u64,
+    /// Confirmed merges put off because an earlier match named a place that fits the map
+    /// better both ways.
+    pub merges_deferred: u64,
     /// Verified matches refused because they paired detections seen from opposite sides.
     pub opposite_views: u64,
     /// Inter-agent (and station) edges in the graph.
@@ -146,7 +149,7 @@ pub struct FusionStats {
 
 impl FusionStats {
     /// Every counter by name (the names of the fields), for reports.
-    pub fn counters(&self) -> [(&'static str, u64); 11] {
+    pub fn counters(&self) -> [(&'static str, u64); 12] {
         [
             ("global_searches", self.global_searches),
             ("local_searches", self.local_searches),
@@ -156,6 +159,7 @@ impl FusionStats {
             ("refused_merges", self.refused_merges),
             ("verify_searches", self.verify_searches),
             ("remerges", self.remerges),
+            ("merges_deferred", self.merges_deferred),
             ("opposite_views", self.opposite_views),
             ("inter_edges", self.inter_edges),
             ("optimisations", self.optimisations),
@@ -819,6 +823,7 @@ impl Fusion {
         let matcher = nrslam_association::LoopClosureParams {
             max_search_rotation_deg: 180.0,
             search_step_deg: self.params.global_step_deg,
+            max_ambiguity: self.params.global_max_ambiguity,
             ..self.params.matcher.clone()
         };
         self.stats.query_points_scored += query.len() as u64;
@@ -943,6 +948,16 @@ impl Fusion {
             self.agents[agent].candidates.clear();
             return;
         }
+        if let Some(better) = self.better_named_place(agent, &frame, &points) {
+            self.stats.merges_deferred += 1;
+            tracing::debug!(
+                agent,
+                ?frame,
+                ?better,
+                "merge deferred: an earlier match named a place that fits better both ways"
+            );
+            return;
+        }
         // Merged: the agent's keyframes enter the map frame, the agreeing matches the graph.
         let a = &mut self.agents[agent];
         a.frame = Some(frame);
@@ -959,6 +974,48 @@ impl Fusion {
         }
         update.corrected = self.optimise();
         tracing::info!(agent, ?frame, "agent merged into the map frame");
+    }
+
+    /// Another frame of `agent` an earlier match named (beyond the re-checks' agreement of
+    /// `frame`) that fits the aligned map (`map_occupied`, its occupied cells) better both ways
+    /// than `frame`: fewer conflicts, with at least half its support (a place that explains
+    /// little of what the agent saw contradicts little too). Where the hall looks alike
+    /// from an agent's views (the inner-aisle AGV's loop turned half round, for one), the
+    /// matches of the look-alike can agree first; the merge then waits for the place that
+    /// contradicts less to gather its own confirmations. `None` when there is none.
+    fn better_named_place(
+        &self,
+        agent: usize,
+        frame: &Pose2,
+        map_occupied: &[[f64; 2]],
+    ) -> Option<((usize, usize), (usize, usize))> {
+        let (map, _) = self.occupied.as_ref()?;
+        let (agree_m, agree_rad) = (
+            self.params.recheck_agree_m,
+            self.params.recheck_agree_deg.to_radians(),
+        );
+        let differs =
+            |a: &Pose2, b: &Pose2| a.distance_m(b) > agree_m || a.rotation_to_rad(b) > agree_rad;
+        let mut others: Vec<Pose2> = Vec::new();
+        for c in &self.agents[agent].candidates {
+            if differs(&c.frame, frame) && others.iter().all(|o| differs(o, &c.frame)) {
+                others.push(c.frame);
+            }
+        }
+        if others.is_empty() {
+            return None;
+        }
+        let fit = |f: Pose2| {
+            self.fit_both_ways(map, map_occupied, agent, move |k| {
+                Some(f.compose(&k.local_pose))
+            })
+        };
+        let here = fit(*frame);
+        others
+            .into_iter()
+            .map(fit)
+            .find(|there| 2 * there.0 >= here.0 && there.1 < here.1)
+            .map(|there| (here, there))
     }
 
     /// A merged agent's merge re-checked: its newest place searched for over the others' map
@@ -1345,4 +1402,65 @@ fn bounds(points: &[[f64; 2]]) -> ([f64; 2], [f64; 2]) {
             )
         },
     )
+}
+
+/// The synthetic scenes of the fusion benches and integration tests.
+#[cfg(test)]
+#[path = "../benches/common/mod.rs"]
+mod common;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_merge_waits_when_an_earlier_match_named_a_place_that_fits_better() {
+        // agv1 (start known) drives the whole lap; agv2, whose start is unknown, a third of it
+        // from the middle. Its whole-map searches are kept from running so that the candidates
+        // are the test's own: its true frame, and the true frame 3 m off sideways.
+        let scene = common::scene(0.0);
+        let path = common::lap(5.0, 4.0, 36.0, 27.0, 1.0);
+        let second = &path[path.len() / 2..path.len() / 2 + path.len() / 3];
+        let truth = second[0];
+        let mut fusion = Fusion::new(Params {
+            agvs: 2,
+            global_every_keyframes: 1000,
+            ..Params::default()
+        });
+        for (k, pose) in path.iter().enumerate() {
+            let seen = common::observe(&scene, pose);
+            fusion.add_keyframe(0, k as u32, *pose, seen).unwrap();
+        }
+        for (k, pose) in second.iter().enumerate() {
+            let seen = common::observe(&scene, pose);
+            let local = truth.inverse().compose(pose);
+            fusion.add_keyframe(1, k as u32, local, seen).unwrap();
+        }
+        assert!(fusion.frame_of(1).is_none(), "no search, no merge");
+        let off = truth.compose(&Pose2::new(0.0, 3.0, 0.0));
+        let named = |frame: Pose2| Candidate {
+            frame,
+            edge: InterEdge {
+                from: (0, 0),
+                to: (1, 0),
+                relative: Pose2::new(0.0, 0.0, 0.0),
+            },
+        };
+        let map_occupied = fusion.aligned_occupied();
+        // The true frame named earlier: a merge at the place 3 m off waits.
+        fusion.agents[1].candidates = vec![named(truth)];
+        let (here, there) = fusion
+            .better_named_place(1, &off, &map_occupied)
+            .expect("the true frame fits better");
+        assert!(
+            there.1 < here.1 && 2 * there.0 >= here.0,
+            "{here:?} {there:?}"
+        );
+        // The place 3 m off named earlier: a merge at the true frame goes ahead.
+        fusion.agents[1].candidates = vec![named(off)];
+        assert_eq!(fusion.better_named_place(1, &truth, &map_occupied), None);
+        // A frame within the re-checks' agreement is the same place, not an alternative.
+        fusion.agents[1].candidates = vec![named(truth.compose(&Pose2::new(0.0, 2.5, 0.0)))];
+        assert_eq!(fusion.better_named_place(1, &off, &map_occupied), None);
+    }
 }
