@@ -64,6 +64,8 @@ run_one() { # NAME SEED LAUNCH ARGS...
   local dir="$out/work/$name"
   if "$bin" launch "$launch" "$@" --seed "$seed" --out "$dir" > "$out/work/$name.log" 2>&1; then
     cp "$dir/summary.json" "$out/runs/$name.json"
+    # Each agent's poses frame by frame, for scripts/agent_pose_errors.py.
+    [ -f "$dir/agents.csv" ] && cp "$dir/agents.csv" "$out/runs/$name.agents.csv"
     rm -rf "$dir"
   else
     echo "FAILED $name (log: $out/work/$name.log)" >&2

@@ -109,6 +109,10 @@ struct Agent {
     merged_by_search: bool,
     /// Keyframes added since its merge was last re-checked.
     since_verify: u32,
+    /// Keyframes between its re-checks: `verify_every_keyframes`, doubled by each re-check that
+    /// finds it where the graph holds it (up to [`MAX_VERIFY_BACKOFF`] times), back to
+    /// `verify_every_keyframes` when one finds it elsewhere.
+    verify_interval: u32,
     /// Re-check matches that put the agent elsewhere than the graph holds it, waiting for
     /// others to agree.
     rechecks: Vec<Candidate>,
@@ -235,6 +239,7 @@ impl Fusion {
                 since_query: 0,
                 merged_by_search: false,
                 since_verify: 0,
+                verify_interval: params.verify_every_keyframes,
                 rechecks: Vec::new(),
                 station_frames: 0,
             })
@@ -377,7 +382,9 @@ impl Fusion {
         let a = &mut self.agents[agent];
         if self.params.matching && verify_every > 0 && a.merged_by_search {
             a.since_verify += 1;
-            if a.since_verify >= verify_every && a.keyframes.len() >= query_keyframes {
+            if a.since_verify >= a.verify_interval.max(verify_every)
+                && a.keyframes.len() >= query_keyframes
+            {
                 a.since_verify = 0;
                 self.verify_merge(agent, &mut update);
             }
@@ -964,6 +971,7 @@ impl Fusion {
         a.candidates.clear();
         a.merged_by_search = true;
         a.since_verify = 0;
+        a.verify_interval = self.params.verify_every_keyframes;
         self.stats.merges += 1;
         for c in agreeing.iter().chain(std::iter::once(&candidate)) {
             self.edges.push(c.edge);
@@ -1042,11 +1050,16 @@ impl Fusion {
             return;
         };
         let correction = held.between(&found);
+        let every = self.params.verify_every_keyframes;
+        let a = &mut self.agents[agent];
         if correction.x_m.hypot(correction.y_m) <= self.params.agree_m
             && correction.yaw_rad.abs() <= self.params.agree_deg.to_radians()
         {
+            // Confirmed where the graph holds it: the next re-check can wait longer.
+            a.verify_interval = (a.verify_interval * 2).min(every * MAX_VERIFY_BACKOFF);
             return;
         }
+        a.verify_interval = every;
         let Some(candidate) = self.candidate(agent, anchor, &found) else {
             return;
         };
@@ -1346,6 +1359,12 @@ impl Fusion {
         false
     }
 }
+
+/// A merged agent's re-checks are at most this many times `verify_every_keyframes` apart: each
+/// re-check that finds it where the graph holds it doubles the wait for the next, so a merge
+/// confirmed over and over costs ever fewer searches, and one found elsewhere is re-checked at
+/// the full rate again.
+const MAX_VERIFY_BACKOFF: u32 = 8;
 
 /// Most matches waiting for confirmation an agent keeps: over a long run (hours) they would
 /// otherwise grow without bound, and each new match is compared with every one kept.
