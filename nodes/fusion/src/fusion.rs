@@ -382,9 +382,7 @@ impl Fusion {
         let a = &mut self.agents[agent];
         if self.params.matching && verify_every > 0 && a.merged_by_search {
             a.since_verify += 1;
-            if a.since_verify >= a.verify_interval.max(verify_every)
-                && a.keyframes.len() >= query_keyframes
-            {
+            if a.since_verify >= a.verify_interval && a.keyframes.len() >= query_keyframes {
                 a.since_verify = 0;
                 self.verify_merge(agent, &mut update);
             }
@@ -884,8 +882,7 @@ impl Fusion {
             .filter(|c| {
                 (travelled(candidate.edge.to.1) - travelled(c.edge.to.1)).abs()
                     >= self.params.confirm_separation_m
-                    && c.frame.distance_m(&candidate.frame) <= agree.0
-                    && c.frame.rotation_to_rad(&candidate.frame) <= agree.1
+                    && within(&c.frame, &candidate.frame, agree)
             })
             .copied()
             .collect()
@@ -919,7 +916,7 @@ impl Fusion {
         let frame = candidate.frame;
         self.stats.candidates += 1;
         tracing::debug!(agent, anchor, ?frame, ?found, "frame candidate");
-        let agree = (self.params.agree_m, self.params.agree_deg.to_radians());
+        let agree = self.params.agreement();
         let agreeing = self.confirming(agent, &self.agents[agent].candidates, &candidate, agree);
         push_bounded(&mut self.agents[agent].candidates, candidate);
         if agreeing.len() + 1 < self.params.confirmations as usize {
@@ -998,12 +995,8 @@ impl Fusion {
         map_occupied: &[[f64; 2]],
     ) -> Option<((usize, usize), (usize, usize))> {
         let (map, _) = self.occupied.as_ref()?;
-        let (agree_m, agree_rad) = (
-            self.params.recheck_agree_m,
-            self.params.recheck_agree_deg.to_radians(),
-        );
-        let differs =
-            |a: &Pose2, b: &Pose2| a.distance_m(b) > agree_m || a.rotation_to_rad(b) > agree_rad;
+        let agree = self.params.recheck_agreement();
+        let differs = |a: &Pose2, b: &Pose2| !within(a, b, agree);
         let mut others: Vec<Pose2> = Vec::new();
         for c in &self.agents[agent].candidates {
             if differs(&c.frame, frame) && others.iter().all(|o| differs(o, &c.frame)) {
@@ -1052,9 +1045,7 @@ impl Fusion {
         let correction = held.between(&found);
         let every = self.params.verify_every_keyframes;
         let a = &mut self.agents[agent];
-        if correction.x_m.hypot(correction.y_m) <= self.params.agree_m
-            && correction.yaw_rad.abs() <= self.params.agree_deg.to_radians()
-        {
+        if is_small(&correction, self.params.agreement()) {
             // Confirmed where the graph holds it: the next re-check can wait longer.
             a.verify_interval = (a.verify_interval * 2).min(every * MAX_VERIFY_BACKOFF);
             return;
@@ -1072,10 +1063,7 @@ impl Fusion {
         // Looser than a merge's agreement: the verdict is the fit below, and the matches only
         // have to name the same other place (a shared stretch with few targets places each
         // match a metre or two apart); the newest match's frame is the one taken.
-        let agree = (
-            self.params.recheck_agree_m,
-            self.params.recheck_agree_deg.to_radians(),
-        );
+        let agree = self.params.recheck_agreement();
         let agreeing = self.confirming(agent, &self.agents[agent].rechecks, &candidate, agree);
         push_bounded(&mut self.agents[agent].rechecks, candidate);
         if agreeing.len() + 1 < self.params.confirmations as usize {
@@ -1183,10 +1171,8 @@ impl Fusion {
         // holds it is kept pending until the next match asks for the same correction: one
         // verified match can still be a neighbouring place that looks alike.
         let correction = predicted.between(&found.relative);
-        let agrees = |c: &Pose2| {
-            c.x_m.hypot(c.y_m) <= self.params.agree_m
-                && c.yaw_rad.abs() <= self.params.agree_deg.to_radians()
-        };
+        let agree = self.params.agreement();
+        let agrees = |c: &Pose2| is_small(c, agree);
         let mut accepted = Vec::new();
         if agrees(&correction) {
             accepted.push(edge);
@@ -1376,6 +1362,16 @@ fn push_bounded(waiting: &mut Vec<Candidate>, candidate: Candidate) {
         waiting.remove(0);
     }
     waiting.push(candidate);
+}
+
+/// Whether poses `a` and `b` lie within `tolerance` (m, rad) of each other.
+fn within(a: &Pose2, b: &Pose2, tolerance: (f64, f64)) -> bool {
+    a.distance_m(b) <= tolerance.0 && a.rotation_to_rad(b) <= tolerance.1
+}
+
+/// Whether the motion `correction` is within `tolerance` (m, rad).
+fn is_small(correction: &Pose2, tolerance: (f64, f64)) -> bool {
+    correction.x_m.hypot(correction.y_m) <= tolerance.0 && correction.yaw_rad.abs() <= tolerance.1
 }
 
 /// Integrates one keyframe's detections (`body`, body frame) seen from `pose` into `map`.

@@ -217,6 +217,16 @@ impl Default for Params {
 }
 
 impl Params {
+    /// A merge's agreement: (`agree_m`, `agree_deg` in radians).
+    pub fn agreement(&self) -> (f64, f64) {
+        (self.agree_m, self.agree_deg.to_radians())
+    }
+
+    /// A re-check's agreement: (`recheck_agree_m`, `recheck_agree_deg` in radians).
+    pub fn recheck_agreement(&self) -> (f64, f64) {
+        (self.recheck_agree_m, self.recheck_agree_deg.to_radians())
+    }
+
     /// Checks every field; the error names it and its allowed range.
     pub fn validate(&self) -> Result<(), InvalidParam> {
         InvalidParam::check_count("agvs", self.agvs, 0, MAX_AGENTS)?;
