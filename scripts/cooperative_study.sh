@@ -6,9 +6,12 @@
 #
 #   scripts/cooperative_study.sh OUT [SEEDS] [SCENES]
 #
-# Studies (STUDIES, default "hall random separate repeated"):
+# Studies (STUDIES, default "hall known random separate repeated"):
 #   hall      the paper's hall with 4 AGVs and 4 stations on the walls (config/hall-cooperative.toml):
 #             agvs 1-4 × stations 0, 2, 4, SEEDS seeds each (default 20);
+#   known     the hall again with every AGV's start known (known_starts = agvs): agvs 2-4 ×
+#             stations 0, 2, SEEDS seeds each. What the unknown starts cost: with one known start
+#             the map frame is that AGV's, its heading drift and all;
 #   random    SCENES random scenes (default 10; `nrslam scene --random --seed K --agvs 2
 #             --stations 2`: two AGVs on one loop half a lap apart) with 2 AGVs, stations 0 and 2,
 #             2 seeds each;
@@ -22,7 +25,7 @@ seeds=${2:-20}
 scenes=${3:-10}
 bin=${NRSLAM:-target/release/nrslam}
 jobs=${JOBS:-$(nproc)}
-studies=${STUDIES:-hall random separate repeated}
+studies=${STUDIES:-hall known random separate repeated}
 mkdir -p "$out/runs" "$out/scenes"
 plan="$out/plan.txt"
 : > "$plan"
@@ -38,6 +41,10 @@ for study in $studies; do
     hall)
       for a in 1 2 3 4; do for m in 0 2 4; do for s in $(seq 1 "$seeds"); do
         both "hall_a${a}_m${m}" "$s" "agvs:=$a stations:=$m"
+      done; done; done ;;
+    known)
+      for a in 2 3 4; do for m in 0 2; do for s in $(seq 1 "$seeds"); do
+        both "known_a${a}_m${m}" "$s" "agvs:=$a stations:=$m known_starts:=$a"
       done; done; done ;;
     random)
       for k in $(seq 1 "$scenes"); do

@@ -26,6 +26,9 @@
 #                     number of session 2's frames with a fused pose (0: never merged);
 #   later             the same with session 2 shifted to start 10 s after session 1 ends
 #                     (second_offset_s), as a session recorded on a later day;
+#   known             both sessions fused side by side with both starts given (session 2's
+#                     recording in the map frame, fusion.known_starts:=2, matching on): what the
+#                     unknown start of session 2 costs, the map frame being session 1's alone;
 #   o1, o2, o fused   the oracle: both sessions recorded again at their true poses
 #                     (launch/true-poses.toml: the same detections, no SLAM error), each alone and
 #                     both fused with both starts known and no matching (what fusion could reach);
@@ -62,6 +65,8 @@ for s in $(seq 1 "$seeds"); do
     run "$d/s1fus.log" launch launch/multi-session.toml sessions:=1 first:="$d/bag1" --out "$d/s1-fusion"
     run "$d/s2fus.log" launch launch/multi-session.toml sessions:=1 first:="$d/bag2map" --out "$d/s2-fusion"
     run "$d/fused.log" launch launch/multi-session.toml first:="$d/bag1" second:="$d/bag2" --out "$d/fused"
+    run "$d/known.log" launch launch/multi-session.toml first:="$d/bag1" second:="$d/bag2map" \
+        fusion.known_starts:=2 --out "$d/known"
     run "$d/o1.log" launch launch/true-poses.toml fidelity:="$fidelity" frames:="$frames" viz:=false \
         --seed "$s" --record "$d/obag1" --record-topics "${topics[@]}" --out "$d/o1"
     run "$d/o2.log" launch launch/true-poses.toml fidelity:="$fidelity" frames:="$frames" viz:=false \
@@ -100,7 +105,8 @@ def final_map(s):
 rows = []
 for p in range(1, seeds + 1):
     r = {k: load(p, k)
-         for k in ["s1", "s2", "s1-fusion", "s2-fusion", "fused", "later", "o1", "o2", "ofused"]}
+         for k in ["s1", "s2", "s1-fusion", "s2-fusion", "fused", "later", "known", "o1", "o2",
+                   "ofused"]}
     rows.append({k: final_map(v) for k, v in r.items()} | {
         "fused_frames": r["fused"]["agents"]["agv2"]["fused_frames"],
         "later_frames": r["later"]["agents"]["agv2"]["fused_frames"],
@@ -108,12 +114,12 @@ for p in range(1, seeds + 1):
     })
 print(f"Final-map ET-GOPSA, paper-5g fidelity:={fidelity} frames:={frames}, {seeds} seed pairs "
       "(session 1 --seed s from (27, 6), session 2 --seed s+100 from (27, 38), frame unknown)\n")
-print("| pair | s1 | s2 | s1 fus | s2 fus | fused | merged | later | merged |")
-print("|---|---|---|---|---|---|---|---|---|")
+print("| pair | s1 | s2 | s1 fus | s2 fus | fused | merged | later | merged | known |")
+print("|---|---|---|---|---|---|---|---|---|---|")
 for p, r in enumerate(rows, 1):
     print(f"| {p}, {p + 100} | {r['s1']:.2f} | {r['s2']:.2f} | {r['s1-fusion']:.2f} | "
           f"{r['s2-fusion']:.2f} | {r['fused']:.2f} | {r['fused_frames']}/{r['frames2']} | "
-          f"{r['later']:.2f} | {r['later_frames']}/{r['frames2']} |")
+          f"{r['later']:.2f} | {r['later_frames']}/{r['frames2']} | {r['known']:.2f} |")
 col = lambda k: [r[k] for r in rows]
 best = [min(r["s1"], r["s2"]) for r in rows]
 best_fus = [min(r["s1-fusion"], r["s2-fusion"]) for r in rows]
@@ -124,6 +130,7 @@ for k, name in [("s1", "session 1 alone"), ("s2", "session 2 alone"),
                 ("s1-fusion", "session 1 alone through fusion"),
                 ("s2-fusion", "session 2 alone through fusion"),
                 ("fused", "fused, side by side"), ("later", "fused, session 2 later"),
+                ("known", "fused, both starts known"),
                 ("o1", "oracle: session 1 alone"), ("o2", "oracle: session 2 alone"),
                 ("ofused", "oracle: both fused")]:
     print(f"| {name} | {ci(col(k))} |")
@@ -132,12 +139,13 @@ obest = [min(r["o1"], r["o2"]) for r in rows]
 od = [r["ofused"] - b for r, b in zip(rows, obest)]
 print(f"| oracle: fused − best single (paired) | {ci(od)} |")
 print(f"| oracle: pairs fused ≤ best single | {sum(1 for x in od if x <= 0)}/{seeds} |")
-for k, name in [("fused", "side by side"), ("later", "session 2 later")]:
+for k, name in [("fused", "side by side"), ("later", "session 2 later"),
+                ("known", "both starts known")]:
     d = [f - b for f, b in zip(col(k), best)]
     dfus = [f - b for f, b in zip(col(k), best_fus)]
     d1 = [f - a for f, a in zip(col(k), col("s1"))]
-    frames_key = "fused_frames" if k == "fused" else "later_frames"
-    merged = sum(1 for r in rows if r[frames_key] > 0)
+    frames_key = {"fused": "fused_frames", "later": "later_frames"}.get(k)
+    merged = sum(1 for r in rows if r[frames_key] > 0) if frames_key else seeds
     wins = sum(1 for x in d if x <= 0)
     print(f"| {name}: fused − best single (paired) | {ci(d)} |")
     print(f"| {name}: fused − best single through fusion (paired) | {ci(dfus)} |")
