@@ -10,8 +10,9 @@
 #   hall      the paper's hall with 4 AGVs and 4 stations on the walls (config/hall-cooperative.toml):
 #             agvs 1-4 × stations 0, 2, 4, SEEDS seeds each (default 20);
 #   known     the hall again with every AGV's start known (known_starts = agvs): agvs 2-4 ×
-#             stations 0, 2, SEEDS seeds each. What the unknown starts cost: with one known start
-#             the map frame is that AGV's, its heading drift and all;
+#             stations 0, 2, SEEDS seeds each; and the random scenes below with both starts
+#             known. What the unknown starts cost: with one known start the map frame is that
+#             AGV's, its heading drift and all;
 #   random    SCENES random scenes (default 10; `nrslam scene --random --seed K --agvs 2
 #             --stations 2`: two AGVs on one loop half a lap apart) with 2 AGVs, stations 0 and 2,
 #             2 seeds each;
@@ -45,7 +46,13 @@ for study in $studies; do
     known)
       for a in 2 3 4; do for m in 0 2; do for s in $(seq 1 "$seeds"); do
         both "known_a${a}_m${m}" "$s" "agvs:=$a stations:=$m known_starts:=$a"
-      done; done; done ;;
+      done; done; done
+      for k in $(seq 1 "$scenes"); do
+        "$bin" scene --random --seed "$k" --agvs 2 --stations 2 --out "$out/scenes/s$k.toml" >/dev/null
+        for m in 0 2; do for s in 1 2; do
+          both "knownrandom_s${k}_m${m}" "$s" "agvs:=2 stations:=$m known_starts:=2 scene:=$out/scenes/s$k.toml"
+        done; done
+      done ;;
     random)
       for k in $(seq 1 "$scenes"); do
         "$bin" scene --random --seed "$k" --agvs 2 --stations 2 --out "$out/scenes/s$k.toml" >/dev/null

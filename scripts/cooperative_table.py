@@ -70,6 +70,28 @@ def mean_or_none(values):
     return sum(values) / len(values) if values else None
 
 
+def random_table(lines, by, pairs, prefix, title):
+    """The random scenes' table: runs named PREFIX + sK_mM, by station count."""
+    randoms = [c for c in by if c.startswith(prefix)]
+    if randoms:
+        lines.append(f"## {title}\n")
+        lines.append("| stations | runs | ET-GOPSA fused | fused oracle | ratio to oracle | runs within 1.2 × oracle | AGVs merged | wrong edges / accepted |")
+        lines.append("|---|---|---|---|---|---|---|---|")
+        for m in (0, 2):
+            ps = []
+            for c in randoms:
+                if c.endswith(f"_m{m}"):
+                    ps += [(sl, orc) for _, sl, orc in pairs(c) if sl and orc]
+            if not ps:
+                continue
+            ratio = [sl["etgospa"] / orc["etgospa"] for sl, orc in ps]
+            merged = ci([sum(1 for v in agvs_of(sl).values() if v["fused_frames"]) / max(len(agvs_of(sl)), 1) for sl, _ in ps])
+            acc = sum((sl.get("inter_agent_edges") or {}).get("accepted", 0) for sl, _ in ps)
+            wr = sum((sl.get("inter_agent_edges") or {}).get("wrong", 0) for sl, _ in ps)
+            lines.append(f"| {m} | {len(ps)} | {fmt(ci([sl['etgospa'] for sl, _ in ps]))} | {fmt(ci([o['etgospa'] for _, o in ps]))} | {fmt(ci(ratio))} | {sum(1 for r in ratio if r <= 1.2)} of {len(ratio)} | {fmt(merged)} | {wr} / {acc} |")
+        lines.append("")
+
+
 def main():
     out = sys.argv[1]
     runs = load(out)
@@ -192,24 +214,9 @@ def main():
                              f"{fmt(own, 3)} | {fmt(fused, 3)} | {by_agv} |")
         lines.append("")
 
-    randoms = [c for c in by if c.startswith("random_")]
-    if randoms:
-        lines.append("## Random scenes with 2 AGVs (fused against the fused oracle)\n")
-        lines.append("| stations | runs | ET-GOPSA fused | fused oracle | ratio to oracle | runs within 1.2 × oracle | AGVs merged | wrong edges / accepted |")
-        lines.append("|---|---|---|---|---|---|---|---|")
-        for m in (0, 2):
-            ps = []
-            for c in randoms:
-                if c.endswith(f"_m{m}"):
-                    ps += [(sl, orc) for _, sl, orc in pairs(c) if sl and orc]
-            if not ps:
-                continue
-            ratio = [sl["etgospa"] / orc["etgospa"] for sl, orc in ps]
-            merged = ci([sum(1 for v in agvs_of(sl).values() if v["fused_frames"]) / max(len(agvs_of(sl)), 1) for sl, _ in ps])
-            acc = sum((sl.get("inter_agent_edges") or {}).get("accepted", 0) for sl, _ in ps)
-            wr = sum((sl.get("inter_agent_edges") or {}).get("wrong", 0) for sl, _ in ps)
-            lines.append(f"| {m} | {len(ps)} | {fmt(ci([sl['etgospa'] for sl, _ in ps]))} | {fmt(ci([o['etgospa'] for _, o in ps]))} | {fmt(ci(ratio))} | {sum(1 for r in ratio if r <= 1.2)} of {len(ratio)} | {fmt(merged)} | {wr} / {acc} |")
-        lines.append("")
+    for prefix, title in (("random_", "Random scenes with 2 AGVs (fused against the fused oracle)"),
+                          ("knownrandom_", "Random scenes with 2 AGVs, both starts known")):
+        random_table(lines, by, pairs, prefix, title)
 
     for study, title in (("separate", "Two AGVs that never see the same targets (config/two-rooms.toml, both starts known)"),
                          ("repeated", "Repeated structure (config/repeated-structure.toml, agv2's start unknown)")):
