@@ -169,22 +169,25 @@ mod killed {
     use std::process::Stdio;
     use std::time::{Duration, Instant};
 
-    #[test]
-    fn an_agent_killed_mid_run_leaves_the_others_fused_to_the_end() {
-        let dir = temp();
-        let (out, bag) = (dir.path().join("killed"), dir.path().join("bag"));
-        // Paced (2 × real time: 20 s for 80 frames) so that agv2's radar is still running when
-        // it is killed; its association logs each frame it handles (debug level), which tells
-        // when the run is under way.
+    /// Runs launch/cooperative.toml with TWO_AGVS and `extra` in processes mode, paced (2 ×
+    /// real time: 20 s for 80 frames) so that the kill lands mid-run, and SIGKILLs node `victim`
+    /// once agv2's association has handled `after` frames (it logs each at debug level, which
+    /// tells when the run is under way). Returns the exit's success, the log without the
+    /// per-frame lines, and whether the kill happened.
+    fn run_and_kill(
+        out: &Path,
+        extra: &[&str],
+        victim: &str,
+        after: usize,
+        log_filter: &str,
+    ) -> (bool, String, bool) {
         let mut child = nrslam()
             .args(["launch", "launch/cooperative.toml"])
             .args(TWO_AGVS)
             .args(["--mode", "processes", "--rate", "2", "--out"])
-            .arg(&out)
-            .arg("--record")
-            .arg(&bag)
-            .args(["--record-topics", "/map"])
-            .env("NRSLAM_LOG", "warn,nrslam_association=debug")
+            .arg(out)
+            .args(extra)
+            .env("NRSLAM_LOG", log_filter)
             .stdout(Stdio::null())
             .stderr(Stdio::piped())
             .spawn()
@@ -192,24 +195,23 @@ mod killed {
         let stderr = BufReader::new(child.stderr.take().unwrap());
         let mut log = Vec::new();
         let mut handled = 0;
-        let mut killed = None;
+        let mut killed = false;
         let deadline = Instant::now() + Duration::from_secs(300);
         // Reading to the end of stderr is waiting for the launcher to exit.
         for line in stderr.lines().map_while(Result::ok) {
-            if killed.is_none()
+            if !killed
                 && line.starts_with("[agv2/association]")
                 && line.contains("association frame")
             {
                 handled += 1;
-                // 20 frames in (of 80): kill agv2's radar, the AGV switched off mid-run.
-                if handled == 20 {
-                    let pid = node_pid(child.id(), "agv2/radar").expect("agv2/radar runs");
+                if handled == after {
+                    let pid = node_pid(child.id(), victim).expect("the node runs");
                     let status = std::process::Command::new("kill")
                         .args(["-9", &pid.to_string()])
                         .status()
                         .unwrap();
                     assert!(status.success());
-                    killed = Some(pid);
+                    killed = true;
                 }
             }
             if !line.contains("association frame") {
@@ -221,9 +223,25 @@ mod killed {
             }
         }
         let status = child.wait().unwrap();
-        let log = log.join("\n");
-        assert!(killed.is_some(), "agv2 handled {handled} frames: {log}");
-        assert!(status.success(), "{log}");
+        let log = format!("agv2 handled {handled} frames\n{}", log.join("\n"));
+        (status.success(), log, killed)
+    }
+
+    #[test]
+    fn an_agent_killed_mid_run_leaves_the_others_fused_to_the_end() {
+        let dir = temp();
+        let (out, bag) = (dir.path().join("killed"), dir.path().join("bag"));
+        let bag_arg = bag.to_str().unwrap();
+        // 20 frames in (of 80): kill agv2's radar, the AGV switched off mid-run.
+        let (success, log, killed) = run_and_kill(
+            &out,
+            &["--record", bag_arg, "--record-topics", "/map"],
+            "agv2/radar",
+            20,
+            "warn,nrslam_association=debug",
+        );
+        assert!(killed, "{log}");
+        assert!(success, "{log}");
         assert!(
             log.contains("node process died (signal: 9 (SIGKILL)); on_exit = \"continue\"")
                 && log.contains("agv2/radar"),
@@ -247,6 +265,47 @@ mod killed {
         assert_eq!(agent_u64(&s, "station1", "fused_frames"), 80);
         assert_eq!(s["metric_steps"], 80);
         assert_map_grew_after(&bag, frame_stamp_s(agv2 - 1));
+        assert!(s["etgospa"].as_f64().is_some_and(f64::is_finite));
+    }
+
+    #[test]
+    fn an_agents_slam_killed_mid_run_is_respawned_and_fused_as_a_new_session() {
+        let dir = temp();
+        let out = dir.path().join("restarted");
+        // 15 frames in (of 80): agv2's SLAM crashes; launch/cooperative.toml respawns it.
+        let (success, log, killed) = run_and_kill(
+            &out,
+            &[],
+            "agv2/association",
+            15,
+            "warn,nrslam_association=debug,nrslam_fusion=info",
+        );
+        assert!(killed, "{log}");
+        assert!(success, "{log}");
+        let s = summary(&out);
+        assert_eq!(
+            s["restarts"],
+            serde_json::json!({ "agv2/association": 1 }),
+            "{log}"
+        );
+        // The restarted SLAM numbers its keyframes from 0 again: a new session of agv2, not
+        // keyframes dropped as out of order.
+        assert_eq!(s["counters"]["fusion"]["restarts"], 1, "{log}");
+        assert!(
+            s["dropped"].as_object().is_none_or(|d| d.is_empty()),
+            "{}",
+            s["dropped"]
+        );
+        assert!(log.contains("an AGV's back end started over"), "{log}");
+        // Its first session stays fused (the new one, its start unknown now, is merged once it
+        // has seen enough of the map: tests/merge.rs, beyond these 80 frames); agv1 fused on to
+        // the end.
+        assert_eq!(agent_u64(&s, "agv1", "fused_frames"), 80);
+        assert!(
+            agent_u64(&s, "agv2", "fused_frames") >= 15,
+            "{}",
+            s["agents"]
+        );
         assert!(s["etgospa"].as_f64().is_some_and(f64::is_finite));
     }
 }

@@ -27,6 +27,9 @@
 //!   stations fixed at their surveyed poses and known-start AGVs' first keyframes fixed. It is
 //!   re-solved ([`PoseGraph::optimise`]) when its structure changes (an edge, a merge, an agent's
 //!   own loop closure); otherwise a new keyframe is chained onto its predecessor's fused pose.
+//! - **Restarts.** An AGV's keyframe numbered 0 again is its SLAM started over: its keyframes
+//!   so far become an agent of their own, kept in the map, and the AGV is merged again from an
+//!   unknown frame ([`MAX_RESTARTS`] per AGV).
 //!
 //! Everything is deterministic: agents are visited in index order and the matcher breaks ties.
 
@@ -118,7 +121,37 @@ struct Agent {
     rechecks: Vec<Candidate>,
     /// Station frames since the last station keyframe.
     station_frames: u32,
+    /// Times its back end restarted (its earlier sessions are agents of their own).
+    restarts: u32,
 }
+
+impl Agent {
+    fn new(kind: AgentKind, verify_interval: u32) -> Self {
+        Agent {
+            kind,
+            keyframes: Vec::new(),
+            frame: match kind {
+                AgentKind::Agv { known_start: false } => None,
+                _ => Some(Pose2::new(0.0, 0.0, 0.0)),
+            },
+            candidates: Vec::new(),
+            pending_local: None,
+            loops: Vec::new(),
+            since_query: 0,
+            merged_by_search: false,
+            since_verify: 0,
+            verify_interval,
+            rechecks: Vec::new(),
+            station_frames: 0,
+            restarts: 0,
+        }
+    }
+}
+
+/// Restarts of one AGV's back end that fusion follows; a later keyframe numbered 0 again is
+/// refused ([`FusionError::TooManyRestarts`]), so that a sender that keeps starting over cannot
+/// grow the graph by a session a keyframe.
+pub const MAX_RESTARTS: u32 = 16;
 
 /// Counters of what fusion did, for the run's report and the benches.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -149,11 +182,14 @@ pub struct FusionStats {
     pub inter_edges: u64,
     /// Pose-graph solves.
     pub optimisations: u64,
+    /// AGV back ends that started over (keyframe ids from 0 again): each earlier session stays
+    /// in the map and the new one is merged afresh.
+    pub restarts: u64,
 }
 
 impl FusionStats {
     /// Every counter by name (the names of the fields), for reports.
-    pub fn counters(&self) -> [(&'static str, u64); 12] {
+    pub fn counters(&self) -> [(&'static str, u64); 13] {
         [
             ("global_searches", self.global_searches),
             ("local_searches", self.local_searches),
@@ -167,6 +203,7 @@ impl FusionStats {
             ("opposite_views", self.opposite_views),
             ("inter_edges", self.inter_edges),
             ("optimisations", self.optimisations),
+            ("restarts", self.restarts),
         ]
     }
 }
@@ -178,6 +215,9 @@ pub struct Update {
     pub published: Vec<(usize, usize)>,
     /// The fused poses of earlier keyframes moved (the graph was re-solved).
     pub corrected: bool,
+    /// An AGV's back end restarted: (the AGV, the new agent index its earlier session now
+    /// has, always the next one). Its earlier keyframes are that agent's from now on.
+    pub retired: Option<(usize, usize)>,
 }
 
 /// The fusion state.
@@ -215,6 +255,10 @@ pub enum FusionError {
     /// The input is for the other kind of agent.
     #[error("agent {0} is not of the kind this input is for")]
     WrongKind(usize),
+    /// A keyframe numbered 0 again from an AGV whose back end restarted [`MAX_RESTARTS`]
+    /// times already.
+    #[error("agent {0} started over {MAX_RESTARTS} times already")]
+    TooManyRestarts(usize),
 }
 
 impl Fusion {
@@ -226,23 +270,7 @@ impl Fusion {
         let agents = (0..params.agvs)
             .map(agv)
             .chain((0..params.stations).map(|_| AgentKind::Station))
-            .map(|kind| Agent {
-                kind,
-                keyframes: Vec::new(),
-                frame: match kind {
-                    AgentKind::Agv { known_start: false } => None,
-                    _ => Some(Pose2::new(0.0, 0.0, 0.0)),
-                },
-                candidates: Vec::new(),
-                pending_local: None,
-                loops: Vec::new(),
-                since_query: 0,
-                merged_by_search: false,
-                since_verify: 0,
-                verify_interval: params.verify_every_keyframes,
-                rechecks: Vec::new(),
-                station_frames: 0,
-            })
+            .map(|kind| Agent::new(kind, params.verify_every_keyframes))
             .collect();
         Fusion {
             params,
@@ -347,15 +375,27 @@ impl Fusion {
     ) -> Result<Update, FusionError> {
         let a = self.agent_of_kind(agent, false)?;
         check_input(&local_pose, &points_body_m)?;
+        let mut restart = false;
         if let Some(last) = a.keyframes.last() {
             if local_id <= last.local_id {
-                return Err(FusionError::OutOfOrder {
-                    id: local_id,
-                    last: last.local_id,
-                });
+                // A back end numbers its keyframes from 0: 0 again (at a later stamp, which the
+                // node checks) is the AGV's SLAM started over, any other id going back a bug.
+                if local_id != 0 {
+                    return Err(FusionError::OutOfOrder {
+                        id: local_id,
+                        last: last.local_id,
+                    });
+                }
+                if a.restarts >= MAX_RESTARTS {
+                    return Err(FusionError::TooManyRestarts(agent));
+                }
+                restart = true;
             }
         }
         let mut update = Update::default();
+        if restart {
+            update.retired = Some((agent, self.retire_session(agent)));
+        }
         let index = self.push_keyframe(agent, local_id, local_pose, points_body_m);
         if self.agents[agent].frame.is_some() {
             self.place_new(agent, index, &mut update);
@@ -388,6 +428,39 @@ impl Fusion {
             }
         }
         Ok(update)
+    }
+
+    /// Starts a new session of `agent`, whose back end restarted: its keyframes so far become
+    /// an agent of their own (returned: the next index), which keeps their place in the map,
+    /// their global ids and their edges, and gets no more input. The AGV starts again with no
+    /// keyframe and an unknown frame, whatever its start was: a restarted SLAM starts from
+    /// wherever its odometry is, and that frame is found by place recognition against the map,
+    /// its own earlier session's included.
+    fn retire_session(&mut self, agent: usize) -> usize {
+        let slot = self.agents.len();
+        let mut fresh = Agent::new(
+            AgentKind::Agv { known_start: false },
+            self.params.verify_every_keyframes,
+        );
+        fresh.restarts = self.agents[agent].restarts + 1;
+        let mut earlier = std::mem::replace(&mut self.agents[agent], fresh);
+        earlier.candidates.clear();
+        earlier.pending_local = None;
+        earlier.rechecks.clear();
+        earlier.merged_by_search = false;
+        for e in &mut self.edges {
+            for end in [&mut e.from, &mut e.to] {
+                if end.0 == agent {
+                    end.0 = slot;
+                }
+            }
+        }
+        self.agents.push(earlier);
+        // Its counts are per agent index: rebuilt with the new agent on the next search.
+        self.occupied = None;
+        self.stats.restarts += 1;
+        tracing::info!(agent, session = slot, "an AGV's back end started over");
+        slot
     }
 
     /// An AGV's own estimate of its keyframes (its `/slam/keyframe_poses`): local ids, poses and

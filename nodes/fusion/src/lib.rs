@@ -17,6 +17,6 @@ pub mod fusion;
 pub mod node;
 mod params;
 
-pub use fusion::{AgentKind, Fusion, FusionError, FusionStats, InterEdge, Update};
+pub use fusion::{AgentKind, Fusion, FusionError, FusionStats, InterEdge, Update, MAX_RESTARTS};
 pub use node::{build, FusionNode};
 pub use params::{Params, MAX_AGENTS};

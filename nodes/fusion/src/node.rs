@@ -222,6 +222,7 @@ impl FusionNode {
             FusionError::NonFinite(_) => "non_finite",
             FusionError::OutOfOrder { .. } => "out_of_order",
             FusionError::WrongKind(_) => "wrong_kind",
+            FusionError::TooManyRestarts(_) => "too_many_restarts",
         };
         self.drop_input(topic, reason, error);
     }
@@ -348,6 +349,21 @@ impl FusionNode {
             .add_keyframe(agent, keyframe.id, Pose2::new(x_m, y_m, yaw_rad), points)
         {
             Ok(update) => {
+                if let Some((agv, session)) = update.retired {
+                    // The earlier session's keyframes move with it, as in the algorithm; its
+                    // edges are named `agv2.1/12` (agv2's session 1, its keyframe 12).
+                    debug_assert_eq!(session, self.keyframes.len());
+                    let earlier = std::mem::take(&mut self.keyframes[agv]);
+                    self.keyframes.push(earlier);
+                    let prefix = format!("{}.", self.namespaces[agv]);
+                    let sessions = self
+                        .namespaces
+                        .iter()
+                        .filter(|n| n.starts_with(&prefix))
+                        .count();
+                    self.namespaces.push(format!("{prefix}{}", sessions + 1));
+                    self.station_pose.push(None);
+                }
                 self.keyframes[agent].push(keyframe.clone());
                 self.publish_update(&update, stamp, outbox);
             }
@@ -557,9 +573,9 @@ impl Node for FusionNode {
         }
         let stats = self.fusion.stats();
         outbox.publish(DIAGNOSTICS, self.counters(&stats));
-        let unmerged: Vec<usize> = (0..self.fusion.agent_count())
+        let unmerged: Vec<&str> = (0..self.fusion.agent_count())
             .filter(|&a| !self.fusion.is_aligned(a))
-            .map(|a| a + 1)
+            .map(|a| self.namespaces[a].as_str())
             .collect();
         if !unmerged.is_empty() {
             tracing::warn!(
@@ -779,6 +795,41 @@ mod tests {
             .collect();
         keys.sort();
         assert_eq!(reported(&end), Some(keys));
+    }
+
+    #[test]
+    fn an_agv_whose_back_end_starts_over_is_followed_not_dropped() {
+        let mut n = node();
+        let agv1 = "/agv1/slam/keyframe";
+        feed(&mut n, agv1, keyframe(1.0, MAP_FRAME, 0, 10.0));
+        feed(&mut n, agv1, keyframe(2.0, MAP_FRAME, 1, 11.0));
+        // Its SLAM restarted: ids from 0 again, later stamps. Its frame is unknown now, so
+        // nothing is published until it is merged again; nothing is dropped either.
+        let out = feed(&mut n, agv1, keyframe(3.0, MAP_FRAME, 0, 30.0));
+        assert!(keyframes(&out).is_empty());
+        feed(&mut n, agv1, keyframe(4.0, MAP_FRAME, 1, 31.0));
+        assert!(n.dropped().is_empty(), "{:?}", n.dropped());
+        assert_eq!(n.fusion().stats().restarts, 1);
+        // Agents 0-2 as built, the earlier session of agv1 after them, named for edge markers.
+        assert_eq!(n.fusion().agent_count(), 4);
+        assert_eq!(n.namespaces[3], "agv1.1");
+        assert_eq!(n.keyframes[3].len(), 2);
+        assert_eq!(n.keyframes[0].len(), 2);
+        // Its earlier keyframes stay in the fused poses, with their global ids.
+        let ids: Vec<u32> = n.fusion().fused_poses().iter().map(|(id, _)| *id).collect();
+        assert_eq!(ids, vec![0, 1]);
+        let mut outbox = Outbox::new();
+        n.on_end(&mut outbox).unwrap();
+        let counters = outbox.drain().find_map(|(_, m)| match m {
+            Message::DiagnosticArray(d) if d.status[0].name.ends_with("/counters") => Some(d),
+            _ => None,
+        });
+        let restarts = counters.expect("counters reported").status[0]
+            .values
+            .iter()
+            .find(|v| v.key == "restarts")
+            .map(|v| v.value.clone());
+        assert_eq!(restarts.as_deref(), Some("1"));
     }
 
     #[test]

@@ -293,3 +293,106 @@ fn first_returns(scene: &[[f64; 2]], pose: &Pose2) -> Vec<[f64; 2]> {
     }
     nearest.into_values().collect()
 }
+
+#[test]
+fn an_agv_whose_back_end_restarts_keeps_its_earlier_session_and_is_merged_again() {
+    // One AGV, its start known. Its SLAM dies two thirds round the lap and starts over: keyframe
+    // ids from 0 again, its poses in the frame of wherever its odometry then was (unknown to
+    // fusion). It drives on round the lap and past its start again.
+    let scene = scene(0.0);
+    let path = lap(5.0, 4.0, 36.0, 27.0, 1.5);
+    let split = 2 * path.len() / 3;
+    let before = &path[..split];
+    let after: Vec<Pose2> = path[split..]
+        .iter()
+        .chain(&path[..split])
+        .copied()
+        .collect();
+    let restart_at = after[0];
+    // Where the restarted SLAM thinks it starts: 3 m and 20° from the truth.
+    let local_start = Pose2::new(restart_at.x_m + 3.0, restart_at.y_m - 2.0, 0.35);
+    let to_local = local_start.compose(&restart_at.inverse());
+    let mut fusion = Fusion::new(Params {
+        agvs: 1,
+        ..Params::default()
+    });
+    for (k, pose) in before.iter().enumerate() {
+        let update = fusion
+            .add_keyframe(0, k as u32, *pose, observe(&scene, pose))
+            .unwrap();
+        assert_eq!(update.retired, None);
+    }
+    // An id going back, other than 0, is still a bug and refused.
+    assert!(matches!(
+        fusion.add_keyframe(0, 3, before[3], observe(&scene, &before[3])),
+        Err(nrslam_fusion::FusionError::OutOfOrder { id: 3, .. })
+    ));
+    for (k, pose) in after.iter().enumerate() {
+        let update = fusion
+            .add_keyframe(0, k as u32, to_local.compose(pose), observe(&scene, pose))
+            .unwrap();
+        assert_eq!(update.retired, (k == 0).then_some((0, 1)), "keyframe {k}");
+    }
+    assert_eq!(fusion.stats().restarts, 1);
+    assert_eq!(
+        fusion.agent_count(),
+        2,
+        "the earlier session is an agent of its own"
+    );
+    // The earlier session keeps its place in the map.
+    for (k, truth) in before.iter().enumerate() {
+        let (_, fused) = fusion.fused_keyframe(1, k).expect("still published");
+        assert!(
+            fused.distance_m(truth) < 0.3,
+            "earlier keyframe {k}: {fused:?} vs {truth:?}"
+        );
+    }
+    // The new session is merged at its true frame, against the map its earlier session made.
+    // The frame judged where the new session started (its origin is 47 m off the hall).
+    let frame = fusion
+        .frame_of(0)
+        .expect("the restarted AGV is merged again");
+    let placed = frame.compose(&local_start);
+    assert!(
+        placed.distance_m(&restart_at) < 0.5
+            && placed.rotation_to_rad(&restart_at) < 1f64.to_radians(),
+        "its restart placed at {placed:?}, truly at {restart_at:?}"
+    );
+    let merged_at = (0..after.len())
+        .find(|&k| fusion.fused_keyframe(0, k).is_some())
+        .expect("published");
+    for (k, truth) in after.iter().enumerate().skip(merged_at) {
+        let (_, fused) = fusion.fused_keyframe(0, k).unwrap();
+        assert!(
+            fused.distance_m(truth) < 0.5,
+            "keyframe {k}: {fused:?} vs {truth:?}"
+        );
+    }
+    assert_eq!(fusion.fused_poses().len(), before.len() + after.len());
+    assert!(
+        fusion.inter_edges().iter().any(|e| e.from.0 != e.to.0),
+        "edges join the two sessions"
+    );
+}
+
+#[test]
+fn an_agv_that_keeps_starting_over_is_refused_after_max_restarts() {
+    let mut fusion = Fusion::new(Params {
+        agvs: 1,
+        ..Params::default()
+    });
+    let pose = Pose2::new(0.0, 0.0, 0.0);
+    for restart in 0..=nrslam_fusion::MAX_RESTARTS {
+        fusion.add_keyframe(0, 0, pose, vec![[1.0, 1.0]]).unwrap();
+        fusion.add_keyframe(0, 1, pose, vec![[1.0, 1.0]]).unwrap();
+        assert_eq!(fusion.stats().restarts, u64::from(restart));
+    }
+    assert_eq!(
+        fusion.add_keyframe(0, 0, pose, vec![[1.0, 1.0]]),
+        Err(nrslam_fusion::FusionError::TooManyRestarts(0))
+    );
+    assert_eq!(
+        fusion.agent_count(),
+        1 + nrslam_fusion::MAX_RESTARTS as usize
+    );
+}

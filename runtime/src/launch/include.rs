@@ -66,6 +66,11 @@ pub(super) struct IncludeDecl {
     /// an agent's chain, which the graph survives losing ([`super::NodeDecl::on_exit`]).
     #[serde(default)]
     on_exit: Option<crate::supervisor::OnExit>,
+    /// Included nodes that are restarted when they die (processes mode): `respawn = true` on
+    /// each, e.g. an agent's SLAM, whose restart the fusion node follows. A source cannot be
+    /// named (restarted, it would start its stream over; the wiring check refuses it).
+    #[serde(default)]
+    respawn: Vec<String>,
 }
 
 /// The including file, as far as its includes need it.
@@ -347,6 +352,16 @@ fn expand_copy(
     }
     expanded.nodes.retain(|n| !decl.drop.contains(&n.name));
     expanded.declared_nodes.retain(|n| !decl.drop.contains(n));
+    for node in &decl.respawn {
+        if !nodes.contains(node) {
+            return Err(unknown("respawn", node));
+        }
+        if decl.drop.contains(node) {
+            return Err(error(format!(
+                "respawn: {node} is in this include's `drop`"
+            )));
+        }
+    }
     for (node, params) in &decl.params {
         if !nodes.contains(node) {
             return Err(unknown(&format!("params.{node}"), node));
@@ -373,6 +388,11 @@ fn expand_copy(
     if let Some(on_exit) = decl.on_exit {
         for node in &mut expanded.nodes {
             node.on_exit = on_exit;
+        }
+    }
+    for node in &mut expanded.nodes {
+        if decl.respawn.contains(&node.name) {
+            node.respawn = true;
         }
     }
     // `drop` and `params` name the nodes as the included file knows them; then the namespace.

@@ -485,3 +485,47 @@ on_exit = "stop"
         );
     }
 }
+
+#[test]
+fn an_include_respawns_the_nodes_it_names_and_refuses_a_name_it_does_not_add() {
+    let top = r#"
+[[include]]
+file = "base.toml"
+namespace = "agv1"
+respawn = ["mapper"]
+[[include]]
+file = "base.toml"
+namespace = "agv2"
+"#;
+    let dir = folder(&[("top.toml", top), ("base.toml", BASE)]);
+    let launch = load(dir.path(), "top.toml", &[]).unwrap();
+    let respawn: Vec<(&str, bool)> = launch
+        .nodes
+        .iter()
+        .map(|n| (n.name.as_str(), n.respawn))
+        .collect();
+    assert_eq!(
+        respawn,
+        [
+            ("agv1/radar", false),
+            ("agv1/mapper", true),
+            ("agv2/radar", false),
+            ("agv2/mapper", false),
+        ]
+    );
+    let unknown = top.replace("respawn = [\"mapper\"]", "respawn = [\"association\"]");
+    let dir = folder(&[("top.toml", &unknown), ("base.toml", BASE)]);
+    assert_refused(
+        load(dir.path(), "top.toml", &[]),
+        &["respawn:", "declares no node association"],
+    );
+    let dropped = top.replace(
+        "respawn = [\"mapper\"]",
+        "respawn = [\"mapper\"]\ndrop = [\"mapper\"]",
+    );
+    let dir = folder(&[("top.toml", &dropped), ("base.toml", BASE)]);
+    assert_refused(
+        load(dir.path(), "top.toml", &[]),
+        &["respawn: mapper is in this include's `drop`"],
+    );
+}
