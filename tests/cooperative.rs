@@ -80,6 +80,76 @@ fn each_node_in_its_own_process_gives_the_in_process_fused_summary() {
     );
 }
 
+#[test]
+fn agents_on_launches_of_their_own_joined_over_zenoh_give_the_in_process_fused_summary() {
+    // As across hosts: the fusion launch listens, each AGV's chain is a launch of its own
+    // (launch/cooperative-agent.toml) that connects to it.
+    let dir = temp();
+    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+    let port = endpoint.trim_start_matches("tcp/").to_owned();
+    let fused = dir.path().join("fused");
+    let launch = |args: &[&str], out: &Path| {
+        nrslam()
+            .arg("launch")
+            .args(args)
+            .arg("--out")
+            .arg(out)
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .expect("nrslam launch starts")
+    };
+    let mut fusion_args = vec!["launch/cooperative.toml"];
+    fusion_args.extend(TWO_AGVS);
+    fusion_args.extend(["agents:=remote", "--listen", &endpoint]);
+    let fusion = launch(&fusion_args, &fused);
+    // The agents start once the fusion launch listens: what they publish before anyone
+    // subscribes is gone.
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    while std::net::TcpStream::connect(&port).is_err() {
+        assert!(
+            std::time::Instant::now() < deadline,
+            "the fusion launch never listened"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    let agents: Vec<_> = ["1", "2"]
+        .iter()
+        .map(|n| {
+            let agv = format!("agv:={n}");
+            let args = [
+                "launch/cooperative-agent.toml",
+                agv.as_str(),
+                "known_start:=true",
+                "frames:=80",
+                "fidelity:=ideal",
+                "--connect",
+                endpoint.as_str(),
+            ];
+            launch(&args, &dir.path().join(format!("agv{n}")))
+        })
+        .collect();
+    for child in agents.into_iter().chain([fusion]) {
+        let output = child.wait_with_output().unwrap();
+        assert!(
+            output.status.success(),
+            "{}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+    }
+    let one = cooperative(dir.path(), "in-process", &TWO_AGVS);
+    // Everything but the arguments' record (agents:=remote).
+    let (mut remote, mut here) = (summary(&fused), summary(&one));
+    for s in [&mut remote, &mut here] {
+        s.as_object_mut().unwrap().remove("arguments");
+    }
+    assert_eq!(remote, here);
+    for name in ["agv1", "agv2"] {
+        assert_eq!(agent_u64(&remote, name, "fused_frames"), 80, "{name}");
+    }
+}
+
 /// The ideal-fidelity hall run of two AGVs with known starts and one station, 80 frames.
 const TWO_AGVS: [&str; 5] = [
     "agvs:=2",

@@ -117,10 +117,10 @@ pub(super) fn expand_file(
         path: path.to_owned(),
         message: e.message().to_owned() + &location(text, e.span()),
     })?;
-    if raw.node.is_empty() && raw.include.is_empty() {
+    if raw.node.is_empty() && raw.include.is_empty() && raw.external.is_empty() {
         return Err(LaunchError::Parse {
             path: path.to_owned(),
-            message: "no [[node]] or [[include]] declared".into(),
+            message: "no [[node]], [[include]] or [[external]] declared".into(),
         });
     }
     let dir = folder_of(path);

@@ -407,3 +407,36 @@ fn launches_without_namespaces_are_unchanged() {
     );
     assert_eq!(radar.local_name(), "radar");
 }
+
+#[test]
+fn an_included_file_may_declare_only_externals_but_a_file_run_needs_a_node() {
+    // What launch/cooperative.toml includes per remote AGV: topics, no node.
+    let topics = "[[external]]\ntopic = \"/slam/keyframe\"\n[[external]]\ntopic = \"/slam/pose\"\n";
+    let top = r#"
+[[include]]
+file = "topics.toml"
+repeat = 2
+namespace = "agv$(index)"
+[[node]]
+name = "fusion"
+kind = "fusion"
+"#;
+    let dir = folder(&[("topics.toml", topics), ("top.toml", top)]);
+    let launch = load(dir.path(), "top.toml", &[]).unwrap();
+    assert_eq!(names(&launch), ["fusion"]);
+    assert_eq!(
+        launch.externals,
+        [
+            "/agv1/slam/keyframe",
+            "/agv1/slam/pose",
+            "/agv2/slam/keyframe",
+            "/agv2/slam/pose"
+        ]
+    );
+    assert_refused(load(dir.path(), "topics.toml", &[]), &["no node runs"]);
+    let dir = folder(&[("empty.toml", "[arguments.a]\ndefault = 1\n")]);
+    assert_refused(
+        load(dir.path(), "empty.toml", &[]),
+        &["no [[node]], [[include]] or [[external]] declared"],
+    );
+}
