@@ -83,7 +83,8 @@ fn each_node_in_its_own_process_gives_the_in_process_fused_summary() {
 #[test]
 fn agents_on_launches_of_their_own_joined_over_zenoh_give_the_in_process_fused_summary() {
     // As across hosts: the fusion launch listens, each AGV's chain is a launch of its own
-    // (launch/cooperative-agent.toml) that connects to it.
+    // (launch/cooperative-agent.toml) that connects to it, and so is the station's
+    // (launch/cooperative-station.toml).
     let dir = temp();
     let endpoint = format!("tcp/127.0.0.1:{}", free_port());
     let port = endpoint.trim_start_matches("tcp/").to_owned();
@@ -99,14 +100,23 @@ fn agents_on_launches_of_their_own_joined_over_zenoh_give_the_in_process_fused_s
             .spawn()
             .expect("nrslam launch starts")
     };
+    // The sensing arguments are the agents' own: with every agent remote the fusion launch
+    // takes none (and refuses them by name).
     let mut fusion_args = vec!["launch/cooperative.toml"];
-    fusion_args.extend(TWO_AGVS);
+    fusion_args.extend(TWO_AGVS.iter().filter(|a| !a.starts_with("fidelity")));
     fusion_args.extend(["agents:=remote", "--listen", &endpoint]);
-    let fusion = launch(&fusion_args, &fused);
+    let mut fusion = launch(&fusion_args, &fused);
     // The agents start once the fusion launch listens: what they publish before anyone
     // subscribes is gone.
     let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
     while std::net::TcpStream::connect(&port).is_err() {
+        if fusion.try_wait().unwrap().is_some() {
+            let output = fusion.wait_with_output().unwrap();
+            panic!(
+                "the fusion launch ended: {}",
+                String::from_utf8_lossy(&output.stderr)
+            );
+        }
         assert!(
             std::time::Instant::now() < deadline,
             "the fusion launch never listened"
@@ -114,22 +124,24 @@ fn agents_on_launches_of_their_own_joined_over_zenoh_give_the_in_process_fused_s
         std::thread::sleep(std::time::Duration::from_millis(50));
     }
     std::thread::sleep(std::time::Duration::from_millis(500));
-    let agents: Vec<_> = ["1", "2"]
+    let connect = [
+        "frames:=80",
+        "fidelity:=ideal",
+        "--connect",
+        endpoint.as_str(),
+    ];
+    let mut agents: Vec<_> = ["1", "2"]
         .iter()
         .map(|n| {
             let agv = format!("agv:={n}");
-            let args = [
-                "launch/cooperative-agent.toml",
-                agv.as_str(),
-                "known_start:=true",
-                "frames:=80",
-                "fidelity:=ideal",
-                "--connect",
-                endpoint.as_str(),
-            ];
+            let mut args = vec!["launch/cooperative-agent.toml", &agv, "known_start:=true"];
+            args.extend(connect);
             launch(&args, &dir.path().join(format!("agv{n}")))
         })
         .collect();
+    let mut station = vec!["launch/cooperative-station.toml", "station:=1"];
+    station.extend(connect);
+    agents.push(launch(&station, &dir.path().join("station1")));
     for child in agents.into_iter().chain([fusion]) {
         let output = child.wait_with_output().unwrap();
         assert!(
@@ -145,7 +157,7 @@ fn agents_on_launches_of_their_own_joined_over_zenoh_give_the_in_process_fused_s
         s.as_object_mut().unwrap().remove("arguments");
     }
     assert_eq!(remote, here);
-    for name in ["agv1", "agv2"] {
+    for name in ["agv1", "agv2", "station1"] {
         assert_eq!(agent_u64(&remote, name, "fused_frames"), 80, "{name}");
     }
 }
