@@ -572,3 +572,38 @@ fn stations_alone_map_what_they_see_in_the_true_frame() {
         "{unseen:?}"
     );
 }
+
+#[test]
+fn with_viz_each_agv_gets_its_fused_path_and_transforms() {
+    let dir = temp();
+    let bag = dir.path().join("bag");
+    let mut args = TWO_AGVS.to_vec();
+    args.extend(["viz:=true", "frames:=40", "--record", bag.to_str().unwrap()]);
+    args.extend([
+        "--record-topics",
+        "/agv1/fusion/pose",
+        "/agv1/fusion/path",
+        "/agv2/tf",
+    ]);
+    cooperative(dir.path(), "viz", &args);
+    // The path ends at the last fused pose; it holds every one of them.
+    let Message::PoseStamped(pose) = last_on(&bag, "/agv1/fusion/pose") else {
+        panic!("/agv1/fusion/pose is not a pose");
+    };
+    let Message::Path(path) = last_on(&bag, "/agv1/fusion/path") else {
+        panic!("/agv1/fusion/path is not a path");
+    };
+    assert_eq!(path.header.frame_id, "map");
+    assert_eq!(path.poses.len(), 40);
+    assert_eq!(path.poses.last().unwrap().pose, pose.pose);
+    // agv2's transforms, on its own /tf: map -> odom -> base_link, the map frame the fused one.
+    let Message::TFMessage(tf) = last_on(&bag, "/agv2/tf") else {
+        panic!("/agv2/tf is not a TFMessage");
+    };
+    let frames: Vec<(&str, &str)> = tf
+        .transforms
+        .iter()
+        .map(|t| (t.header.frame_id.as_str(), t.child_frame_id.as_str()))
+        .collect();
+    assert!(frames.contains(&("map", "odom")), "{frames:?}");
+}
