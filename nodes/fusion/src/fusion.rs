@@ -448,11 +448,24 @@ impl Fusion {
         earlier.pending_local = None;
         earlier.rechecks.clear();
         earlier.merged_by_search = false;
-        for e in &mut self.edges {
+        // Every edge that names its keyframes now names the earlier session's: the graph's, and
+        // those other agents hold as candidates or waiting matches.
+        let repoint = |e: &mut InterEdge| {
             for end in [&mut e.from, &mut e.to] {
                 if end.0 == agent {
                     end.0 = slot;
                 }
+            }
+        };
+        self.edges.iter_mut().for_each(repoint);
+        for other in &mut self.agents {
+            other
+                .candidates
+                .iter_mut()
+                .chain(other.rechecks.iter_mut())
+                .for_each(|c| repoint(&mut c.edge));
+            if let Some((_, e)) = &mut other.pending_local {
+                repoint(e);
             }
         }
         self.agents.push(earlier);
@@ -1500,6 +1513,54 @@ mod common;
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_restart_moves_every_edge_naming_the_earlier_keyframes_to_their_new_agent() {
+        let mut fusion = Fusion::new(Params {
+            agvs: 2,
+            known_starts: 2,
+            ..Params::default()
+        });
+        let pose = |x_m: f64| Pose2::new(x_m, 0.0, 0.0);
+        for k in 0..2 {
+            for agent in 0..2 {
+                fusion
+                    .add_keyframe(agent, k, pose(f64::from(k)), vec![[1.0, 1.0]])
+                    .unwrap();
+            }
+        }
+        let edge = |from: (usize, usize), to: (usize, usize)| InterEdge {
+            from,
+            to,
+            relative: pose(0.0),
+        };
+        // An edge of the graph, and what agv2 holds from its matches against agv1's keyframes.
+        fusion.edges.push(edge((0, 1), (1, 0)));
+        let b = &mut fusion.agents[1];
+        b.candidates.push(Candidate {
+            frame: pose(0.0),
+            edge: edge((0, 0), (1, 1)),
+        });
+        b.rechecks.push(Candidate {
+            frame: pose(0.0),
+            edge: edge((0, 1), (1, 1)),
+        });
+        b.pending_local = Some((pose(0.0), edge((0, 0), (1, 1))));
+        // agv1's SLAM starts over: its keyframes are agent 2's now.
+        let update = fusion
+            .add_keyframe(0, 0, pose(5.0), vec![[1.0, 1.0]])
+            .unwrap();
+        assert_eq!(update.retired, Some((0, 2)));
+        assert_eq!(fusion.edges, [edge((2, 1), (1, 0))]);
+        let b = &fusion.agents[1];
+        assert_eq!(b.candidates[0].edge, edge((2, 0), (1, 1)));
+        assert_eq!(b.rechecks[0].edge, edge((2, 1), (1, 1)));
+        assert_eq!(b.pending_local.unwrap().1, edge((2, 0), (1, 1)));
+        assert_eq!(fusion.agents[2].keyframes.len(), 2);
+        assert_eq!(fusion.agents[0].keyframes.len(), 1);
+        assert!(!fusion.is_aligned(0), "a restarted SLAM's frame is unknown");
+        assert!(fusion.is_aligned(2));
+    }
 
     #[test]
     fn a_merge_waits_when_an_earlier_match_named_a_place_that_fits_better() {
