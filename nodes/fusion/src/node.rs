@@ -69,6 +69,8 @@ pub struct FusionNode {
     keyframes: Vec<Vec<Keyframe>>,
     /// Per station: the surveyed pose from its latest odometry.
     station_pose: Vec<Option<Pose2>>,
+    /// Per AGV: the stamp of its newest keyframe taken (tells a restarted back end).
+    last_keyframe_stamp: Vec<Option<Time>>,
     /// Inputs dropped, by topic and reason.
     dropped: BTreeMap<(String, &'static str), u64>,
     /// A new kind of drop (topic and reason) since the last `/diagnostics` report.
@@ -133,6 +135,7 @@ impl FusionNode {
             namespaces,
             keyframes: vec![Vec::new(); agents],
             station_pose: vec![None; agents],
+            last_keyframe_stamp: vec![None; agents],
             dropped: BTreeMap::new(),
             unreported: false,
             component: "nrslam/fusion/inputs".into(),
@@ -344,31 +347,50 @@ impl FusionNode {
         let (x_m, y_m, yaw_rad) = keyframe.pose.planar();
         let points = body_points(keyframe.boresight_rad, &keyframe.detections);
         let stamp = keyframe.header.stamp;
+        // A back end numbers its keyframes upwards: an id not after its last, at a later stamp
+        // than its last keyframe's, is its SLAM started over (a duplicate at the same stamp is
+        // refused as out of order).
+        let restarted = self
+            .fusion
+            .last_local_id(agent)
+            .is_some_and(|last| keyframe.id <= last)
+            && self.last_keyframe_stamp[agent].is_some_and(|last| stamp > last);
+        if restarted {
+            match self.fusion.start_new_session(agent) {
+                Ok(Some(session)) => self.keep_earlier_session(agent, session),
+                Ok(None) => {}
+                Err(e) => return self.drop_refused(topic, e),
+            }
+        }
         match self
             .fusion
             .add_keyframe(agent, keyframe.id, Pose2::new(x_m, y_m, yaw_rad), points)
         {
             Ok(update) => {
-                if let Some((agv, session)) = update.retired {
-                    // The earlier session's keyframes move with it, as in the algorithm; its
-                    // edges are named `agv2.1/12` (agv2's session 1, its keyframe 12).
-                    debug_assert_eq!(session, self.keyframes.len());
-                    let earlier = std::mem::take(&mut self.keyframes[agv]);
-                    self.keyframes.push(earlier);
-                    let prefix = format!("{}.", self.namespaces[agv]);
-                    let sessions = self
-                        .namespaces
-                        .iter()
-                        .filter(|n| n.starts_with(&prefix))
-                        .count();
-                    self.namespaces.push(format!("{prefix}{}", sessions + 1));
-                    self.station_pose.push(None);
-                }
                 self.keyframes[agent].push(keyframe.clone());
+                self.last_keyframe_stamp[agent] = Some(stamp);
                 self.publish_update(&update, stamp, outbox);
             }
             Err(e) => self.drop_refused(topic, e),
         }
+    }
+
+    /// Mirrors [`Fusion::start_new_session`]: AGV `agent`'s keyframe messages so far move to
+    /// agent `session` (always the next index), whose edges are named `agv2.1/12` (agv2's
+    /// session 1, its keyframe 12).
+    fn keep_earlier_session(&mut self, agent: usize, session: usize) {
+        debug_assert_eq!(session, self.keyframes.len());
+        let earlier = std::mem::take(&mut self.keyframes[agent]);
+        self.keyframes.push(earlier);
+        let prefix = format!("{}.", self.namespaces[agent]);
+        let sessions = self
+            .namespaces
+            .iter()
+            .filter(|n| n.starts_with(&prefix))
+            .count();
+        self.namespaces.push(format!("{prefix}{}", sessions + 1));
+        self.station_pose.push(None);
+        self.last_keyframe_stamp.push(None);
     }
 
     fn on_keyframe_poses(
@@ -764,8 +786,9 @@ mod tests {
         assert_eq!(keyframes(&out), vec![(2, 20.0)]);
         let out = feed(&mut n, agv1, keyframe(6.0, MAP_FRAME, 1, 11.0));
         assert_eq!(keyframes(&out), vec![(3, 11.0)]);
-        // An id the agent already sent.
-        assert!(keyframes(&feed(&mut n, agv1, keyframe(7.0, MAP_FRAME, 1, 11.0))).is_empty());
+        // An id the agent already sent, at the same stamp (at a later one it would be its SLAM
+        // started over).
+        assert!(keyframes(&feed(&mut n, agv1, keyframe(6.0, MAP_FRAME, 1, 11.0))).is_empty());
 
         let expected = [
             (agv1, "out_of_order"),
@@ -810,11 +833,22 @@ mod tests {
         feed(&mut n, agv1, keyframe(4.0, MAP_FRAME, 1, 31.0));
         assert!(n.dropped().is_empty(), "{:?}", n.dropped());
         assert_eq!(n.fusion().stats().restarts, 1);
+        // Its keyframe 1 again at the same stamp is a duplicate, not another restart.
+        feed(&mut n, agv1, keyframe(4.0, MAP_FRAME, 1, 31.0));
+        assert_eq!(n.fusion().stats().restarts, 1);
+        assert_eq!(
+            n.dropped().keys().collect::<Vec<_>>(),
+            [&(agv1.to_owned(), "out_of_order")]
+        );
         // Agents 0-2 as built, the earlier session of agv1 after them, named for edge markers.
         assert_eq!(n.fusion().agent_count(), 4);
         assert_eq!(n.namespaces[3], "agv1.1");
         assert_eq!(n.keyframes[3].len(), 2);
         assert_eq!(n.keyframes[0].len(), 2);
+        // Started over again with its keyframe 0 lost: its keyframe 1 at a later stamp.
+        feed(&mut n, agv1, keyframe(5.0, MAP_FRAME, 1, 50.0));
+        assert_eq!(n.fusion().stats().restarts, 2);
+        assert_eq!(n.namespaces[4], "agv1.2");
         // Its earlier keyframes stay in the fused poses, with their global ids.
         let ids: Vec<u32> = n.fusion().fused_poses().iter().map(|(id, _)| *id).collect();
         assert_eq!(ids, vec![0, 1]);
@@ -829,7 +863,7 @@ mod tests {
             .iter()
             .find(|v| v.key == "restarts")
             .map(|v| v.value.clone());
-        assert_eq!(restarts.as_deref(), Some("1"));
+        assert_eq!(restarts.as_deref(), Some("2"));
     }
 
     #[test]

@@ -317,21 +317,21 @@ fn an_agv_whose_back_end_restarts_keeps_its_earlier_session_and_is_merged_again(
         ..Params::default()
     });
     for (k, pose) in before.iter().enumerate() {
-        let update = fusion
+        fusion
             .add_keyframe(0, k as u32, *pose, observe(&scene, pose))
             .unwrap();
-        assert_eq!(update.retired, None);
     }
-    // An id going back, other than 0, is still a bug and refused.
+    // Within a session an id going back is refused.
     assert!(matches!(
-        fusion.add_keyframe(0, 3, before[3], observe(&scene, &before[3])),
-        Err(nrslam_fusion::FusionError::OutOfOrder { id: 3, .. })
+        fusion.add_keyframe(0, 0, before[0], observe(&scene, &before[0])),
+        Err(nrslam_fusion::FusionError::OutOfOrder { id: 0, .. })
     ));
+    // The node saw keyframe 0 again at a later stamp: a new session.
+    assert_eq!(fusion.start_new_session(0), Ok(Some(1)));
     for (k, pose) in after.iter().enumerate() {
-        let update = fusion
+        fusion
             .add_keyframe(0, k as u32, to_local.compose(pose), observe(&scene, pose))
             .unwrap();
-        assert_eq!(update.retired, (k == 0).then_some((0, 1)), "keyframe {k}");
     }
     assert_eq!(fusion.stats().restarts, 1);
     assert_eq!(
@@ -382,17 +382,56 @@ fn an_agv_that_keeps_starting_over_is_refused_after_max_restarts() {
         ..Params::default()
     });
     let pose = Pose2::new(0.0, 0.0, 0.0);
+    // Nothing to keep before its first keyframe.
+    assert_eq!(fusion.start_new_session(0), Ok(None));
     for restart in 0..=nrslam_fusion::MAX_RESTARTS {
+        if restart > 0 {
+            assert_eq!(fusion.start_new_session(0), Ok(Some(restart as usize)));
+        }
         fusion.add_keyframe(0, 0, pose, vec![[1.0, 1.0]]).unwrap();
         fusion.add_keyframe(0, 1, pose, vec![[1.0, 1.0]]).unwrap();
         assert_eq!(fusion.stats().restarts, u64::from(restart));
     }
-    assert_eq!(
-        fusion.add_keyframe(0, 0, pose, vec![[1.0, 1.0]]),
-        Err(nrslam_fusion::FusionError::TooManyRestarts(0))
-    );
+    let refused = nrslam_fusion::FusionError::TooManyRestarts(0);
+    assert_eq!(fusion.start_new_session(0), Err(refused.clone()));
     assert_eq!(
         fusion.agent_count(),
         1 + nrslam_fusion::MAX_RESTARTS as usize
+    );
+    // Cut off: nothing more of it is taken, and it has no corrected pose.
+    assert_eq!(
+        fusion.add_keyframe(0, 2, pose, vec![[1.0, 1.0]]).err(),
+        Some(refused.clone())
+    );
+    assert_eq!(
+        fusion
+            .set_local_poses(0, &[(0, pose), (1, pose)], &[])
+            .err(),
+        Some(refused)
+    );
+    assert_eq!(fusion.corrected_pose(0, pose), None);
+}
+
+#[test]
+fn an_estimate_that_ends_before_the_agents_newest_keyframe_is_refused() {
+    // What a back end that started over sends when its keyframe 0 was lost: poses of its new
+    // ids, which are not this session's.
+    let mut fusion = Fusion::new(Params {
+        agvs: 1,
+        ..Params::default()
+    });
+    for k in 0..3 {
+        fusion
+            .add_keyframe(0, k, Pose2::new(f64::from(k), 0.0, 0.0), vec![[1.0, 1.0]])
+            .unwrap();
+    }
+    let moved = [(0, Pose2::new(30.0, 0.0, 0.0))];
+    assert!(matches!(
+        fusion.set_local_poses(0, &moved, &[]),
+        Err(nrslam_fusion::FusionError::OutOfOrder { id: 0, last: 2 })
+    ));
+    assert_eq!(
+        fusion.fused_keyframe(0, 0).unwrap().1,
+        Pose2::new(0.0, 0.0, 0.0)
     );
 }
