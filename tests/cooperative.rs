@@ -603,3 +603,28 @@ fn with_viz_each_agv_gets_its_fused_path_and_transforms() {
         .collect();
     assert!(frames.contains(&("map", "odom")), "{frames:?}");
 }
+
+#[test]
+fn an_agents_launch_alone_says_how_its_own_slam_did() {
+    let dir = temp();
+    let out = dir.path().join("agv2");
+    let output = nrslam()
+        .args([
+            "launch",
+            "launch/cooperative-agent.toml",
+            "agv:=2",
+            "frames:=20",
+        ])
+        .args(["fidelity:=ideal", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(output.status.success());
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        stdout.contains("agv2: 20 frames, own pose RMSE ")
+            && stdout.contains("(scored where they are fused)"),
+        "{stdout}"
+    );
+    assert_eq!(agent_u64(&summary(&out), "agv2", "frames"), 20);
+}

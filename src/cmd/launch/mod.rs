@@ -88,6 +88,24 @@ pub fn launch(mut args: LaunchArgs) -> Result<()> {
         serde_json::to_string_pretty(&run_info)? + "\n",
     )
     .with_context(|| format!("cannot write {}", out.join("run.json").display()))?;
+    if summary.metric_steps == 0 && summary.keyframes == 0 && !summary.agents.is_empty() {
+        // An agent's chain alone (launch/cooperative-agent.toml): its keyframes are namespaced
+        // and scored where they are fused; say how its own SLAM did.
+        let agents: Vec<String> = summary
+            .agents
+            .iter()
+            .map(|(name, a)| match a.own_pose_rmse_m {
+                Some(rmse_m) => format!("{name}: {} frames, own pose RMSE {rmse_m:.3} m", a.frames),
+                None => format!("{name}: {} frames", a.frames),
+            })
+            .collect();
+        outln!(
+            "{} (scored where they are fused); wrote {}",
+            agents.join(", "),
+            out.display()
+        );
+        return Ok(());
+    }
     if summary.metric_steps == 0 {
         // No evaluator (a real sensor's bag): say what was built rather than a row of n/a.
         outln!(
