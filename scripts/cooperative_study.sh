@@ -37,6 +37,15 @@ both() { # NAME SEED ARGS...: the SLAM run and its oracle
   # The oracle knows every start (known_starts is its own, not an argument).
   line "${name}_oracle_$seed $seed launch/cooperative-true-poses.toml $(echo "$*" | sed 's/known_starts:=[0-9]*//')"
 }
+random_scenes() { # PREFIX ARGS: SCENES random scenes, 2 AGVs, stations 0 and 2, 2 seeds each
+  local prefix=$1 args=$2 k m s
+  for k in $(seq 1 "$scenes"); do
+    "$bin" scene --random --seed "$k" --agvs 2 --stations 2 --out "$out/scenes/s$k.toml" >/dev/null
+    for m in 0 2; do for s in 1 2; do
+      both "${prefix}_s${k}_m${m}" "$s" "agvs:=2 stations:=$m $args scene:=$out/scenes/s$k.toml"
+    done; done
+  done
+}
 for study in $studies; do
   case $study in
     hall)
@@ -47,19 +56,9 @@ for study in $studies; do
       for a in 2 3 4; do for m in 0 2; do for s in $(seq 1 "$seeds"); do
         both "known_a${a}_m${m}" "$s" "agvs:=$a stations:=$m known_starts:=$a"
       done; done; done
-      for k in $(seq 1 "$scenes"); do
-        "$bin" scene --random --seed "$k" --agvs 2 --stations 2 --out "$out/scenes/s$k.toml" >/dev/null
-        for m in 0 2; do for s in 1 2; do
-          both "knownrandom_s${k}_m${m}" "$s" "agvs:=2 stations:=$m known_starts:=2 scene:=$out/scenes/s$k.toml"
-        done; done
-      done ;;
+      random_scenes knownrandom "known_starts:=2" ;;
     random)
-      for k in $(seq 1 "$scenes"); do
-        "$bin" scene --random --seed "$k" --agvs 2 --stations 2 --out "$out/scenes/s$k.toml" >/dev/null
-        for m in 0 2; do for s in 1 2; do
-          both "random_s${k}_m${m}" "$s" "agvs:=2 stations:=$m scene:=$out/scenes/s$k.toml"
-        done; done
-      done ;;
+      random_scenes random "" ;;
     separate)
       for s in $(seq 1 "$seeds"); do
         both separate "$s" "agvs:=2 known_starts:=2 scene:=config/two-rooms.toml"
