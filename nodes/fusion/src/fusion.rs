@@ -186,8 +186,8 @@ pub struct FusionStats {
     pub inter_edges: u64,
     /// Pose-graph solves.
     pub optimisations: u64,
-    /// AGV back ends that started over (keyframe ids from 0 again): each earlier session stays
-    /// in the map and the new one is merged afresh.
+    /// AGV back ends that started over ([`Fusion::start_new_session`]): each earlier session
+    /// stays in the map and the new one is merged afresh.
     pub restarts: u64,
 }
 
@@ -377,9 +377,6 @@ impl Fusion {
         points_body_m: Vec<[f64; 2]>,
     ) -> Result<Update, FusionError> {
         let a = self.agent_of_kind(agent, false)?;
-        if a.cut_off {
-            return Err(FusionError::TooManyRestarts(agent));
-        }
         check_input(&local_pose, &points_body_m)?;
         if let Some(last) = a.keyframes.last() {
             if local_id <= last.local_id {
@@ -440,7 +437,7 @@ impl Fusion {
     /// [`MAX_RESTARTS`] the AGV is cut off: this and every later input of it is refused.
     pub fn start_new_session(&mut self, agent: usize) -> Result<Option<usize>, FusionError> {
         let a = self.agent_of_kind(agent, false)?;
-        if a.cut_off || a.restarts >= MAX_RESTARTS {
+        if a.restarts >= MAX_RESTARTS {
             self.agents[agent].cut_off = true;
             return Err(FusionError::TooManyRestarts(agent));
         }
@@ -496,9 +493,6 @@ impl Fusion {
     ) -> Result<Update, FusionError> {
         self.agent_of_kind(agent, false)?;
         let a = &mut self.agents[agent];
-        if a.cut_off {
-            return Err(FusionError::TooManyRestarts(agent));
-        }
         if poses.iter().any(|(_, p)| !p.is_finite()) || loops.iter().any(|(_, _, p)| !p.is_finite())
         {
             return Err(FusionError::NonFinite("keyframe pose"));
@@ -566,6 +560,9 @@ impl Fusion {
             .ok_or(FusionError::UnknownAgent(agent))?;
         if (a.kind == AgentKind::Station) != station {
             return Err(FusionError::WrongKind(agent));
+        }
+        if a.cut_off {
+            return Err(FusionError::TooManyRestarts(agent));
         }
         Ok(a)
     }

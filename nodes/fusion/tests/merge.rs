@@ -25,6 +25,17 @@ fn run(fusion: &mut Fusion, scene: &[[f64; 2]], first: &[Pose2], second: &[Pose2
     }
 }
 
+/// Asserts that each keyframe of `agent` has a fused pose within `tolerance_m` of `truths`'.
+fn assert_fused_near(fusion: &Fusion, agent: usize, truths: &[Pose2], tolerance_m: f64) {
+    for (k, truth) in truths.iter().enumerate() {
+        let (_, fused) = fusion.fused_keyframe(agent, k).expect("published");
+        assert!(
+            fused.distance_m(truth) < tolerance_m,
+            "agent {agent}, keyframe {k}: {fused:?} vs {truth:?}"
+        );
+    }
+}
+
 fn two_agvs() -> Params {
     Params {
         agvs: 2,
@@ -49,13 +60,7 @@ fn an_agv_with_an_unknown_start_is_merged_at_its_true_frame() {
         "merged at {frame:?}, true start {start:?}"
     );
     // Every fused keyframe of the second AGV near its true pose.
-    for (k, truth) in second.iter().enumerate() {
-        let (_, fused) = fusion.fused_keyframe(1, k).expect("published");
-        assert!(
-            fused.distance_m(truth) < 0.5,
-            "keyframe {k}: {fused:?} vs {truth:?}"
-        );
-    }
+    assert_fused_near(&fusion, 1, &second, 0.5);
     assert!(fusion.stats().merges == 1);
     assert!(!fusion.inter_edges().is_empty());
 }
@@ -340,13 +345,7 @@ fn an_agv_whose_back_end_restarts_keeps_its_earlier_session_and_is_merged_again(
         "the earlier session is an agent of its own"
     );
     // The earlier session keeps its place in the map.
-    for (k, truth) in before.iter().enumerate() {
-        let (_, fused) = fusion.fused_keyframe(1, k).expect("still published");
-        assert!(
-            fused.distance_m(truth) < 0.3,
-            "earlier keyframe {k}: {fused:?} vs {truth:?}"
-        );
-    }
+    assert_fused_near(&fusion, 1, before, 0.3);
     // The new session is merged at its true frame, against the map its earlier session made.
     // The frame judged where the new session started (its origin is 47 m off the hall).
     let frame = fusion
@@ -358,16 +357,8 @@ fn an_agv_whose_back_end_restarts_keeps_its_earlier_session_and_is_merged_again(
             && placed.rotation_to_rad(&restart_at) < 1f64.to_radians(),
         "its restart placed at {placed:?}, truly at {restart_at:?}"
     );
-    let merged_at = (0..after.len())
-        .find(|&k| fusion.fused_keyframe(0, k).is_some())
-        .expect("published");
-    for (k, truth) in after.iter().enumerate().skip(merged_at) {
-        let (_, fused) = fusion.fused_keyframe(0, k).unwrap();
-        assert!(
-            fused.distance_m(truth) < 0.5,
-            "keyframe {k}: {fused:?} vs {truth:?}"
-        );
-    }
+    // Merged, it publishes every keyframe it held, each near its true pose.
+    assert_fused_near(&fusion, 0, &after, 0.5);
     assert_eq!(fusion.fused_poses().len(), before.len() + after.len());
     assert!(
         fusion.inter_edges().iter().any(|e| e.from.0 != e.to.0),
