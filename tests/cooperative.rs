@@ -134,7 +134,7 @@ fn agents_on_launches_of_their_own_joined_over_zenoh_give_the_in_process_fused_s
         .iter()
         .map(|n| {
             let agv = format!("agv:={n}");
-            let mut args = vec!["launch/cooperative-agent.toml", &agv, "known_start:=true"];
+            let mut args = vec!["launch/cooperative-agent.toml", &agv, "odom_origin:=map"];
             args.extend(connect);
             launch(&args, &dir.path().join(format!("agv{n}")))
         })
