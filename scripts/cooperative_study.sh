@@ -18,6 +18,8 @@
 #             2 seeds each;
 #   separate  config/two-rooms.toml: two AGVs that never see the same targets, both starts known;
 #   repeated  config/repeated-structure.toml: two identical groups of targets, agv2's start unknown.
+# SENSING: arguments given to every run, SLAM and oracle alike (default none: paper-5g.toml's
+# sensing), e.g. SENSING="refinement:=interpolation" for the estimator's interpolated peaks.
 # JOBS runs in parallel (default nproc). Runs already in OUT are not run again (resumable).
 # Needs the release binary (cargo build --release) or NRSLAM pointing at one.
 set -euo pipefail
@@ -27,15 +29,16 @@ scenes=${3:-10}
 bin=${NRSLAM:-target/release/nrslam}
 jobs=${JOBS:-$(nproc)}
 studies=${STUDIES:-hall known random separate repeated}
+sensing=${SENSING:-}
 mkdir -p "$out/runs" "$out/scenes"
 plan="$out/plan.txt"
 : > "$plan"
 line() { printf '%s\n' "$(echo "$*" | sed 's/[[:space:]]*$//')" >> "$plan"; }
 both() { # NAME SEED ARGS...: the SLAM run and its oracle
   local name=$1 seed=$2; shift 2
-  line "${name}_slam_$seed $seed launch/cooperative.toml $*"
+  line "${name}_slam_$seed $seed launch/cooperative.toml $* $sensing"
   # The oracle knows every start (known_starts is its own, not an argument).
-  line "${name}_oracle_$seed $seed launch/cooperative-true-poses.toml $(echo "$*" | sed 's/known_starts:=[0-9]*//')"
+  line "${name}_oracle_$seed $seed launch/cooperative-true-poses.toml $(echo "$*" | sed 's/known_starts:=[0-9]*//') $sensing"
 }
 random_scenes() { # PREFIX ARGS: SCENES random scenes, 2 AGVs, stations 0 and 2, 2 seeds each
   local prefix=$1 args=$2 k m s
