@@ -1274,18 +1274,27 @@ impl Fusion {
             to: (agent, anchor),
             relative: owner_fused.between(&found.relative),
         };
+        // A match that moves the query by more than the agreement tolerance from where the graph
+        // holds it is kept pending until the next match asks for the same correction: one
+        // verified match can still be a neighbouring place that looks alike.
         let correction = predicted.between(&found.relative);
-        let a = &mut self.agents[agent];
-        let (accepted, pending) = confirm_local_match(
-            a.pending_local.take(),
-            (correction, edge),
-            self.params.agreement(),
-            self.params.query_keyframes as usize,
-        );
-        if accepted.is_empty() && pending.is_some_and(|(_, e)| e == edge) {
-            tracing::debug!(agent, anchor, ?correction, "inter-agent match pending");
+        let agree = self.params.agreement();
+        let agrees = |c: &Pose2| is_small(c, agree);
+        let mut accepted = Vec::new();
+        if agrees(&correction) {
+            accepted.push(edge);
+        } else {
+            let a = &mut self.agents[agent];
+            match a.pending_local.take() {
+                Some((previous, pending)) if agrees(&previous.between(&correction)) => {
+                    accepted.extend([pending, edge]);
+                }
+                _ => {
+                    tracing::debug!(agent, anchor, ?correction, "inter-agent match pending");
+                    a.pending_local = Some((correction, edge));
+                }
+            }
         }
-        a.pending_local = pending;
         if accepted.is_empty() {
             return;
         }
@@ -1470,37 +1479,6 @@ fn within(a: &Pose2, b: &Pose2, tolerance: (f64, f64)) -> bool {
     a.distance_m(b) <= tolerance.0 && a.rotation_to_rad(b) <= tolerance.1
 }
 
-/// What a verified match of an aligned agent's query does: (the edges accepted, the match left
-/// pending). A match within the agreement tolerance of where the graph holds the query is
-/// accepted at once. One that asks for a larger correction waits for a match of other keyframes
-/// asking for the same: one verified match can still be a neighbouring place that looks alike,
-/// and two queries that share keyframes share their errors too (hall seed 11 with interpolated
-/// peaks: two overlapping queries of agv4 agreed on a correction of 9° the truth does not have,
-/// and rotated the whole map with them). A match of overlapping keyframes that agrees leaves the
-/// pending one waiting; one that disagrees takes its place.
-fn confirm_local_match(
-    pending: Option<(Pose2, InterEdge)>,
-    (correction, edge): (Pose2, InterEdge),
-    agreement: (f64, f64),
-    query_keyframes: usize,
-) -> (Vec<InterEdge>, Option<(Pose2, InterEdge)>) {
-    if is_small(&correction, agreement) {
-        return (vec![edge], pending);
-    }
-    match pending {
-        Some((previous, earlier)) if is_small(&previous.between(&correction), agreement) => {
-            let disjoint =
-                edge.to.0 != earlier.to.0 || edge.to.1.abs_diff(earlier.to.1) >= query_keyframes;
-            if disjoint {
-                (vec![earlier, edge], None)
-            } else {
-                (Vec::new(), Some((previous, earlier)))
-            }
-        }
-        _ => (Vec::new(), Some((correction, edge))),
-    }
-}
-
 /// Whether the motion `correction` is within `tolerance` (m, rad).
 fn is_small(correction: &Pose2, tolerance: (f64, f64)) -> bool {
     correction.x_m.hypot(correction.y_m) <= tolerance.0 && correction.yaw_rad.abs() <= tolerance.1
@@ -1606,39 +1584,6 @@ mod tests {
         assert_eq!(fusion.agents[0].keyframes.len(), 1);
         assert!(!fusion.is_aligned(0), "a restarted SLAM's frame is unknown");
         assert!(fusion.is_aligned(2));
-    }
-
-    #[test]
-    fn a_large_correction_is_accepted_only_when_a_match_of_other_keyframes_asks_for_it_too() {
-        let agreement = Params::default().agreement();
-        let query_keyframes = 5;
-        let edge = |to: usize| InterEdge {
-            from: (0, 0),
-            to: (1, to),
-            relative: Pose2::new(0.0, 0.0, 0.0),
-        };
-        let small = Pose2::new(0.1, 0.0, 0.2_f64.to_radians());
-        let large = Pose2::new(0.7, 1.1, 9.0_f64.to_radians());
-        let confirm = |pending, correction, to| {
-            confirm_local_match(pending, (correction, edge(to)), agreement, query_keyframes)
-        };
-        // Within the tolerance: accepted, and a waiting match waits on.
-        let waiting = Some((large, edge(3)));
-        assert_eq!(confirm(waiting, small, 10), (vec![edge(10)], waiting));
-        // A large correction waits for a second.
-        assert_eq!(confirm(None, large, 10), (vec![], Some((large, edge(10)))));
-        // A query sharing keyframes with the waiting one is the same evidence: still waiting.
-        let waiting = Some((large, edge(10)));
-        let same_again = large.compose(&Pose2::new(0.05, 0.0, 0.0));
-        assert_eq!(confirm(waiting, same_again, 14), (vec![], waiting));
-        // Disjoint keyframes asking for the same correction: both edges accepted.
-        assert_eq!(
-            confirm(waiting, same_again, 15),
-            (vec![edge(10), edge(15)], None)
-        );
-        // Disjoint keyframes asking for another correction replace the waiting match.
-        let other = Pose2::new(-1.0, 0.0, 0.0);
-        assert_eq!(confirm(waiting, other, 15), (vec![], Some((other, edge(15)))));
     }
 
     #[test]
