@@ -31,6 +31,8 @@ jobs=${JOBS:-$(nproc)}
 studies=${STUDIES:-hall known random separate repeated}
 sensing=${SENSING:-}
 mkdir -p "$out/runs" "$out/scenes"
+# The tables say what sensing the runs had.
+printf '%s\n' "$sensing" > "$out/sensing.txt"
 plan="$out/plan.txt"
 : > "$plan"
 line() { printf '%s\n' "$(echo "$*" | sed 's/[[:space:]]*$//')" >> "$plan"; }

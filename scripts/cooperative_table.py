@@ -92,6 +92,16 @@ def random_table(lines, by, pairs, prefix, title):
         lines.append("")
 
 
+def sensing_of(out):
+    """The runs' sensing: paper-5g.toml's, with the study's SENSING arguments if it had any."""
+    try:
+        with open(os.path.join(out, "sensing.txt")) as f:
+            extra = f.read().strip()
+    except FileNotFoundError:
+        extra = ""
+    return f"paper-5g sensing, {extra}" if extra else "paper-5g sensing"
+
+
 def main():
     out = sys.argv[1]
     runs = load(out)
@@ -109,7 +119,7 @@ def main():
 
     hall = [c for c in by if c.startswith("hall_")]
     if hall:
-        lines.append("## The hall: what cooperation buys (paper-5g sensing)\n")
+        lines.append(f"## The hall: what cooperation buys ({sensing_of(out)})\n")
         lines.append("| AGVs | stations | runs | ET-GOPSA fused | ET-GOPSA fused oracle | ratio to oracle | AGV pose RMSE own (m) | AGV pose RMSE fused (m) | AGVs merged | inter-agent edges | wrong |")
         lines.append("|---|---|---|---|---|---|---|---|---|---|---|")
         plot = collections.defaultdict(dict)
