@@ -11,6 +11,8 @@
 #   NRSLAM    the binary (default target/release/nrslam; cargo build --release --bin nrslam)
 #   FIDELITY  the front end (default spectral: paper-5g.toml's 5G sensing)
 #   FRAMES    frames per session (default 0: the whole lap, 294 frames)
+#   SENSING   more arguments of paper-5g.toml and true-poses.toml for every recording, e.g.
+#             SENSING="refinement:=interpolation" (default none)
 #
 # Session 1: launch/paper-5g.toml on config/hall.toml (the hall's loop from (27, 6)), its
 # odometry in the map frame. Session 2: the same launch on config/hall-cooperative.toml with
@@ -40,12 +42,13 @@ seeds=${2:-10}
 nrslam=${NRSLAM:-target/release/nrslam}
 fidelity=${FIDELITY:-spectral}
 frames=${FRAMES:-0}
+read -r -a sensing <<< "${SENSING:-}"
 if [ -e "$out" ]; then echo "$out exists: give a new folder" >&2; exit 2; fi
 if ! [[ $seeds =~ ^[1-9][0-9]*$ ]]; then echo "SEEDS must be a positive integer, got $seeds" >&2; exit 2; fi
 [ -x "$nrslam" ] || { echo "$nrslam: no such binary (cargo build --release --bin nrslam, or NRSLAM=...)" >&2; exit 2; }
 mkdir -p "$out"
 topics=(/ground_truth/targets /clock /ground_truth/pose /slam/keyframe /slam/keyframe_poses /slam/pose)
-common=(launch/paper-5g.toml fidelity:="$fidelity" frames:="$frames" viz:=false)
+common=(launch/paper-5g.toml fidelity:="$fidelity" frames:="$frames" viz:=false "${sensing[@]}")
 second=(scene:=config/hall-cooperative.toml radar.sensor:=agv2)
 run() {
     local log=$1; shift
@@ -68,9 +71,9 @@ for s in $(seq 1 "$seeds"); do
     run "$d/known.log" launch launch/multi-session.toml first:="$d/bag1" second:="$d/bag2map" \
         fusion.known_starts:=2 --out "$d/known"
     run "$d/o1.log" launch launch/true-poses.toml fidelity:="$fidelity" frames:="$frames" viz:=false \
-        --seed "$s" --record "$d/obag1" --record-topics "${topics[@]}" --out "$d/o1"
+        "${sensing[@]}" --seed "$s" --record "$d/obag1" --record-topics "${topics[@]}" --out "$d/o1"
     run "$d/o2.log" launch launch/true-poses.toml fidelity:="$fidelity" frames:="$frames" viz:=false \
-        "${second[@]}" radar.odom_origin:=map --seed $((s + 100)) \
+        "${sensing[@]}" "${second[@]}" radar.odom_origin:=map --seed $((s + 100)) \
         --record "$d/obag2" --record-topics "${topics[@]}" --out "$d/o2"
     run "$d/ofused.log" launch launch/multi-session.toml first:="$d/obag1" second:="$d/obag2" \
         fusion.known_starts:=2 fusion.matching:=false --out "$d/ofused"
@@ -85,9 +88,9 @@ EOF
         second_offset_s:="$offset" --out "$d/later"
     echo "pair $s done" >&2
 done
-python3 - "$out" "$seeds" "$fidelity" "$frames" <<'EOF' | tee "$out/table.md"
+python3 - "$out" "$seeds" "$fidelity" "$frames" "${SENSING:-}" <<'EOF' | tee "$out/table.md"
 import json, math, statistics, sys
-out, seeds, fidelity, frames = sys.argv[1], int(sys.argv[2]), sys.argv[3], sys.argv[4]
+out, seeds, fidelity, frames, sensing = sys.argv[1], int(sys.argv[2]), sys.argv[3], sys.argv[4], sys.argv[5]
 # Two-sided 95 % Student t quantiles by degrees of freedom (1.96 beyond 30).
 T = [12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179, 2.160,
      2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064, 2.060, 2.056,
@@ -112,7 +115,7 @@ for p in range(1, seeds + 1):
         "later_frames": r["later"]["agents"]["agv2"]["fused_frames"],
         "frames2": r["fused"]["agents"]["agv2"]["frames"],
     })
-print(f"Final-map ET-GOPSA, paper-5g fidelity:={fidelity} frames:={frames}, {seeds} seed pairs "
+print(f"Final-map ET-GOPSA, paper-5g fidelity:={fidelity} frames:={frames}{' ' + sensing if sensing else ''}, {seeds} seed pairs "
       "(session 1 --seed s from (27, 6), session 2 --seed s+100 from (27, 38), frame unknown)\n")
 print("| pair | s1 | s2 | s1 fus | s2 fus | fused | merged | later | merged | known |")
 print("|---|---|---|---|---|---|---|---|---|---|")
