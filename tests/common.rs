@@ -65,6 +65,21 @@ pub fn free_port() -> u16 {
         .port()
 }
 
+/// Waits until something listens on loopback TCP `port` (a launcher started with `--listen`),
+/// calling `still_waiting` between tries (to fail early when that launcher has ended); at most
+/// 60 s.
+pub fn wait_listening(port: u16, mut still_waiting: impl FnMut()) {
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    while std::net::TcpStream::connect(("127.0.0.1", port)).is_err() {
+        still_waiting();
+        assert!(
+            std::time::Instant::now() < deadline,
+            "nothing listened on port {port}"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+}
+
 /// The summary.json of a run as JSON.
 pub fn summary(dir: &Path) -> serde_json::Value {
     serde_json::from_str(&read(&dir.join("summary.json"))).expect("summary.json is JSON")

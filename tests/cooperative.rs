@@ -86,8 +86,8 @@ fn agents_on_launches_of_their_own_joined_over_zenoh_give_the_in_process_fused_s
     // (launch/cooperative-agent.toml) that connects to it, and so is the station's
     // (launch/cooperative-station.toml).
     let dir = temp();
-    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
-    let port = endpoint.trim_start_matches("tcp/").to_owned();
+    let port = free_port();
+    let endpoint = format!("tcp/127.0.0.1:{port}");
     let fused = dir.path().join("fused");
     // Each program's stderr to a file of its own: a pipe nobody reads while another program
     // is waited for could fill and stall it.
@@ -112,17 +112,11 @@ fn agents_on_launches_of_their_own_joined_over_zenoh_give_the_in_process_fused_s
     let (mut fusion, fusion_log) = launch(&fusion_args, &fused);
     // The agents start once the fusion launch listens: what they publish before anyone
     // subscribes is gone.
-    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
-    while std::net::TcpStream::connect(&port).is_err() {
+    wait_listening(port, || {
         if fusion.try_wait().unwrap().is_some() {
             panic!("the fusion launch ended: {}", read(&fusion_log));
         }
-        assert!(
-            std::time::Instant::now() < deadline,
-            "the fusion launch never listened"
-        );
-        std::thread::sleep(std::time::Duration::from_millis(50));
-    }
+    });
     std::thread::sleep(std::time::Duration::from_millis(500));
     let connect = [
         "frames:=80",

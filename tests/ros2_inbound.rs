@@ -126,11 +126,7 @@ fn launch(domain: u32, port: u16, out: &Path, start_timeout_s: u64, pose_as: Pos
 
 /// A session connected to the launcher on `port`, once the launcher listens.
 fn connect(port: u16) -> zenoh::Session {
-    let deadline = Instant::now() + Duration::from_secs(60);
-    while std::net::TcpStream::connect(("127.0.0.1", port)).is_err() {
-        assert!(Instant::now() < deadline, "the launcher never listened");
-        std::thread::sleep(Duration::from_millis(100));
-    }
+    wait_listening(port, || {});
     zenoh_peer(&[], &[format!("tcp/127.0.0.1:{port}")])
 }
 

@@ -227,11 +227,8 @@ fn an_agv_merged_at_a_look_alike_is_moved_to_its_place_once_it_sees_the_differen
         .iter()
         .position(|p| p.x_m >= 76.0)
         .expect("an east side");
-    let second: Vec<Pose2> = east[start..]
-        .iter()
-        .chain(&east[..start])
-        .copied()
-        .collect();
+    let mut second = east.clone();
+    second.rotate_left(start);
     let truth = second[0];
     let twin = Pose2::new(truth.x_m - 40.0, truth.y_m, truth.yaw_rad);
     let run_with = |verify_every_keyframes: u32| {
@@ -308,11 +305,8 @@ fn an_agv_whose_back_end_restarts_keeps_its_earlier_session_and_is_merged_again(
     let path = lap(5.0, 4.0, 36.0, 27.0, 1.5);
     let split = 2 * path.len() / 3;
     let before = &path[..split];
-    let after: Vec<Pose2> = path[split..]
-        .iter()
-        .chain(&path[..split])
-        .copied()
-        .collect();
+    let mut after = path.clone();
+    after.rotate_left(split);
     let restart_at = after[0];
     // Where the restarted SLAM thinks it starts: 3 m and 20° from the truth.
     let local_start = Pose2::new(restart_at.x_m + 3.0, restart_at.y_m - 2.0, 0.35);

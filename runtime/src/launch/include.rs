@@ -352,25 +352,21 @@ fn expand_copy(
     }
     expanded.nodes.retain(|n| !decl.drop.contains(&n.name));
     expanded.declared_nodes.retain(|n| !decl.drop.contains(n));
-    for node in &decl.respawn {
+    // `respawn` and `params` change nodes the include adds: each must be one it keeps.
+    let kept = |what: &str, node: &String| {
         if !nodes.contains(node) {
-            return Err(unknown("respawn", node));
+            return Err(unknown(what, node));
         }
         if decl.drop.contains(node) {
-            return Err(error(format!(
-                "respawn: {node} is in this include's `drop`"
-            )));
+            return Err(error(format!("{what}: {node} is in this include's `drop`")));
         }
+        Ok(())
+    };
+    for node in &decl.respawn {
+        kept("respawn", node)?;
     }
     for (node, params) in &decl.params {
-        if !nodes.contains(node) {
-            return Err(unknown(&format!("params.{node}"), node));
-        }
-        if decl.drop.contains(node) {
-            return Err(error(format!(
-                "params.{node}: the node is in this include's `drop`"
-            )));
-        }
+        kept(&format!("params.{node}"), node)?;
         let mut params = toml::Value::Table(params.clone());
         substitute(&mut params, includer.resolved)
             .map_err(|e| error(format!("params.{node}: {e}")))?;
@@ -385,15 +381,11 @@ fn expand_copy(
             ));
         }
     }
-    if let Some(on_exit) = decl.on_exit {
-        for node in &mut expanded.nodes {
+    for node in &mut expanded.nodes {
+        if let Some(on_exit) = decl.on_exit {
             node.on_exit = on_exit;
         }
-    }
-    for node in &mut expanded.nodes {
-        if decl.respawn.contains(&node.name) {
-            node.respawn = true;
-        }
+        node.respawn |= decl.respawn.contains(&node.name);
     }
     // `drop` and `params` name the nodes as the included file knows them; then the namespace.
     put_under(&mut expanded, &namespace);
